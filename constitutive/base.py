@@ -1,0 +1,94 @@
+"""The material-point interface shared by every constitutive model (the UMAT equivalent).
+
+Conventions (DESIGN.md):
+- soil-mechanics signs: compression positive, for stresses and strains;
+- stresses are effective stresses in kPa;
+- Voigt order (11, 22, 33, 12, 23, 31) with engineering shear strains (gamma_12 = 2 eps_12);
+- every array carries a leading axis over material points (Gauss points of a mesh, or particles of a batched
+  laboratory-test simulation). Parameters may be scalars or arrays of shape (n,) so that they differ per point.
+
+A model is a frozen, validated parameter record with two methods::
+
+    state = model.initial_state(stress0, void_ratio0)          # dict of arrays over n points
+    stress, state, tangent = model.update(stress, state, dstrain, dt)
+
+``update`` never modifies its inputs. ``tangent`` is (n, 6, 6), d(stress)/d(strain) for the increment; each model
+states in ``tangent_kind`` whether it is the consistent (algorithmic) tangent, the continuum tangent or the elastic
+one. A point whose local integration fails raises :class:`IntegrationError` naming the point.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["ParameterError", "IntegrationError", "MaterialModel", "as_points", "check_parameter"]
+
+
+class ParameterError(ValueError):
+    """A model parameter outside its physical range; the message names the parameter and the value."""
+
+
+class IntegrationError(RuntimeError):
+    """Local (stress-point) integration failed at material point ``point`` for ``reason``."""
+
+    def __init__(self, point, reason: str):
+        self.point = point
+        self.reason = reason
+        super().__init__(f"stress-point integration failed at point {point}: {reason}")
+
+
+def check_parameter(name: str, value, *, lower=None, upper=None, lower_open=True, upper_open=True, model=""):
+    """Return ``value`` as a float array after checking ``lower < value < upper`` (open or closed bounds).
+
+    Raises ParameterError naming the model, the parameter and the first offending value.
+    """
+    arr = np.asarray(value, dtype=float)
+    where = f"{model}: " if model else ""
+    if not np.all(np.isfinite(arr)):
+        bad = arr[~np.isfinite(arr)].ravel()[0]
+        raise ParameterError(f"{where}parameter {name} = {bad} is not a finite number")
+    if lower is not None:
+        bad = arr <= lower if lower_open else arr < lower
+        if np.any(bad):
+            op = ">" if lower_open else ">="
+            raise ParameterError(f"{where}parameter {name} = {arr[bad].ravel()[0]:g} must be {op} {lower:g}")
+    if upper is not None:
+        bad = arr >= upper if upper_open else arr > upper
+        if np.any(bad):
+            op = "<" if upper_open else "<="
+            raise ParameterError(f"{where}parameter {name} = {arr[bad].ravel()[0]:g} must be {op} {upper:g}")
+    return arr
+
+
+def as_points(stress_or_strain, name="array") -> np.ndarray:
+    """Return a float (n, 6) array; a single 6-vector becomes (1, 6)."""
+    arr = np.asarray(stress_or_strain, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 6:
+        raise ValueError(f"{name} must have shape (n, 6) in Voigt order (11, 22, 33, 12, 23, 31), got {arr.shape}")
+    return arr
+
+
+class MaterialModel:
+    """Base class of material-point models. Subclasses set ``name`` and ``tangent_kind`` and implement
+    ``initial_state`` and ``update``. Parameters are stored as attributes (float arrays broadcastable to (n,)).
+    """
+
+    name = "material"
+    tangent_kind = "consistent"
+
+    def initial_state(self, stress0, void_ratio0=None) -> dict:
+        raise NotImplementedError
+
+    def update(self, stress, state: dict, dstrain, dt: float):
+        raise NotImplementedError
+
+    def parameters(self) -> dict:
+        """The parameter record as a dict (names as in REFERENCE.md)."""
+        return {k: getattr(self, k) for k in self.parameter_names}
+
+    parameter_names: tuple = ()
+
+    def __repr__(self):
+        body = ", ".join(f"{k}={np.array2string(np.asarray(v), precision=4)}" for k, v in self.parameters().items())
+        return f"{type(self).__name__}({body})"
