@@ -5,5 +5,6 @@ See :mod:`constitutive.base` for the interface every model follows.
 """
 from .base import IntegrationError, MaterialModel, ParameterError
 from .elastic import LinearElastic
+from .von_mises import VonMises
 
-__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic"]
+__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises"]
