@@ -6,5 +6,6 @@ See :mod:`constitutive.base` for the interface every model follows.
 from .base import IntegrationError, MaterialModel, ParameterError
 from .elastic import LinearElastic
 from .von_mises import VonMises
+from .mcc import ModifiedCamClay
 
-__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises"]
+__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises", "ModifiedCamClay"]
