@@ -7,5 +7,6 @@ from .base import IntegrationError, MaterialModel, ParameterError
 from .elastic import LinearElastic
 from .von_mises import VonMises
 from .mcc import ModifiedCamClay
+from .anicreep import ANICREEP
 
-__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises", "ModifiedCamClay"]
+__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises", "ModifiedCamClay", "ANICREEP"]
