@@ -228,8 +228,7 @@ class ModifiedCamClay(MaterialModel):
                         if not np.any(worse):
                             break
                         step = np.where(worse, 0.5 * step, step)
-                    y, dl = np.where(active, y_t, y), np.where(active, dl_t, dl)
-                    ev = evaluate(y, dl)
+                    y, dl, ev = y_t, dl_t, ev_t  # inactive points had a zero step: ev_t is their ev
                     done = (np.abs(b * ev["r1"]) <= self.tolerance) & (np.abs(ev["r2"]) <= self.tolerance)
                     active &= ~done
                     if not np.any(active):
