@@ -1,0 +1,70 @@
+"""Constitutive benchmarks: ``python -m constitutive.bench`` prints one JSON line per benchmark.
+
+To add a benchmark: write a function returning a dict (its JSON line) and append it to ``BENCHMARKS``.
+Timings are wall-clock seconds on whatever machine runs this (noisy on shared machines).
+"""
+from __future__ import annotations
+
+import json
+import time
+
+import numpy as np
+
+from . import labtests
+from .mcc import ModifiedCamClay
+
+
+def _mcc_batch(n, seed=0):
+    rng = np.random.default_rng(seed)
+    model = ModifiedCamClay(M=rng.uniform(0.8, 1.6, n), lambda_=rng.uniform(0.1, 0.4, n),
+                            kappa=rng.uniform(0.01, 0.05, n), nu=0.3, ocr=rng.uniform(1.0, 4.0, n))
+    return model, rng.uniform(0.6, 1.5, n)
+
+
+def mcc_drained_triaxial_batch(n=2000, n_points=100, substeps=2):
+    """MCC drained triaxial to 25 % axial strain, n parameter sets in one vectorized call."""
+    model, e0 = _mcc_batch(n)
+    axial = np.linspace(0.0, 0.25, n_points + 1)[1:]
+    t0 = time.perf_counter()
+    labtests.drained_triaxial(model, e0, 100.0, axial, substeps=substeps)
+    wall = time.perf_counter() - t0
+    return {"benchmark": "mcc_drained_triaxial_batch", "n_particles": n, "n_steps": n_points * substeps,
+            "seconds": round(wall, 3), "ms_per_particle_test": round(1e3 * wall / n, 4)}
+
+
+def mcc_undrained_triaxial_batch(n=2000, n_points=100, substeps=2):
+    """MCC undrained triaxial to 25 % axial strain, n parameter sets in one vectorized call."""
+    model, e0 = _mcc_batch(n, seed=1)
+    axial = np.linspace(0.0, 0.25, n_points + 1)[1:]
+    t0 = time.perf_counter()
+    labtests.undrained_triaxial(model, e0, 100.0, axial, substeps=substeps)
+    wall = time.perf_counter() - t0
+    return {"benchmark": "mcc_undrained_triaxial_batch", "n_particles": n, "n_steps": n_points * substeps,
+            "seconds": round(wall, 3), "ms_per_particle_test": round(1e3 * wall / n, 4)}
+
+
+def mcc_update_points(n=240, n_increments=200):
+    """MCC material-point update over n Gauss points (plastic loading each increment)."""
+    model = ModifiedCamClay(M=1.2, lambda_=0.2, kappa=0.04, nu=0.3)
+    stress = np.tile([100.0, 80.0, 90.0, 10.0, -5.0, 3.0], (n, 1))
+    state = model.initial_state(stress, 1.0)
+    dstrain = np.tile([1e-4, -2e-5, 0.0, 1e-5, 0.0, 0.0], (n, 1))
+    t0 = time.perf_counter()
+    for _ in range(n_increments):
+        stress, state, _ = model.update(stress, state, dstrain, 1.0)
+    wall = time.perf_counter() - t0
+    return {"benchmark": "mcc_update_points", "n_points": n, "n_increments": n_increments,
+            "seconds": round(wall, 4), "us_per_point_increment": round(1e6 * wall / (n * n_increments), 3)}
+
+
+#: benchmarks run in order by ``python -m constitutive.bench``; each returns one JSON-able dict
+BENCHMARKS = [mcc_update_points, mcc_drained_triaxial_batch, mcc_undrained_triaxial_batch]
+
+
+def main():
+    for bench in BENCHMARKS:
+        print(json.dumps(bench()), flush=True)
+
+
+if __name__ == "__main__":
+    main()
