@@ -1,0 +1,58 @@
+"""The one place where the FE meets the constitutive models: component mapping and sign conversion.
+
+FE mechanics is tension positive (stress and strain), with the axisymmetric vector (rr, zz, tt, rz). The material
+models are compression positive with Voigt order (11, 22, 33, 12, 23, 31) (DESIGN.md). Mapping r -> 1, z -> 2,
+theta -> 3, rz -> 12 and a sign flip of every component:
+
+    eps_soil = -eps_fe (padded with gamma_23 = gamma_31 = 0),   sigma_fe = -sigma'_soil[:4],
+    D_fe = d sigma_fe / d eps_fe = D_soil[:4, :4]  (two sign flips cancel).
+
+Effective stresses only; the pore pressure is added by the solver (total = effective - u, tension positive).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from constitutive import IntegrationError, MaterialModel
+
+__all__ = ["MaterialPoints", "soil_stress", "IntegrationError"]
+
+
+def soil_stress(stress_fe):
+    """FE tension-positive (n, 4) -> soil compression-positive Voigt (n, 6)."""
+    out = np.zeros((stress_fe.shape[0], 6))
+    out[:, :4] = -stress_fe
+    return out
+
+
+class MaterialPoints:
+    """One material point per element (one-point integration), wrapping a constitutive model.
+
+    ``stress`` holds the soil-convention effective stress (n, 6) of the last converged state, ``state`` the model
+    state. :meth:`trial` evaluates an increment from the converged state without committing it.
+    """
+
+    def __init__(self, model: MaterialModel, stress0_soil, void_ratio0):
+        if not isinstance(model, MaterialModel):
+            raise TypeError(f"material must be a constitutive.MaterialModel, got {type(model).__name__}")
+        self.model = model
+        self.stress = np.array(stress0_soil, dtype=float)
+        self.state = model.initial_state(self.stress, void_ratio0)
+        self._work = np.zeros_like(self.stress)
+
+    def trial(self, dstrain_fe, dt):
+        """Update over strain increment dstrain_fe (n, 4, tension positive) in time dt (s).
+
+        Returns (stress_soil (n, 6), state, stress_fe (n, 4), D_fe (n, 4, 4)). Raises IntegrationError.
+        """
+        deps = self._work
+        deps[:, :4] = -dstrain_fe
+        stress, state, tangent = self.model.update(self.stress, self.state, deps, dt)
+        if not np.all(np.isfinite(stress)):
+            bad = int(np.flatnonzero(~np.all(np.isfinite(stress), axis=1))[0])
+            raise IntegrationError(bad, "non-finite stress")
+        return stress, state, -stress[:, :4], tangent[:, :4, :4]
+
+    def commit(self, stress_soil, state):
+        self.stress = stress_soil
+        self.state = state

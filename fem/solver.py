@@ -1,0 +1,328 @@
+"""Biot coupled consolidation (u-p), backward Euler, global Newton-Raphson, banded LU, automatic step cutting.
+
+Unknowns per node: u_r, u_z (m, tension/outward positive) and the excess pore pressure p = u - u0 (kPa). Per radian,
+FE tension-positive stress (conversion to the soil convention in fem.material_point only). Over a time step dt,
+with B, Q, H, S, K_hg from fem.element:
+
+  momentum  R_u = sum_e [V B^T (sigma' - sigma'_0) + c_hg G_hg K_hg U - Q p] - A(t) F_pressure = 0
+            (total stress sigma = sigma' - u m; the geostatic state sigma'_0, u0 is in equilibrium with the in-situ
+            boundary tractions, so only increments appear and a step without load leaves the state unchanged);
+  mass      R_p = -sum_e [Q^T (U - U_n) + dt (k/gamma_w) H p + tau S (p - p_n)] = 0
+            (incompressible grains and water, Darcy flow q = -(k/gamma_w) grad p; backward Euler; the last term is
+            the polynomial pressure projection of Dohrmann & Bochev / White & Borja, S = M - n_bar n_bar^T / V,
+            tau = 1/(2 G_hg), REFERENCE.md section 7).
+
+Jacobian [[V B^T D B + K_hg, -Q], [-Q^T, -(dt k/gamma_w H + tau S)]] with the material tangent D; Dirichlet dofs are
+eliminated (unit rows/columns). Nodes are numbered so that the band is narrow (the pressuremeter strip: 3 (n_z + 2)
+dofs), and the system is solved with LAPACK dgbsv.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg.lapack import dgbsv
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+from constitutive import IntegrationError
+
+from .element import ElementGeometry
+from .material_point import MaterialPoints
+from .problem import DOFS, Problem, edges_of_set
+from .result import Result, Snapshot
+
+__all__ = ["Solver", "solve", "ConvergenceError"]
+
+IU = np.array([0, 1, 3, 4, 6, 7, 9, 10])   # element-local dofs of (u_r1, u_z1, u_r2, ...) in (u_r, u_z, p) x 4
+IP = np.array([2, 5, 8, 11])
+
+
+class ConvergenceError(RuntimeError):
+    """Newton failed even after the allowed number of step cuts."""
+
+
+class _StepFailed(Exception):
+    pass
+
+
+def solve(problem: Problem, **overrides) -> Result:
+    """Solve ``problem``; ``overrides`` (material=..., permeability=...) as in :meth:`Solver.solve`."""
+    return Solver(problem).solve(**overrides)
+
+
+class Solver:
+    """Everything that does not depend on the material parameters, built once: element geometry, dof numbering,
+    band structure, constraint masks, load vectors, monitor interpolation. :meth:`solve` may be called many times
+    with new materials (the calibration loop)."""
+
+    def __init__(self, problem: Problem):
+        problem.validate()
+        self.problem = pb = problem
+        mesh = pb.mesh
+        self.geom = ElementGeometry(mesh.nodes, mesh.cells)
+        nn, ne = mesh.n_nodes, mesh.n_cells
+        self.n_dofs = N = 3 * nn
+        self.node_order = _band_order(mesh.cells, nn)
+        nd = 3 * self.node_order[mesh.cells][:, :, None] + np.arange(3)   # (ne, 4, 3) global dofs
+        self.edofs = edofs = nd.reshape(ne, 12)
+        self.udofs = nd[:, :, :2].reshape(ne, 8)
+        self.pdofs = nd[:, :, 2]
+        diff = edofs[:, :, None] - edofs[:, None, :]
+        self.kl = kl = int(np.abs(diff).max())
+        self.rows = rows = 3 * kl + 1                                      # dgbsv storage: 2 kl + ku + 1, ku = kl
+        # constrained dofs and their scales (value = scale * A(t))
+        cdofs, cscale = [], []
+        for bc in pb.dirichlet:
+            ids = mesh.node_set(bc.node_set)
+            cdofs.append(3 * self.node_order[ids] + DOFS[bc.dof])
+            cscale.append(np.full(ids.size, float(bc.scale)))
+        cdofs = np.concatenate(cdofs) if cdofs else np.zeros(0, int)
+        cscale = np.concatenate(cscale) if cscale else np.zeros(0)
+        self.cdofs, first = np.unique(cdofs[::-1], return_index=True)      # later conditions win on shared dofs
+        self.cscale = cscale[::-1][first]
+        self.free = np.ones(N, bool)
+        self.free[self.cdofs] = False
+        is_p = np.arange(N) % 3 == 2
+        self._ufree = self.free & ~is_p
+        self._pfree = self.free & is_p
+        # band storage (C order (N, rows), passed transposed = Fortran (rows, N)): A[i, j] at [j, 2kl + i - j]
+        flat = (edofs[:, None, :] * rows + 2 * kl + edofs[:, :, None] - edofs[:, None, :])
+        keep = self.free[edofs][:, :, None] & self.free[edofs][:, None, :]
+        local_uu = np.zeros((12, 12), bool)
+        local_uu[np.ix_(IU, IU)] = True
+        self._uu_sel = np.flatnonzero((keep & local_uu).reshape(ne, 12, 12)[:, IU][:, :, IU].ravel())
+        self._uu_idx = flat[:, IU][:, :, IU].ravel()[self._uu_sel]
+        self._up_sel = np.flatnonzero((keep & ~local_uu).ravel())
+        self._up_idx = flat.ravel()[self._up_sel]
+        self._diag_c = self.cdofs * rows + 2 * kl
+        self.band_size = N * rows
+        # boundary pressure loads per unit amplitude
+        self.f_pressure = np.zeros(N)
+        for bc in pb.pressures:
+            self.f_pressure += bc.scale * _pressure_vector(mesh, bc.node_set, self.node_order, N)
+        # cavity wall (pressure = sum of radial nodal forces / wall area per radian)
+        self.cavity_ur = None
+        if "cavity" in mesh.node_sets and mesh.node_sets["cavity"].size:
+            self.cavity_ur = 3 * self.node_order[mesh.node_sets["cavity"]]
+            self.cavity_p = self.cavity_ur + 2
+            self.cavity_area = _pressure_vector(mesh, "cavity", self.node_order, N)[self.cavity_ur].sum()
+            self.cavity_radius = mesh.nodes[mesh.node_sets["cavity"], 0].mean()
+        # monitors: excess pore pressure along the node row nearest mid-height, linear in r
+        zmid = 0.5 * (mesh.nodes[:, 1].min() + mesh.nodes[:, 1].max())
+        dz = np.abs(mesh.nodes[:, 1] - zmid)
+        row = np.flatnonzero(dz <= dz.min() + 1e-12 * np.ptp(mesh.nodes[:, 1] + 1.0))
+        row = row[np.argsort(mesh.nodes[row, 0])]
+        self.monitor_nodes, self.monitor_r = 3 * self.node_order[row] + 2, mesh.nodes[row, 0]
+        self.times, self.amplitudes, self.phase_of = pb.amplitude_table()
+        self._const_cache = {}
+
+    # ------------------------------------------------------------------ public
+    def solve(self, material=None, permeability=None) -> Result:
+        """Run the loading history. ``material`` replaces the problem's model (same mesh, loads, initial state),
+        ``permeability`` its k (m/s). Returns a fem.Result."""
+        pb = self.problem
+        model = pb.material if material is None else material
+        k = np.broadcast_to(np.asarray(pb.permeability if permeability is None else permeability, float),
+                            (pb.mesh.n_cells,))
+        if not np.all(np.isfinite(k)) or np.any(k <= 0):
+            raise ValueError(f"permeability k = {k.min()} m/s must be positive and finite")
+        g = self.geom
+        ne = pb.mesh.n_cells
+        stress0 = pb.initial.effective_stress(ne)
+        mp = MaterialPoints(model, stress0, pb.void_ratio0)
+        self._mp = mp
+        self._k = k / pb.gamma_w
+        self._const_cache = {}
+        self._sig0_fe = -stress0[:, :4]
+        first_dt = self.times[1] - self.times[0]
+        if pb.hourglass_modulus is None:
+            _, _, _, D0 = mp.trial(np.zeros((ne, 4)), first_dt)
+            G = D0[:, 3, 3].copy()
+        else:
+            G = np.full(ne, float(pb.hourglass_modulus))
+        self._G = G
+        self._hg = pb.hourglass_scale * G[:, None, None] * g.hg
+        self._tau = (0.5 / G) if pb.stabilization else np.zeros(ne)
+        self._S = self._tau[:, None, None] * (g.M - g.n_bar[:, :, None] * g.n_bar[:, None, :] / g.volume[:, None, None])
+        self._f_geo = self._assemble_u(g.volume[:, None] * np.einsum("nij,ni->nj", g.B, self._sig0_fe)
+                                       - g.vol_row * (g.volume * pb.initial.u0)[:, None])
+        x = np.zeros(self.n_dofs)
+        self._stress_fe = self._sig0_fe.copy()
+        self._strain = np.zeros((ne, 4))
+        result = Result(self, pb)
+        result.record(0.0, 0.0, x, self)
+        if pb.save_fields != "none":
+            result.snapshot(self.snapshot(0.0, x))
+        for i in range(1, len(self.times)):
+            x = self._increment(x, self.times[i - 1], self.times[i], self.amplitudes[i - 1], self.amplitudes[i])
+            result.record(self.times[i], self.amplitudes[i], x, self)
+            last_of_phase = i == len(self.times) - 1 or self.phase_of[i] != self.phase_of[i - 1]
+            if pb.save_fields == "all" or (pb.save_fields == "phases" and last_of_phase):
+                result.snapshot(self.snapshot(self.times[i], x))
+        return result.finish()
+
+    def snapshot(self, t, x):
+        inv = self.node_order
+        disp = np.column_stack([x[3 * inv], x[3 * inv + 1]])
+        p = x[3 * inv + 2]
+        return Snapshot(t, disp, p, self.problem.initial.u0 + p, self._mp.stress.copy(), self._strain.copy())
+
+    def cavity_pressure(self, x):
+        """Total radial stress on the cavity wall (kPa, compression positive) from the nodal reactions."""
+        g = self.geom
+        pore_force = (g.n_bar * x[self.pdofs]).sum(axis=1) + g.volume * self.problem.initial.u0   # V p_bar
+        f_int = (g.volume[:, None] * np.einsum("nij,ni->nj", g.B, self._stress_fe) - g.vol_row * pore_force[:, None]
+                 + np.einsum("nij,nj->ni", self._hg, x[self.udofs]))
+        return self._assemble_u(f_int)[self.cavity_ur].sum() / self.cavity_area
+
+    # ------------------------------------------------------------------ stepping
+    def _increment(self, x, t0, t1, a0, a1):
+        """Advance from t0 to t1, halving the sub-step on failure (up to max_cuts halvings)."""
+        pb = self.problem
+        frac, h, cuts, depth = 0.0, 1.0, 0, 0
+        while frac < 1.0 - 1e-12:
+            h = min(h, 1.0 - frac)
+            f1 = frac + h
+            try:
+                x = self._newton(x, (t1 - t0) * h, a0 + (a1 - a0) * f1)
+                frac = f1
+            except _StepFailed as err:
+                depth += 1
+                cuts += 1
+                if depth > pb.max_cuts:
+                    raise ConvergenceError(
+                        f"no convergence at t = {t0 + (t1 - t0) * frac:.6g} s (amplitude {a0 + (a1 - a0) * frac:.6g})"
+                        f" after {pb.max_cuts} step cuts (sub-step {(t1 - t0) * h:.3g} s): {err}") from None
+                h *= 0.5
+        return x
+
+    def _newton(self, x_n, dt, a1):
+        pb = self.problem
+        mp = self._mp
+        target = self.cscale * a1
+        x = x_n.copy()
+        dc = target - x[self.cdofs]
+        for it in range(pb.max_iterations + 1):
+            try:
+                R, Kuu, trial, scales = self._residual(x, x_n, dt, a1)
+            except IntegrationError as err:
+                raise _StepFailed(f"material: {err}") from None
+            if not np.all(np.isfinite(R)):
+                raise _StepFailed("non-finite residual")
+            if it > 0:
+                ru = np.linalg.norm(R[self._ufree])
+                rp = np.linalg.norm(R[self._pfree])
+                if ru <= pb.rtol * scales[0] and rp <= pb.rtol * scales[1]:
+                    mp.commit(trial[0], trial[1])
+                    self._stress_fe = trial[2]
+                    self._strain = trial[3]
+                    return x
+            if it == pb.max_iterations:
+                break
+            rhs = -R
+            if it == 0:
+                dx = np.zeros_like(x)
+                dx[self.cdofs] = dc
+                rhs -= self._apply(Kuu, dt, dx)
+                rhs[self.cdofs] = dc
+            else:
+                rhs[self.cdofs] = 0.0
+            x = x + self._linear_solve(Kuu, dt, rhs)
+        raise _StepFailed(f"Newton did not converge in {pb.max_iterations} iterations "
+                          f"(|R_u| = {ru:.3g} vs {scales[0]:.3g}, |R_p| = {rp:.3g} vs {scales[1]:.3g})")
+
+    # ------------------------------------------------------------------ element work (vectorized over cells)
+    def _residual(self, x, x_n, dt, a1):
+        g = self.geom
+        U = x[self.udofs]
+        P = x[self.pdofs]
+        dU = U - x_n[self.udofs]
+        dP = P - x_n[self.pdofs]
+        strain = np.einsum("nij,nj->ni", g.B, U)
+        stress_soil, state, stress_fe, D = self._mp.trial(strain - self._strain, dt)
+        f_eff = g.volume[:, None] * np.einsum("nij,ni->nj", g.B, stress_fe - self._sig0_fe)
+        f_p = g.vol_row * (g.n_bar * P).sum(axis=1)[:, None]
+        f_u = f_eff - f_p + np.einsum("nij,nj->ni", self._hg, U)
+        dvol = (g.vol_row * dU).sum(axis=1)
+        flow = dt * self._k[:, None] * np.einsum("nab,nb->na", g.H, P)
+        r_p = -(g.n_bar * dvol[:, None] + flow + np.einsum("nab,nb->na", self._S, dP))
+        R = np.bincount(self.udofs.ravel(), f_u.ravel(), self.n_dofs)
+        R += np.bincount(self.pdofs.ravel(), r_p.ravel(), self.n_dofs)
+        R -= a1 * self.f_pressure
+        Kuu = g.volume[:, None, None] * np.einsum("nki,nkl,nlj->nij", g.B, D, g.B) + self._hg
+        # reference magnitudes for the convergence test: the sums of absolute contributions (round-off level)
+        scale_u = np.linalg.norm(np.bincount(self.udofs.ravel(), (
+            g.volume[:, None] * np.einsum("nij,ni->nj", np.abs(g.B), np.abs(stress_fe) + np.abs(self._sig0_fe))
+            + np.abs(g.vol_row) * (g.n_bar * np.abs(P)).sum(axis=1)[:, None]).ravel(), self.n_dofs))
+        scale_u += abs(a1) * np.linalg.norm(self.f_pressure) + 1e-300
+        scale_p = np.linalg.norm(np.bincount(self.pdofs.ravel(), (
+            g.n_bar * (np.abs(g.vol_row) * np.abs(dU)).sum(axis=1)[:, None] + np.abs(flow)
+            + np.einsum("nab,nb->na", np.abs(self._S), np.abs(dP))).ravel(), self.n_dofs)) + 1e-300
+        return R, Kuu, (stress_soil, state, stress_fe, strain), (scale_u, scale_p)
+
+    def _assemble_u(self, f_e):
+        return np.bincount(self.udofs.ravel(), f_e.ravel(), self.n_dofs)
+
+    def _constant_part(self, dt):
+        """Band entries of the coupling and pressure blocks for time step dt (cached; they depend only on dt)."""
+        key = float(dt)
+        ab = self._const_cache.get(key)
+        if ab is None:
+            g = self.geom
+            ne = g.volume.shape[0]
+            K = np.zeros((ne, 12, 12))
+            Q = g.vol_row[:, :, None] * g.n_bar[:, None, :]
+            K[:, IU[:, None], IP] = -Q
+            K[:, IP[:, None], IU] = -np.transpose(Q, (0, 2, 1))
+            K[:, IP[:, None], IP] = -(dt * self._k[:, None, None] * g.H + self._S)
+            ab = np.bincount(self._up_idx, K.ravel()[self._up_sel], self.band_size)
+            ab[self._diag_c] = 1.0
+            if len(self._const_cache) > 64:
+                self._const_cache.clear()
+            self._const_cache[key] = (ab, K)
+        return self._const_cache[key]
+
+    def _apply(self, Kuu, dt, dx):
+        """Global product K dx (unconstrained Jacobian), used to move the constrained dofs."""
+        _, K = self._constant_part(dt)
+        xe = dx[self.edofs]
+        ye = np.einsum("nij,nj->ni", K, xe)
+        ye[:, IU] += np.einsum("nij,nj->ni", Kuu, xe[:, IU])
+        return np.bincount(self.edofs.ravel(), ye.ravel(), self.n_dofs)
+
+    def _linear_solve(self, Kuu, dt, rhs):
+        ab_const, _ = self._constant_part(dt)
+        ab = ab_const + np.bincount(self._uu_idx, Kuu.ravel()[self._uu_sel], self.band_size)
+        _, _, sol, info = dgbsv(self.kl, self.kl, ab.reshape(self.n_dofs, self.rows).T, rhs,
+                                overwrite_ab=1, overwrite_b=1)
+        if info != 0:
+            raise _StepFailed(f"singular Jacobian (LAPACK dgbsv info = {info}); check the boundary conditions")
+        return sol
+
+
+def _band_order(cells, n_nodes):
+    """New node numbers minimizing the bandwidth: the given order or reverse Cuthill-McKee, whichever is narrower."""
+    i = np.repeat(cells, 4, axis=1).ravel()
+    j = np.tile(cells, (1, 4)).ravel()
+    graph = coo_matrix((np.ones(i.size), (i, j)), shape=(n_nodes, n_nodes)).tocsr()
+    perm = reverse_cuthill_mckee(graph, symmetric_mode=True)
+    rcm = np.empty(n_nodes, np.int64)
+    rcm[perm] = np.arange(n_nodes)
+    width = lambda order: np.abs(order[cells][:, :, None] - order[cells][:, None, :]).max()  # noqa: E731
+    natural = np.arange(n_nodes)
+    return natural if width(natural) <= width(rcm) else rcm
+
+
+def _pressure_vector(mesh, name, order, n_dofs):
+    """Consistent nodal forces (per radian) of a unit normal pressure pushing into the body on the set's edges:
+    f_a = -n L (2 r_a + r_b)/6, n the outward normal of the edge (integral of N p n r ds, linear N and r)."""
+    f = np.zeros(n_dofs)
+    e = edges_of_set(mesh, name)
+    xa, xb = mesh.nodes[e[:, 0]], mesh.nodes[e[:, 1]]
+    d = xb - xa
+    normal_L = np.column_stack([d[:, 1], -d[:, 0]])   # outward normal times edge length (counter-clockwise cells)
+    fa = -normal_L * ((2 * xa[:, 0] + xb[:, 0]) / 6.0)[:, None]
+    fb = -normal_L * ((xa[:, 0] + 2 * xb[:, 0]) / 6.0)[:, None]
+    for nodes, fv in ((e[:, 0], fa), (e[:, 1], fb)):
+        for c in range(2):
+            np.add.at(f, 3 * order[nodes] + c, fv[:, c])
+    return f
