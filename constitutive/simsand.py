@@ -1,0 +1,565 @@
+"""SIMSAND: critical-state sand model of the paper's appendix (REFERENCE.md section 3, Eqs. (I)-(VII)).
+
+Compression positive, effective stresses in kPa, Voigt order (11, 22, 33, 12, 23, 31) with engineering shear strain.
+p' = tr(sigma')/3, q = sqrt(3/2 s:s), eta = q/p', sin 3theta from :func:`constitutive.invariants.lode_sin3theta`
+(+1 in triaxial compression).
+
+Equations (numbers of REFERENCE.md section 3):
+
+- (I)-(II) d eps = d eps^e + d eps^p; isotropic hypo-elasticity d sigma' = K d eps_v^e I + 2 G d e^e.
+- (III)    K = K_0 p_at (2.97 - e)^2 / (1 + e) (p'/p_at)^n,  E = 3 K (1 - 2 nu),  G = 3 K (1 - 2 nu) / (2 (1 + nu)).
+- (IV)     f = q/p' - M_p H,  H = eps_d^p / (k_p + eps_d^p)  (hyperbolic hardening, eps_d^p accumulated deviatoric
+           plastic strain).
+- (V)      dg/dp' = A_d (M_pt - q/p'), dg/dq = 1: plastic strain rate d eps^p = d lambda [A_d (M_pt - eta) I/3
+           + 3 s / (2 q)], so d eps_v^p = A_d (M_pt - eta) d eps_d^p and d eps_d^p = d lambda.
+- (VI)     e_c = e_ref exp[-lambda_c (p'/p_at)^xi].
+- (VII)    tan phi_p = (e_c/e)^n_p tan phi_mu, tan phi_pt = (e_c/e)^(-n_d) tan phi_mu, M = 6 sin phi/(3 - sin phi).
+- Lode dependence (Sheng, Sloan & Yu 2000) on M_p and M_pt, each with its own c = (3 - sin phi)/(3 + sin phi):
+  M(theta) = M_c [2 c^4 / (1 + c^4 - (1 - c^4) sin 3theta)]^(1/4).
+
+Generalisation to six components: the yield gradient a = df/dsigma' includes the p'- and Lode-angle dependence of
+M_p (through e_c(p') and sin 3theta); the flow direction is the stress-space gradient of g from (V) (radial in the
+deviatoric plane). The void ratio enters M_p and M_pt and follows the total volumetric strain,
+e = e_0 - (1 + e_0) eps_v (linearised small strain, as the laboratory void ratio is computed from Delta V / V_0).
+
+Stress-point integration (strain control): explicit modified Euler with local error control and consistent drift
+correction (Sloan, Abbo & Sheng 2001), vectorised over points with per-point pseudo-time and substep size. The
+elastic-plastic transition inside a substep is located by the Pegasus method on the yield function. At the origin of
+loading (q = 0 and eps_d^p = 0 the yield surface degenerates to the hydrostatic axis) the deviatoric flow direction is
+taken along the deviatoric strain increment. Below ``p_min`` (kPa) the stress is cut off to the isotropic state
+p' = p_min (tension cutoff: sand carries no tension); stiffness and friction are evaluated with p' >= p_min.
+
+The returned tangent is the continuum elasto-plastic tangent at the end of the increment
+(D - D m (x) D a / (a:D m + K_p), including the void-ratio term of M_p), or the elastic D where the last substep was
+elastic: ``tangent_kind = "continuum"``. Good for lab-test mixed-control iterations; not the algorithmic tangent.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import IntegrationError, MaterialModel, ParameterError, as_points, check_parameter
+from .invariants import IDENTITY, STRESS_WEIGHTS, isotropic_stiffness
+
+#: atmospheric pressure (kPa), the reference pressure of (III) and (VI)
+P_AT = 101.325
+#: void ratio at which the stiffness of (III) vanishes
+E_MAX_STIFFNESS = 2.97
+_SQRT3_HALF3 = 1.5 * np.sqrt(3.0)
+
+
+def friction_ratio(tan_phi, sin3theta, derivatives=True):
+    """M(theta) for the friction angle with tangent ``tan_phi`` ((VII) and Sheng, Sloan & Yu 2000).
+
+    M_c = 6 sin phi/(3 - sin phi) in triaxial compression (sin 3theta = +1), c M_c in extension (sin 3theta = -1),
+    c = (3 - sin phi)/(3 + sin phi). Returns M, or (M, dM/dtan_phi, dM/dsin3theta) when ``derivatives``.
+    """
+    sec2 = 1.0 + tan_phi * tan_phi
+    root = np.sqrt(sec2)
+    sin_phi = tan_phi / root
+    Mc = 6.0 * sin_phi / (3.0 - sin_phi)
+    c = (3.0 - sin_phi) / (3.0 + sin_phi)
+    c2 = c * c
+    c4 = c2 * c2
+    den = 1.0 + c4 - (1.0 - c4) * sin3theta
+    M = Mc * np.sqrt(np.sqrt(2.0 * c4 / den))
+    if not derivatives:
+        return M
+    dlnM_dc = 1.0 / c - c2 * c * (1.0 + sin3theta) / den
+    dlnM_dsin = 3.0 / (sin_phi * (3.0 - sin_phi)) - 6.0 / (3.0 + sin_phi) ** 2 * dlnM_dc
+    dM_dtan = M * dlnM_dsin / (sec2 * root)
+    dM_dsin3 = M * 0.25 * (1.0 - c4) / den
+    return M, dM_dtan, dM_dsin3
+
+
+def friction_from_angle(phi_deg):
+    """M = 6 sin phi / (3 - sin phi) (triaxial compression) for phi in degrees."""
+    s = np.sin(np.radians(phi_deg))
+    return 6.0 * s / (3.0 - s)
+
+
+class GeneralStress:
+    """Six-component stress space: Voigt (11, 22, 33, 12, 23, 31), engineering shear strain (FE, general paths).
+
+    Stress-like tensors are stored with tensor components; ``weights`` turn a Voigt pair into a:b, ``strain_row``
+    turns a tensor-component row into one acting on the engineering strain vector.
+    """
+
+    size = 6
+    identity = IDENTITY
+    weights = STRESS_WEIGHTS
+    strain_row = np.ones(6)
+    volumetric_row = IDENTITY
+
+    @staticmethod
+    def deviatoric_strain(deps):
+        """Tensor components of the strain deviator."""
+        d = deps - (deps[:, :3].sum(axis=1) / 3.0)[:, None] * IDENTITY
+        d[:, 3:] *= 0.5
+        return d
+
+    @staticmethod
+    def lode(s, J2s, shear):
+        """sin 3theta (+1 triaxial compression) and d sin3theta/d sigma (deviatoric, orthogonal to s)."""
+        s11, s22, s33, s12, s23, s31 = s.T
+        J3 = s11 * s22 * s33 + 2.0 * s12 * s23 * s31 - s11 * s23**2 - s22 * s31**2 - s33 * s12**2
+        scale = _SQRT3_HALF3 / (J2s * np.sqrt(J2s))
+        sin3 = np.where(shear, np.clip(scale * J3, -1.0, 1.0), 0.0)
+        ss = np.stack([s11 * s11 + s12 * s12 + s31 * s31,
+                       s12 * s12 + s22 * s22 + s23 * s23,
+                       s31 * s31 + s23 * s23 + s33 * s33,
+                       s11 * s12 + s12 * s22 + s31 * s23,
+                       s12 * s31 + s22 * s23 + s23 * s33,
+                       s11 * s31 + s12 * s23 + s31 * s33], axis=1)
+        ss[:, :3] -= (2.0 / 3.0) * J2s[:, None]
+        grad = np.where(shear[:, None], scale[:, None] * (ss - (1.5 * J3 / J2s)[:, None] * s), 0.0)
+        return sin3, grad
+
+    @staticmethod
+    def stiffness(K, G):
+        return isotropic_stiffness(K, G)
+
+
+class TriaxialStress:
+    """Axisymmetric triaxial space: stress (sigma'_a, sigma'_r), strain (eps_a, eps_r), eps_r each lateral strain.
+
+    The same equations as :class:`GeneralStress` restricted to diagonal states with two equal lateral components
+    (q = |sigma'_a - sigma'_r|, sin 3theta = sign(sigma'_a - sigma'_r)); the Lode gradient vanishes there.
+    """
+
+    size = 2
+    identity = np.array([1.0, 1.0])
+    weights = np.array([1.0, 2.0])
+    strain_row = np.array([1.0, 2.0])
+    volumetric_row = np.array([1.0, 2.0])
+
+    @staticmethod
+    def deviatoric_strain(deps):
+        return deps - ((deps[:, 0] + 2.0 * deps[:, 1]) / 3.0)[:, None]
+
+    @staticmethod
+    def lode(s, J2s, shear):
+        return np.where(shear, np.sign(s[:, 0] - s[:, 1]), 0.0), None
+
+    @staticmethod
+    def stiffness(K, G):
+        lam = K - 2.0 * G / 3.0
+        D = np.empty(K.shape + (2, 2))
+        D[:, 0, 0] = lam + 2.0 * G
+        D[:, 0, 1] = 2.0 * lam
+        D[:, 1, 0] = lam
+        D[:, 1, 1] = 2.0 * lam + 2.0 * G
+        return D
+
+
+GENERAL = GeneralStress()
+TRIAXIAL = TriaxialStress()
+
+
+class SIMSAND(MaterialModel):
+    """SIMSAND sand model (REFERENCE.md section 3).
+
+    Parameters (scalars or arrays of shape (n,), one per point or particle):
+        nu       Poisson's ratio, -1 < nu < 0.5
+        K_0      bulk stiffness constant of (III) (dimensionless) > 0 (not the earth-pressure coefficient)
+        n        stiffness exponent of (III), 0 <= n < 1
+        e_ref    void ratio of the critical state line at p' = 0 (VI), 0 < e_ref < 2.97
+        lambda_c CSL parameter lambda of (VI) >= 0 (named lambda_c: ``lambda`` is a Python keyword)
+        xi       CSL exponent of (VI) > 0
+        phi_mu   critical-state friction angle in degrees, 0 < phi_mu < 90
+        k_p      plastic hardening constant of (IV) > 0
+        A_d      stress-dilatancy constant of (V) >= 0
+        n_p      interlocking exponent for the peak angle (VII) >= 0
+        n_d      interlocking exponent for the phase-transformation angle (VII) >= 0
+
+    Options: ``p_at`` (kPa, 101.325), ``p_min`` (kPa, tension cutoff and stiffness floor, default 0.1),
+    ``stol`` (relative local error tolerance of the substepping, default 1e-4), ``ftol`` (yield-function drift
+    tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 10000).
+
+    State (dict of (n,) arrays): ``void_ratio`` e, ``void_ratio_initial`` e_0 (reference of e = e_0 - (1 + e_0)
+    eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0).
+    """
+
+    name = "SIMSAND"
+    tangent_kind = "continuum"
+    parameter_names = ("nu", "K_0", "n", "e_ref", "lambda_c", "xi", "phi_mu", "k_p", "A_d", "n_p", "n_d")
+
+    def __init__(self, nu, K_0, n, e_ref, lambda_c, xi, phi_mu, k_p, A_d, n_p, n_d, *,
+                 p_at=P_AT, p_min=0.1, stol=1e-4, ftol=1e-8, max_substeps=10000):
+        m = self.name
+        self.nu = check_parameter("nu", nu, lower=-1.0, upper=0.5, model=m)
+        self.K_0 = check_parameter("K_0", K_0, lower=0.0, model=m)
+        self.n = check_parameter("n", n, lower=0.0, upper=1.0, lower_open=False, model=m)
+        self.e_ref = check_parameter("e_ref", e_ref, lower=0.0, upper=E_MAX_STIFFNESS, model=m)
+        self.lambda_c = check_parameter("lambda_c", lambda_c, lower=0.0, lower_open=False, model=m)
+        self.xi = check_parameter("xi", xi, lower=0.0, model=m)
+        self.phi_mu = check_parameter("phi_mu", phi_mu, lower=0.0, upper=90.0, model=m)
+        self.k_p = check_parameter("k_p", k_p, lower=0.0, model=m)
+        self.A_d = check_parameter("A_d", A_d, lower=0.0, lower_open=False, model=m)
+        self.n_p = check_parameter("n_p", n_p, lower=0.0, lower_open=False, model=m)
+        self.n_d = check_parameter("n_d", n_d, lower=0.0, lower_open=False, model=m)
+        self.p_at = float(check_parameter("p_at", p_at, lower=0.0, model=m))
+        self.p_min = float(check_parameter("p_min", p_min, lower=0.0, model=m))
+        self.stol = float(check_parameter("stol", stol, lower=0.0, upper=1.0, model=m))
+        self.ftol = float(check_parameter("ftol", ftol, lower=0.0, upper=1.0, model=m))
+        self.max_substeps = int(check_parameter("max_substeps", max_substeps, lower=1.0, lower_open=False, model=m))
+        sizes = {np.size(getattr(self, k)) for k in self.parameter_names} - {1}
+        for k in self.parameter_names:
+            if np.ndim(getattr(self, k)) > 1:
+                raise ParameterError(f"{m}: parameter {k} must be a scalar or a 1-D array, got shape "
+                                     f"{np.shape(getattr(self, k))}")
+        if len(sizes) > 1:
+            shapes = {k: np.shape(getattr(self, k)) for k in self.parameter_names}
+            raise ParameterError(f"{m}: per-point parameter arrays must share one length, got {shapes}")
+        self.n_sets = sizes.pop() if sizes else 1
+        # derived constants, (III) and (VII)
+        self._tan_mu = np.tan(np.radians(self.phi_mu))
+        self._shear_ratio = 1.5 * (1.0 - 2.0 * self.nu) / (1.0 + self.nu)  # G/K
+
+    # ------------------------------------------------------------------ parameters per point
+    def _point_params(self, n):
+        """Parameters broadcast to (n,) (n must equal the number of parameter sets where they are arrays)."""
+        if self.n_sets not in (1, n):
+            raise ValueError(f"{self.name}: {n} points but parameter arrays of length {self.n_sets}")
+        names = ("K_0", "n", "e_ref", "lambda_c", "xi", "k_p", "A_d", "n_p", "n_d", "_tan_mu", "_shear_ratio")
+        return {k: np.broadcast_to(getattr(self, k), (n,)) for k in names}
+
+    # ------------------------------------------------------------------ closed-form pieces
+    def critical_void_ratio(self, p):
+        """e_c(p') of (VI); p' in kPa."""
+        return self.e_ref * np.exp(-self.lambda_c * (np.asarray(p, float) / self.p_at) ** self.xi)
+
+    def bulk_modulus(self, p, e):
+        """K of (III) in kPa (p' floored at p_min)."""
+        pe = np.maximum(np.asarray(p, float), self.p_min)
+        return self.K_0 * self.p_at * (E_MAX_STIFFNESS - e) ** 2 / (1.0 + e) * (pe / self.p_at) ** self.n
+
+    def shear_modulus(self, p, e):
+        """G = 3 K (1 - 2 nu) / (2 (1 + nu)) in kPa."""
+        return self._shear_ratio * self.bulk_modulus(p, e)
+
+    def friction_ratios(self, p, e, sin3theta=1.0):
+        """(M_p, M_pt) of (VII) with the Lode dependence, at p' (kPa), void ratio e and sin 3theta."""
+        r = self.critical_void_ratio(np.maximum(p, self.p_min)) / e
+        Mp = friction_ratio(r**self.n_p * self._tan_mu, sin3theta, derivatives=False)
+        Mpt = friction_ratio(r ** (-self.n_d) * self._tan_mu, sin3theta, derivatives=False)
+        return Mp, Mpt
+
+    # ------------------------------------------------------------------ state
+    def initial_state(self, stress0, void_ratio0=None) -> dict:
+        """State at ``stress0`` (n, 6) and void ratio ``void_ratio0`` (scalar or (n,), required).
+
+        eps_d^p starts at the value that puts ``stress0`` on the yield surface (IV) (zero for isotropic stress):
+        eps_d^p = k_p eta / (M_p - eta). Raises ValueError if eta >= M_p (stress beyond peak strength) or p' <= 0.
+        """
+        stress0 = as_points(stress0, "stress0")
+        n = stress0.shape[0]
+        if void_ratio0 is None:
+            raise ValueError(f"{self.name}: initial_state needs void_ratio0")
+        e0 = np.broadcast_to(np.asarray(void_ratio0, float), (n,)).copy()
+        bad = ~((e0 > 0.0) & (e0 < E_MAX_STIFFNESS))
+        if np.any(bad):
+            raise ValueError(f"{self.name}: void_ratio0 = {e0[bad][0]} must lie in (0, {E_MAX_STIFFNESS})")
+        par = self._point_params(n)
+        ev = self._evaluate(GENERAL, stress0, e0, np.zeros(n), par, gradients=False)
+        p = ev["p"]
+        if np.any(p <= 0.0):
+            raise ValueError(f"{self.name}: initial mean stress p' = {p[p <= 0][0]} kPa must be > 0")
+        eta, Mp = ev["eta"], ev["Mp"]
+        if np.any(eta >= Mp):
+            i = int(np.argmax(eta >= Mp))
+            raise ValueError(f"{self.name}: initial stress ratio q/p' = {eta[i]:.4g} at point {i} is not below the "
+                             f"peak-strength ratio M_p = {Mp[i]:.4g}")
+        eps_dp = par["k_p"] * eta / (Mp - eta)
+        return {"void_ratio": e0, "void_ratio_initial": e0.copy(), "eps_dp": eps_dp}
+
+    # ------------------------------------------------------------------ local evaluation
+    def _evaluate(self, space, sig, e, eps_dp, par, gradients=True, dstrain=None):
+        """Invariants, yield function (IV) and, with ``gradients``, moduli (III), flow (V) and consistency terms.
+
+        ``space`` is GENERAL or TRIAXIAL; ``par`` holds the parameters of the same points ((m,) arrays);
+        ``dstrain`` (the substep strain) gives the deviatoric flow direction at q = 0. Returns a dict of arrays.
+        """
+        I = space.identity
+        p = (sig @ space.volumetric_row) / 3.0 if space.size == 2 else sig[:, :3].sum(axis=1) / 3.0
+        s = sig - p[:, None] * I
+        J2 = 0.5 * ((s * s) @ space.weights)
+        q = np.sqrt(3.0 * J2)
+        pe = np.maximum(p, self.p_min)
+        eta = q / pe
+        shear = q > 1e-9 * pe  # a deviator exists; else the origin of loading or a hydrostatic state
+        J2s = np.where(shear, J2, 1.0)
+        sin3, lode_grad = space.lode(s, J2s, shear)
+        # (VI) critical state line and (VII) interlocking
+        log_pr = np.log(pe / self.p_at)
+        x = np.exp(par["xi"] * log_pr)
+        ec = par["e_ref"] * np.exp(-par["lambda_c"] * x)
+        log_r = np.log(ec / e)
+        tan_p = np.exp(par["n_p"] * log_r) * par["_tan_mu"]
+        tan_pt = np.exp(-par["n_d"] * log_r) * par["_tan_mu"]
+        H = eps_dp / (par["k_p"] + eps_dp)
+        if not gradients:
+            Mp = friction_ratio(tan_p, sin3, derivatives=False)
+            return {"p": p, "q": q, "eta": eta, "Mp": Mp, "f": eta - H * Mp}
+        Mp, dMp_dtan, dMp_dsin3 = friction_ratio(tan_p, sin3)
+        Mpt = friction_ratio(tan_pt, sin3, derivatives=False)
+        f = eta - H * Mp  # (IV)
+        # (III) hypo-elastic moduli
+        K = par["K_0"] * self.p_at * (E_MAX_STIFFNESS - e) ** 2 / (1.0 + e) * np.exp(par["n"] * log_pr)
+        G = par["_shear_ratio"] * K
+        # derivatives of f: through eta, and through M_p(e_c(p'), e, sin3theta); d ln e_c/dp' = -lambda xi x/p'
+        HdM = H * dMp_dtan * tan_p * par["n_p"]
+        df_dp = -eta / pe + HdM * par["lambda_c"] * par["xi"] * x / pe
+        df_de = HdM / e
+        # nhat = dq/dsigma = 3 s/(2 q) (nhat:nhat = 3/2); at q = 0 along the deviatoric strain increment
+        nhat = 1.5 * s / np.where(shear, q, 1.0)[:, None]
+        if dstrain is not None and not np.all(shear):
+            d = space.deviatoric_strain(dstrain)
+            dd = (d * d) @ space.weights
+            scale = np.sqrt(1.5 / np.where(dd > 0.0, dd, 1.0)) * (dd > 0.0)
+            nhat = np.where(shear[:, None], nhat, d * scale[:, None])
+        a_dev = nhat / pe[:, None]  # df/dq = 1/p'
+        if lode_grad is not None:
+            a_dev = a_dev - (H * dMp_dsin3)[:, None] * lode_grad
+        # plastic potential (V): m = A_d (M_pt - eta) I/3 + nhat (strain-like), D m = K A_d (M_pt - eta) I + 2 G nhat
+        dil = par["A_d"] * (Mpt - eta)
+        Dm = (K * dil)[:, None] * I + 2.0 * G[:, None] * nhat
+        Kp = Mp * par["k_p"] / (par["k_p"] + eps_dp) ** 2  # -df/d eps_d^p
+        den = df_dp * K * dil + 2.0 * G * ((a_dev * nhat) @ space.weights) + Kp
+        # row acting on a strain increment: a:D d eps + (df/de) de, with de = -(1 + e_0) d eps_v (caller adds v0)
+        Da = space.strain_row * (2.0 * G[:, None] * a_dev + (df_dp * K)[:, None] * I)
+        return {"p": p, "q": q, "eta": eta, "Mp": Mp, "Mpt": Mpt, "f": f, "K": K, "G": G, "Dm": Dm, "den": den,
+                "Da": Da, "df_de": df_de, "Kp": Kp}
+
+    @staticmethod
+    def _elastic(space, ev, deps):
+        """D d eps = K d eps_v I + 2 G dev(d eps) (stress-like, tensor components)."""
+        dv = deps @ space.volumetric_row
+        return (ev["K"] * dv)[:, None] * space.identity + 2.0 * ev["G"][:, None] * space.deviatoric_strain(deps)
+
+    def _rates(self, space, ev, dload, v0, plastic, control):
+        """Stage increments (d sigma, d eps, d lambda, loading) for one substep.
+
+        ``dload`` holds the prescribed strain increments on strain-controlled components and the prescribed stress
+        increments on the stress-controlled ones (``control`` = indices of the latter, possibly empty); the unknown
+        strains follow from the tangent of the stage (elastic, or elasto-plastic where ``plastic``).
+        """
+        row = ev["Da"] - (ev["df_de"] * v0)[:, None] * space.volumetric_row
+        if control.size == 0:
+            deps = dload
+        else:
+            deps = self._solve_mixed(space, ev, dload, row, plastic, control)
+        load = np.einsum("ij,ij->i", row, deps)
+        dlam = np.where(plastic, load / ev["den"], 0.0)
+        return self._elastic(space, ev, deps) - dlam[:, None] * ev["Dm"], deps, dlam, load
+
+    @staticmethod
+    def _solve_mixed(space, ev, dload, row, plastic, control):
+        """Strain increment meeting the prescribed stress increments on ``control`` with the stage tangent."""
+        T = space.stiffness(ev["K"], ev["G"])
+        upd = ev["Dm"][:, :, None] * (row / ev["den"][:, None])[:, None, :]
+        T = T - np.where(plastic[:, None, None], upd, 0.0)
+        free = np.setdiff1d(np.arange(space.size), control)
+        deps = dload.copy()
+        deps[:, control] = 0.0
+        rhs = dload[:, control] - np.einsum("nij,nj->ni", T[:, control][:, :, free], dload[:, free])
+        Tss = T[:, control][:, :, control]
+        if control.size == 1:
+            deps[:, control] = rhs / Tss[:, 0]
+        else:
+            deps[:, control] = np.linalg.solve(Tss, rhs[:, :, None])[:, :, 0]
+        return deps
+
+    # ------------------------------------------------------------------ integration
+    def _integrate(self, space, stress, state, dload, control):
+        """Modified Euler substepping with error control (Sloan et al. 2001) over one increment of all points.
+
+        Returns (stress, void ratio, eps_d^p, strain increment, plastic flag of the last substep).
+        """
+        n = stress.shape[0]
+        par_all = self._point_params(n)
+        sig = stress.copy()
+        e = np.array(state["void_ratio"], dtype=float)
+        v0_all = 1.0 + np.asarray(state["void_ratio_initial"], dtype=float)
+        eps = np.array(state["eps_dp"], dtype=float)
+        strain = np.zeros_like(stress)
+        T = np.zeros(n)
+        dT = np.ones(n)
+        plastic_end = np.zeros(n, dtype=bool)
+        nsub = np.zeros(n, dtype=int)
+        act = np.arange(n)
+        stol, ftol = self.stol, self.ftol
+        par = None
+        while act.size:
+            if par is None or par["k_p"].shape[0] != act.size:
+                par = {k: v[act] for k, v in par_all.items()}
+            s0, e0, k0, v0 = sig[act], e[act], eps[act], v0_all[act]
+            h = np.minimum(dT[act], 1.0 - T[act])
+            dl = h[:, None] * dload[act]
+            ev0 = self._evaluate(space, s0, e0, k0, par, dstrain=dl)
+            on_surface = ev0["f"] >= -ftol
+            # stage 1 (forward Euler); plastic where on the surface and loading
+            dsig1, deps1, dlam1, _ = self._rates(space, ev0, dl, v0, on_surface, control)
+            pl = on_surface & (dlam1 > 0.0)
+            if np.any(on_surface & ~pl):
+                dsig1, deps1, dlam1, _ = self._rates(space, ev0, dl, v0, pl, control)
+            bad = pl & ~(ev0["den"] > 0.0)
+            if np.any(bad):
+                raise IntegrationError(int(act[np.argmax(bad)]), "a:D m + K_p <= 0 (no unique plastic response)")
+            ddv1 = -v0 * (deps1 @ space.volumetric_row)
+            # stage 2 at the Euler estimate
+            ev1 = self._evaluate(space, s0 + dsig1, e0 + ddv1, k0 + dlam1, par, dstrain=dl)
+            dsig2, deps2, dlam2, _ = self._rates(space, ev1, dl, v0, pl, control)
+            sig_new = s0 + 0.5 * (dsig1 + dsig2)
+            deps_new = 0.5 * (deps1 + deps2)
+            eps_new = np.maximum(k0 + 0.5 * (dlam1 + dlam2), 0.0)
+            e_new = e0 - v0 * (deps_new @ space.volumetric_row)
+            # local error (Sloan et al. 2001): stress relative; hardening through the mobilised ratio H (absolute)
+            dnorm = np.sqrt(((dsig2 - dsig1) ** 2) @ space.weights)
+            snorm = np.sqrt((sig_new**2) @ space.weights)
+            err = 0.5 * dnorm / np.maximum(snorm, self.p_min)
+            err = np.maximum(err, 0.5 * np.abs(dlam2 - dlam1) * par["k_p"] / (par["k_p"] + eps_new) ** 2)
+            err = np.where(np.isfinite(err) & ~(pl & ~(ev1["den"] > 0.0)), err, np.inf)
+            ok = err <= stol
+            frac = np.ones(act.size)
+            # accepted elastic substeps that end outside the yield surface
+            el = np.flatnonzero(ok & ~pl)
+            restart = np.zeros(act.size, dtype=bool)
+            cross = np.zeros(act.size, dtype=bool)
+            if el.size:
+                pel = {k: v[el] for k, v in par.items()}
+                f_el = self._evaluate(space, sig_new[el], e_new[el], eps_new[el], pel, gradients=False)["f"]
+                out = f_el > ftol
+                restart[el[out & on_surface[el]]] = True  # unloading then reloading inside the substep: shorten
+                c = out & ~on_surface[el]
+                if np.any(c):  # elastic to plastic: stop the substep at the crossing (Pegasus on f)
+                    ci = el[c]
+                    cross[ci] = True
+                    frac[ci] = self._crossing(space, s0[ci], sig_new[ci] - s0[ci], e0[ci], e_new[ci] - e0[ci],
+                                              k0[ci], ev0["f"][ci], f_el[c], {k: v[ci] for k, v in par.items()})
+                    sig_new[ci] = s0[ci] + frac[ci, None] * (sig_new[ci] - s0[ci])
+                    e_new[ci] = e0[ci] + frac[ci] * (e_new[ci] - e0[ci])
+                    deps_new[ci] *= frac[ci, None]
+            ok &= ~restart
+            # drift correction of accepted plastic substeps
+            c = np.flatnonzero(ok & pl)
+            if c.size:
+                sig_new[c], e_new[c], eps_new[c], deps_new[c] = self._drift_correct(
+                    space, sig_new[c], e_new[c], eps_new[c], deps_new[c], v0[c], {k: v[c] for k, v in par.items()},
+                    act[c], control)
+            # tension cutoff (sand carries no tension): isotropic p' = p_min
+            low = ok & ((sig_new @ space.volumetric_row if space.size == 2 else sig_new[:, :3].sum(axis=1))
+                        < 3.0 * self.p_min)
+            if np.any(low):
+                sig_new[low] = self.p_min * space.identity
+            # commit accepted substeps
+            acc = act[ok]
+            sig[acc], e[acc], eps[acc] = sig_new[ok], e_new[ok], eps_new[ok]
+            strain[acc] += deps_new[ok]
+            T[acc] += (h * frac)[ok]
+            plastic_end[acc] = pl[ok]
+            badv = ~((e[acc] > 0.0) & (e[acc] < E_MAX_STIFFNESS) & np.all(np.isfinite(sig[acc]), axis=1))
+            if np.any(badv):
+                i = int(acc[np.argmax(badv)])
+                raise IntegrationError(i, f"void ratio {e[i]:.4g} outside (0, {E_MAX_STIFFNESS}) or non-finite stress")
+            # next substep: q = 0.9 sqrt(STOL/R) in [0.1, 2] (<= 1 after a rejection); a restart quarters it
+            fac = np.clip(0.9 * np.sqrt(stol / np.maximum(err, 1e-30)), 0.1, np.where(ok, 2.0, 1.0))
+            dT[act] = np.where(cross, h * (1.0 - frac), np.where(restart, 0.25, fac) * h)
+            nsub[act] += 1
+            fail = (dT[act] < 1e-12) & (T[act] < 1.0 - 1e-12) | (nsub[act] > self.max_substeps)
+            if np.any(fail):
+                raise IntegrationError(int(act[np.argmax(fail)]), "error control cannot be met (substep below 1e-12 "
+                                       f"of the increment or more than {self.max_substeps} substeps)")
+            act = act[T[act] < 1.0 - 1e-12]
+        return sig, e, eps, strain, plastic_end
+
+    def _crossing(self, space, s0, dsig, e0, de, eps, f0, f1, par, iterations=30):
+        """Fraction alpha of an elastic substep where f = 0 (Pegasus method along the linearised elastic path)."""
+        a0, a1 = np.zeros_like(f0), np.ones_like(f0)
+        alpha = a1.copy()
+        for _ in range(iterations):
+            alpha = a1 - f1 * (a1 - a0) / (f1 - f0)
+            fa = self._evaluate(space, s0 + alpha[:, None] * dsig, e0 + alpha * de, eps, par, gradients=False)["f"]
+            if np.all(np.abs(fa) <= self.ftol):
+                break
+            swap = fa * f1 < 0.0
+            a0, f0 = np.where(swap, a1, a0), np.where(swap, f1, f0 * f1 / (f1 + fa))
+            a1, f1 = alpha, fa
+        return alpha
+
+    def _drift_correct(self, space, sig, e, eps, deps, v0, par, points, control, iterations=5):
+        """Return to f = 0 (consistent correction of Sloan et al. 2001), keeping prescribed stress components.
+
+        Correction at fixed total strain on strain-controlled components: d sigma = d lambda (D w - D m),
+        d eps = d lambda w with w the strain on stress-controlled components that keeps their stress
+        (w = 0 under strain control), d lambda = f / (a:D m + K_p - row . w).
+        """
+        for _ in range(iterations):
+            ev = self._evaluate(space, sig, e, eps, par, dstrain=deps)
+            f = ev["f"]
+            todo = np.abs(f) > self.ftol
+            if not np.any(todo):
+                break
+            if control.size:
+                row = ev["Da"] - (ev["df_de"] * v0)[:, None] * space.volumetric_row
+                w = self._solve_mixed(space, ev, np.where(np.isin(np.arange(space.size), control), ev["Dm"], 0.0),
+                                      row, np.zeros(f.shape, dtype=bool), control)
+                dir_sig = self._elastic(space, ev, w) - ev["Dm"]
+                den = ev["den"] - np.einsum("ij,ij->i", row, w)
+            else:
+                w, dir_sig, den = 0.0, -ev["Dm"], ev["den"]
+            if np.any(todo & ~(den > 0.0)):
+                raise IntegrationError(int(points[np.argmax(todo & ~(den > 0.0))]), "drift correction: a:D m + K_p <= 0")
+            dl = np.where(todo, f / den, 0.0)
+            dl = np.maximum(dl, -eps)  # eps_d^p stays >= 0
+            sig = sig + dl[:, None] * dir_sig
+            eps = eps + dl
+            if control.size:
+                dw = dl[:, None] * w
+                deps = deps + dw
+                e = e - v0 * (dw @ space.volumetric_row)
+        return sig, e, eps, deps
+
+    # ------------------------------------------------------------------ public updates
+    def update(self, stress, state, dstrain, dt=0.0):
+        """Integrate a strain increment (n, 6) from ``stress`` (n, 6) and ``state``; returns (stress, state, tangent).
+
+        ``dt`` is unused (rate-independent model). The tangent is the continuum one at the end state (module doc).
+        """
+        stress = as_points(stress, "stress")
+        dstrain = as_points(dstrain, "dstrain")
+        if dstrain.shape[0] != stress.shape[0]:
+            raise ValueError(f"{self.name}: stress has {stress.shape[0]} points, dstrain {dstrain.shape[0]}")
+        sig, e, eps, _, plastic = self._integrate(GENERAL, stress, state, dstrain, np.array([], dtype=int))
+        new_state = self._state(state, e, eps)
+        return sig, new_state, self._tangent(sig, new_state, plastic, dstrain)
+
+    def update_triaxial(self, stress, state, dload, stress_control=(False, True)):
+        """Fast path for axisymmetric triaxial states (the same equations and integrator in two components).
+
+        stress (n, 2) = (sigma'_a, sigma'_r) in kPa; ``dload`` (n, 2): per component the strain increment where
+        strain-controlled, the stress increment (kPa) where ``stress_control`` is True (default: drained triaxial,
+        radial stress prescribed). Returns (stress, state, strain increment (n, 2) = (d eps_a, d eps_r)).
+        Undrained triaxial: strain control with d eps_r = -d eps_a/2.
+        """
+        stress = np.asarray(stress, dtype=float).reshape(-1, 2)
+        dload = np.broadcast_to(np.asarray(dload, dtype=float), stress.shape)
+        control = np.flatnonzero(np.asarray(stress_control, dtype=bool))
+        sig, e, eps, deps, _ = self._integrate(TRIAXIAL, stress, state, dload, control)
+        return sig, self._state(state, e, eps), deps
+
+    @staticmethod
+    def _state(state, e, eps):
+        return {"void_ratio": e, "void_ratio_initial": np.array(state["void_ratio_initial"], dtype=float),
+                "eps_dp": eps}
+
+    def _tangent(self, sig, state, plastic, dstrain):
+        """Continuum tangent at the end state: elastic D, minus D m (x) row / den where the last substep was plastic."""
+        n = sig.shape[0]
+        par = self._point_params(n)
+        ev = self._evaluate(GENERAL, sig, state["void_ratio"], state["eps_dp"], par, dstrain=dstrain)
+        D = isotropic_stiffness(ev["K"], ev["G"])
+        if np.any(plastic):
+            row = ev["Da"] - (ev["df_de"] * (1.0 + state["void_ratio_initial"]))[:, None] * IDENTITY
+            upd = ev["Dm"][:, :, None] * (row / ev["den"][:, None])[:, None, :]
+            D = D - np.where(plastic[:, None, None], upd, 0.0)
+        return D
