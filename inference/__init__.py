@@ -1,0 +1,18 @@
+"""Bayesian identification: the paper's likelihood, O-TMCMC and DE-TMCMC, evidence, MAP, parallel dispatch.
+
+Generic: knows nothing of soil. A forward model is any callable from a parameter vector to simulated curves.
+"""
+from .checkpoint import CheckpointError
+from .executors import Evaluator, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
+from .likelihood import ForwardModelError, Likelihood, goodness_of_fit
+from .observations import Curve, DataError, Observations, Test
+from .priors import Bound, LogUniformPrior, Prior, PriorError, UniformPrior
+from .results import Posterior
+from .tmcmc import EXIT_CHECKPOINTED, SamplerError, tmcmc
+
+__all__ = [
+    "CheckpointError", "Evaluator", "MPIExecutor", "PoolExecutor", "SerialExecutor", "default_executor",
+    "ForwardModelError", "Likelihood", "goodness_of_fit", "Curve", "DataError", "Observations", "Test",
+    "Bound", "LogUniformPrior", "Prior", "PriorError", "UniformPrior", "Posterior", "EXIT_CHECKPOINTED",
+    "SamplerError", "tmcmc",
+]
