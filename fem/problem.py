@@ -110,7 +110,10 @@ class Problem:
     (phases), stabilization (polynomial pressure projection, tau = 1/(2 G_hg)), hourglass_scale c_hg (fixed input,
     default 0.05) and hourglass_modulus G_hg (kPa; None: the elastic shear modulus of the initial material tangent,
     per cell, computed once), monitor_radii (m; pore pressure histories at these radii at mid-height, like SBP
-    pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls.
+    pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls: rtol (relative
+    residual norms, against the sums of absolute contributions), max_iterations, refresh_ratio (modified Newton: the
+    factorization is refreshed when an iteration reduces the residual by less than this factor; 0 = full Newton),
+    max_cuts (step halvings before ConvergenceError).
     """
 
     mesh: Mesh
@@ -129,6 +132,7 @@ class Problem:
     save_fields: str = "phases"
     rtol: float = 1e-7
     max_iterations: int = 25
+    refresh_ratio: float = 0.1
     max_cuts: int = 10
 
     def __post_init__(self):

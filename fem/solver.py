@@ -19,7 +19,7 @@ dofs), and the system is solved with LAPACK dgbsv.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg.lapack import dgbsv
+from scipy.linalg.lapack import dgbtrf, dgbtrs
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
@@ -113,6 +113,18 @@ class Solver:
         row = row[np.argsort(mesh.nodes[row, 0])]
         self.monitor_nodes, self.monitor_r = 3 * self.node_order[row] + 2, mesh.nodes[row, 0]
         self.times, self.amplitudes, self.phase_of = pb.amplitude_table()
+        g = self.geom
+        self._VBt = g.volume[:, None, None] * np.transpose(g.B, (0, 2, 1)).copy()
+        self._absVBt = np.abs(self._VBt)
+        self._abs_vol_row = np.abs(g.vol_row)
+        driven = np.zeros(N, bool)
+        driven[self.cdofs[self.cscale != 0.0]] = True
+        self._cells_c = np.flatnonzero(np.any(driven[self.edofs], axis=1))   # cells moved by driven dofs
+        self._udofs_flat = self.udofs.ravel()
+        self._edofs_flat = self.edofs.ravel()
+        self._pdofs_flat = self.pdofs.ravel()
+        self._has_pressure = bool(np.any(self.f_pressure))
+        self._norm_pressure = np.linalg.norm(self.f_pressure)
         self._const_cache = {}
 
     # ------------------------------------------------------------------ public
@@ -132,6 +144,7 @@ class Solver:
         self._mp = mp
         self._k = k / pb.gamma_w
         self._const_cache = {}
+        self._lu = None
         self._sig0_fe = -stress0[:, :4]
         first_dt = self.times[1] - self.times[0]
         if pb.hourglass_modulus is None:
@@ -143,9 +156,11 @@ class Solver:
         self._hg = pb.hourglass_scale * G[:, None, None] * g.hg
         self._tau = (0.5 / G) if pb.stabilization else np.zeros(ne)
         self._S = self._tau[:, None, None] * (g.M - g.n_bar[:, :, None] * g.n_bar[:, None, :] / g.volume[:, None, None])
+        self._absS = np.abs(self._S)
         self._f_geo = self._assemble_u(g.volume[:, None] * np.einsum("nij,ni->nj", g.B, self._sig0_fe)
                                        - g.vol_row * (g.volume * pb.initial.u0)[:, None])
         x = np.zeros(self.n_dofs)
+        self._reaction = np.zeros(self.n_dofs)
         self._stress_fe = self._sig0_fe.copy()
         self._strain = np.zeros((ne, 4))
         result = Result(self, pb)
@@ -167,12 +182,9 @@ class Solver:
         return Snapshot(t, disp, p, self.problem.initial.u0 + p, self._mp.stress.copy(), self._strain.copy())
 
     def cavity_pressure(self, x):
-        """Total radial stress on the cavity wall (kPa, compression positive) from the nodal reactions."""
-        g = self.geom
-        pore_force = (g.n_bar * x[self.pdofs]).sum(axis=1) + g.volume * self.problem.initial.u0   # V p_bar
-        f_int = (g.volume[:, None] * np.einsum("nij,ni->nj", g.B, self._stress_fe) - g.vol_row * pore_force[:, None]
-                 + np.einsum("nij,nj->ni", self._hg, x[self.udofs]))
-        return self._assemble_u(f_int)[self.cavity_ur].sum() / self.cavity_area
+        """Total radial stress on the cavity wall (kPa, compression positive): the in-situ value plus the converged
+        reaction increment (the residual at the constrained dofs), summed over the wall and divided by its area."""
+        return (self._f_geo[self.cavity_ur].sum() + self._reaction[self.cavity_ur].sum()) / self.cavity_area
 
     # ------------------------------------------------------------------ stepping
     def _increment(self, x, t0, t1, a0, a1):
@@ -196,17 +208,23 @@ class Solver:
         return x
 
     def _newton(self, x_n, dt, a1):
+        """One backward-Euler step to amplitude a1. Modified Newton: the banded LU factorization of the Jacobian is
+        kept across iterations and steps (same dt) and refreshed with the current material tangent whenever an
+        iteration reduces the relative residual by less than ``problem.refresh_ratio`` (full Newton with 0).
+        A linear material therefore needs one factorization per time-step size."""
         pb = self.problem
         mp = self._mp
-        target = self.cscale * a1
         x = x_n.copy()
-        dc = target - x[self.cdofs]
+        dc = self.cscale * a1 - x[self.cdofs]
+        previous = 1.0
         for it in range(pb.max_iterations + 1):
             try:
-                R, Kuu, trial, scales = self._residual(x, x_n, dt, a1)
+                R, D, trial, scales = self._residual(x, x_n, dt, a1)
             except IntegrationError as err:
+                self._lu = None
                 raise _StepFailed(f"material: {err}") from None
             if not np.all(np.isfinite(R)):
+                self._lu = None
                 raise _StepFailed("non-finite residual")
             if it > 0:
                 ru = np.linalg.norm(R[self._ufree])
@@ -215,18 +233,26 @@ class Solver:
                     mp.commit(trial[0], trial[1])
                     self._stress_fe = trial[2]
                     self._strain = trial[3]
+                    self._reaction = R + a1 * self.f_pressure if self._has_pressure else R
                     return x
+                current = max(ru / scales[0], rp / scales[1])
+                if current > pb.refresh_ratio * previous:
+                    self._lu = None
+                previous = current
             if it == pb.max_iterations:
                 break
             rhs = -R
             if it == 0:
                 dx = np.zeros_like(x)
                 dx[self.cdofs] = dc
-                rhs -= self._apply(Kuu, dt, dx)
+                rhs -= self._apply(D, dt, dx)
                 rhs[self.cdofs] = dc
             else:
                 rhs[self.cdofs] = 0.0
-            x = x + self._linear_solve(Kuu, dt, rhs)
+            if self._lu is None or abs(self._lu[2] - dt) > 1e-9 * dt:
+                self._factor(self._stiffness(D), dt)
+            x = x + self._back_substitute(rhs)
+        self._lu = None
         raise _StepFailed(f"Newton did not converge in {pb.max_iterations} iterations "
                           f"(|R_u| = {ru:.3g} vs {scales[0]:.3g}, |R_p| = {rp:.3g} vs {scales[1]:.3g})")
 
@@ -237,34 +263,35 @@ class Solver:
         P = x[self.pdofs]
         dU = U - x_n[self.udofs]
         dP = P - x_n[self.pdofs]
-        strain = np.einsum("nij,nj->ni", g.B, U)
+        strain = np.matmul(g.B, U[:, :, None])[:, :, 0]
         stress_soil, state, stress_fe, D = self._mp.trial(strain - self._strain, dt)
-        f_eff = g.volume[:, None] * np.einsum("nij,ni->nj", g.B, stress_fe - self._sig0_fe)
-        f_p = g.vol_row * (g.n_bar * P).sum(axis=1)[:, None]
-        f_u = f_eff - f_p + np.einsum("nij,nj->ni", self._hg, U)
+        VBt = self._VBt
+        pore = (g.n_bar * P).sum(axis=1)                                    # V p_bar
+        f_u = (np.matmul(VBt, (stress_fe - self._sig0_fe)[:, :, None])[:, :, 0] - g.vol_row * pore[:, None]
+               + np.matmul(self._hg, U[:, :, None])[:, :, 0])
         dvol = (g.vol_row * dU).sum(axis=1)
-        flow = dt * self._k[:, None] * np.einsum("nab,nb->na", g.H, P)
-        r_p = -(g.n_bar * dvol[:, None] + flow + np.einsum("nab,nb->na", self._S, dP))
-        R = np.bincount(self.udofs.ravel(), f_u.ravel(), self.n_dofs)
-        R += np.bincount(self.pdofs.ravel(), r_p.ravel(), self.n_dofs)
-        R -= a1 * self.f_pressure
-        Kuu = g.volume[:, None, None] * np.einsum("nki,nkl,nlj->nij", g.B, D, g.B) + self._hg
-        # reference magnitudes for the convergence test: the sums of absolute contributions (round-off level)
-        scale_u = np.linalg.norm(np.bincount(self.udofs.ravel(), (
-            g.volume[:, None] * np.einsum("nij,ni->nj", np.abs(g.B), np.abs(stress_fe) + np.abs(self._sig0_fe))
-            + np.abs(g.vol_row) * (g.n_bar * np.abs(P)).sum(axis=1)[:, None]).ravel(), self.n_dofs))
-        scale_u += abs(a1) * np.linalg.norm(self.f_pressure) + 1e-300
-        scale_p = np.linalg.norm(np.bincount(self.pdofs.ravel(), (
-            g.n_bar * (np.abs(g.vol_row) * np.abs(dU)).sum(axis=1)[:, None] + np.abs(flow)
-            + np.einsum("nab,nb->na", np.abs(self._S), np.abs(dP))).ravel(), self.n_dofs)) + 1e-300
-        return R, Kuu, (stress_soil, state, stress_fe, strain), (scale_u, scale_p)
+        flow = (dt * self._k)[:, None] * np.matmul(g.H, P[:, :, None])[:, :, 0]
+        r_p = -(g.n_bar * dvol[:, None] + flow + np.matmul(self._S, dP[:, :, None])[:, :, 0])
+        R = np.bincount(self._udofs_flat, f_u.ravel(), self.n_dofs)
+        R += np.bincount(self._pdofs_flat, r_p.ravel(), self.n_dofs)
+        if self._has_pressure:
+            R -= a1 * self.f_pressure
+        # reference magnitudes for the convergence test: element sums of absolute contributions (round-off level)
+        abs_u = (np.matmul(self._absVBt, (np.abs(stress_fe) + np.abs(self._sig0_fe))[:, :, None])[:, :, 0]
+                 + self._abs_vol_row * np.abs(pore)[:, None])
+        scale_u = np.sqrt(np.einsum("ij,ij->", abs_u, abs_u)) + abs(a1) * self._norm_pressure + 1e-300
+        abs_p = g.n_bar * (self._abs_vol_row * np.abs(dU)).sum(axis=1)[:, None] + np.abs(flow)
+        if self.problem.stabilization:
+            abs_p += np.matmul(self._absS, np.abs(dP)[:, :, None])[:, :, 0]
+        scale_p = np.sqrt(np.einsum("ij,ij->", abs_p, abs_p)) + 1e-300
+        return R, D, (stress_soil, state, stress_fe, strain), (scale_u, scale_p)
 
     def _assemble_u(self, f_e):
         return np.bincount(self.udofs.ravel(), f_e.ravel(), self.n_dofs)
 
     def _constant_part(self, dt):
         """Band entries of the coupling and pressure blocks for time step dt (cached; they depend only on dt)."""
-        key = float(dt)
+        key = float(f"{dt:.10g}")  # equal increments differ in the last bits of t1 - t0
         ab = self._const_cache.get(key)
         if ab is None:
             g = self.geom
@@ -281,21 +308,31 @@ class Solver:
             self._const_cache[key] = (ab, K)
         return self._const_cache[key]
 
-    def _apply(self, Kuu, dt, dx):
-        """Global product K dx (unconstrained Jacobian), used to move the constrained dofs."""
-        _, K = self._constant_part(dt)
-        xe = dx[self.edofs]
-        ye = np.einsum("nij,nj->ni", K, xe)
-        ye[:, IU] += np.einsum("nij,nj->ni", Kuu, xe[:, IU])
-        return np.bincount(self.edofs.ravel(), ye.ravel(), self.n_dofs)
+    def _stiffness(self, D, cells=slice(None)):
+        """Element stiffness V B^T D B + K_hg (n, 8, 8) of the given cells."""
+        return np.matmul(np.matmul(self._VBt[cells], D[cells]), self.geom.B[cells]) + self._hg[cells]
 
-    def _linear_solve(self, Kuu, dt, rhs):
+    def _apply(self, D, dt, dx):
+        """Global product K dx (unconstrained Jacobian) for dx nonzero only at constrained dofs (the cells touching
+        them), used to move the constrained dofs."""
+        _, K = self._constant_part(dt)
+        c = self._cells_c
+        xe = dx[self.edofs[c]]
+        ye = np.matmul(K[c], xe[:, :, None])[:, :, 0]
+        ye[:, IU] += np.matmul(self._stiffness(D, c), xe[:, IU, None])[:, :, 0]
+        return np.bincount(self.edofs[c].ravel(), ye.ravel(), self.n_dofs)
+
+    def _factor(self, Kuu, dt):
         ab_const, _ = self._constant_part(dt)
         ab = ab_const + np.bincount(self._uu_idx, Kuu.ravel()[self._uu_sel], self.band_size)
-        _, _, sol, info = dgbsv(self.kl, self.kl, ab.reshape(self.n_dofs, self.rows).T, rhs,
-                                overwrite_ab=1, overwrite_b=1)
+        lu, piv, info = dgbtrf(ab.reshape(self.n_dofs, self.rows).T, self.kl, self.kl, overwrite_ab=1)
         if info != 0:
-            raise _StepFailed(f"singular Jacobian (LAPACK dgbsv info = {info}); check the boundary conditions")
+            raise _StepFailed(f"singular Jacobian (LAPACK dgbtrf info = {info}); check the boundary conditions")
+        self._lu = (lu, piv, dt)
+
+    def _back_substitute(self, rhs):
+        lu, piv, _ = self._lu
+        sol, info = dgbtrs(lu, self.kl, self.kl, rhs, piv, overwrite_b=1)
         return sol
 
 
