@@ -74,7 +74,8 @@ class Prior:
         u = rng.random((n, self.dim))
         lo, hi = self.lower, self.upper
         lin = lo + u * (hi - lo)
-        log = np.exp(np.log(np.where(self._log, lo, 1.0)) + u * np.log(np.where(self._log, hi / lo, 1.0)))
+        safe_lo = np.where(self._log, lo, 1.0)
+        log = np.exp(np.log(safe_lo) + u * np.log(np.where(self._log, hi, 1.0) / safe_lo))
         return np.where(self._log, log, lin)
 
     def in_support(self, theta) -> np.ndarray:

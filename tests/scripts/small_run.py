@@ -18,8 +18,8 @@ from inference.executors import mpi_world  # noqa: E402
 class Banana:
     """A 3-parameter curved posterior; optionally slow (busy wait) and failing in a corner of the box."""
 
-    def __init__(self, sleep=0.0, fail=False):
-        self.sleep, self.fail = sleep, fail
+    def __init__(self, sleep=0.0, fail=False, fail_all=False):
+        self.sleep, self.fail, self.fail_all = sleep, fail, fail_all
 
     def __call__(self, theta):
         if self.sleep:
@@ -27,6 +27,8 @@ class Banana:
             while time.perf_counter() < t_end:
                 pass
         x, y, z = theta
+        if self.fail_all:
+            raise RuntimeError("forward solve diverged everywhere")
         if self.fail and x > 1.5 and y > 1.5:
             raise RuntimeError("forward solve diverged (test corner)")
         return -0.5 * (x**2 / 0.5 + (y - 0.5 * x**2) ** 2 / 0.1 + (z - 0.3) ** 2 / 0.2)
@@ -43,10 +45,11 @@ def main():
     ap.add_argument("--resume", action="store_true")
     ap.add_argument("--sleep", type=float, default=0.0)
     ap.add_argument("--fail", action="store_true")
+    ap.add_argument("--fail-all", action="store_true")
     a = ap.parse_args()
     prior = UniformPrior({"x": (-2, 2), "y": (-2, 3), "z": (-1, 1)})
     ex = {"auto": None, "serial": SerialExecutor(), "pool": PoolExecutor(2)}[a.executor]
-    post = tmcmc(Banana(a.sleep, a.fail), prior, n_samples=a.samples, proposal=a.proposal, seed=7, executor=ex,
+    post = tmcmc(Banana(a.sleep, a.fail, a.fail_all), prior, n_samples=a.samples, proposal=a.proposal, seed=7, executor=ex,
                  dispatch=a.dispatch, checkpoint=a.checkpoint, resume=a.resume, checkpoint_evals=5,
                  progress=False, max_steps=4)
     comm = mpi_world()
