@@ -60,7 +60,7 @@ def _where_state(mask, a, b):
 
 
 def mixed_control(model, stress0, state0, strain_control, increments, dt, undrained=False, record=None,
-                  on_failure="raise", tol=1e-10, max_iterations=25):
+                  on_failure="raise", tol=1e-10, max_iterations=25, max_cuts=8):
     """Drive ``model`` through n_steps mixed strain/stress-controlled increments.
 
     stress0 (n, 6) effective stress (kPa), state0 the model state at stress0.
@@ -72,6 +72,10 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
         (needs at least one stress-controlled normal component); drained steps keep the excess pore pressure.
     record: bool (n_steps,), steps at whose end the results are stored (default all); the initial state is always
         stored first.
+    Newton: converged when the stress residual is below ``tol`` x (1 kPa + max |sigma'|) and the volume residual
+    below 1e-3 ``tol``. A point that does not converge (or whose model update raises IntegrationError) repeats the
+    step as two half steps (recursively, up to ``max_cuts`` times, that point only); then it raises IntegrationError
+    (``on_failure="raise"``) or is frozen with NaN curves from then on (``"nan"``).
     Returns a dict of arrays over (n, n_records): ``stress`` (..., 6), ``strain`` (..., 6), ``pore_pressure``,
     ``void_ratio``, ``time``; plus ``state`` (final) and ``failed`` (n,).
     """
@@ -105,78 +109,22 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
 
     store()
     for k in range(n_steps):
-        ctrl = control[k]
-        unknown = np.flatnonzero(~ctrl)
-        n_u = unknown.size + int(und[k])
-        if und[k] and not np.any(~ctrl & NORMAL):
+        if und[k] and not np.any(~control[k] & NORMAL):
             raise ValueError(f"step {k}: an undrained step needs a stress-controlled normal component")
-        target = inc[k][:, unknown]
-        deps = np.where(ctrl, inc[k], 0.0)
-        du = np.zeros(n)
-
-        def jacobian_and_rhs(C, residual):
-            J = np.zeros((n, n_u, n_u))
-            J[:, :unknown.size, :unknown.size] = C[:, unknown][:, :, unknown]
-            if und[k]:
-                J[:, :unknown.size, -1] = NORMAL[unknown]
-                J[:, -1, :unknown.size] = NORMAL[unknown]
-            J[~alive] = np.eye(n_u)
-            return np.linalg.solve(J, -np.where(alive[:, None], residual, 0.0)[:, :, None])[:, :, 0]
-
-        def residual_of(dsig):
-            r = dsig[:, unknown] - target
-            if und[k]:
-                r = np.concatenate([r + du[:, None] * NORMAL[unknown], deps[:, NORMAL].sum(axis=1)[:, None]], axis=1)
-            return r
-
-        if n_u:  # tangent predictor with the previous tangent
-            lin = np.einsum("nij,nj->ni", tangent, deps)
-            x = jacobian_and_rhs(tangent, residual_of(lin))
-            deps[:, unknown] += x[:, :unknown.size]
-            if und[k]:
-                du += x[:, -1]
-        deps[~alive] = 0.0
-        done = ~alive
-        res_stress, res_state, res_tangent = stress.copy(), state, tangent.copy()
-        for _ in range(max_iterations):
-            try:
-                s_new, st_new, C = model.update(stress, state, deps, dt[k])
-            except IntegrationError as err:
-                bad = int(err.point)
-                if on_failure == "raise" or not alive[bad]:
-                    raise
-                alive[bad] = False
-                done[bad] = True
-                deps[bad] = 0.0
-                continue
-            r = residual_of(s_new - stress) if n_u else np.zeros((n, 0))
-            scale = 1.0 + np.abs(s_new).max(axis=1)
-            if und[k]:
-                ok = (np.abs(r[:, :-1]).max(axis=1, initial=0.0) <= tol * scale) & (np.abs(r[:, -1]) <= tol * 1e-3)
-            else:
-                ok = np.abs(r).max(axis=1, initial=0.0) <= tol * scale
-            newly = ok & ~done
-            res_stress[newly] = s_new[newly]
-            res_state = _where_state(newly, st_new, res_state)
-            res_tangent[newly] = C[newly]
-            done |= ok
-            if np.all(done):
-                break
-            x = jacobian_and_rhs(C, np.where(done[:, None], 0.0, r))
-            deps[:, unknown] += x[:, :unknown.size]
-            if und[k]:
-                du += x[:, -1]
-        else:
-            failed = np.flatnonzero(~done)
+        step = _Step(model, control[k], bool(und[k]), tol, max_iterations)
+        res = step.advance(alive.copy(), stress, state, tangent, inc[k], dt[k], max_cuts)
+        failed = alive & ~res["ok"]
+        if np.any(failed):
             if on_failure == "raise":
-                raise IntegrationError(int(failed[0]), f"mixed-control Newton did not converge in {max_iterations} "
-                                       f"iterations at step {k}")
-            alive[failed] = False
-            deps[failed] = 0.0
-            du[failed] = 0.0
-        stress, state, tangent = res_stress, res_state, res_tangent
-        strain = strain + deps
-        u = u + du
+                raise IntegrationError(int(np.flatnonzero(failed)[0]), f"mixed-control Newton did not converge at "
+                                       f"step {k} after {max_cuts} step cuts")
+            alive &= ~failed
+        keep = alive
+        stress = np.where(keep[:, None], res["stress"], stress)
+        state = _where_state(keep, res["state"], state)
+        tangent = np.where(keep[:, None, None], res["tangent"], tangent)
+        strain = strain + np.where(keep[:, None], res["deps"], 0.0)
+        u = u + np.where(keep, res["du"], 0.0)
         t += dt[k]
         if record[k]:
             store()
@@ -185,6 +133,101 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     hist["state"] = state
     hist["failed"] = ~alive
     return hist
+
+
+class _Step:
+    """One mixed-control increment: Newton on the unknown strain components (and du when undrained)."""
+
+    def __init__(self, model, control, undrained, tol, max_iterations):
+        self.model, self.control, self.undrained = model, control, undrained
+        self.tol, self.max_iterations = tol, max_iterations
+        self.unknown = np.flatnonzero(~control)
+        self.n_u = self.unknown.size + int(undrained)
+
+    def _correction(self, C, residual):
+        """Newton correction -J^-1 r for the unknowns; J from the tangent C (n, 6, 6)."""
+        n, k = C.shape[0], self.unknown.size
+        J = np.zeros((n, self.n_u, self.n_u))
+        J[:, :k, :k] = C[:, self.unknown][:, :, self.unknown]
+        if self.undrained:
+            J[:, :k, -1] = NORMAL[self.unknown]
+            J[:, -1, :k] = NORMAL[self.unknown]
+        zero = np.all(residual == 0.0, axis=1)
+        J[zero] = np.eye(self.n_u)
+        return np.linalg.solve(J, -residual[:, :, None])[:, :, 0]
+
+    def _residual(self, dsig, deps, du, target):
+        r = dsig[:, self.unknown] - target
+        if self.undrained:
+            r = np.concatenate([r + du[:, None] * NORMAL[self.unknown], deps[:, NORMAL].sum(axis=1)[:, None]], axis=1)
+        return r
+
+    def _apply(self, x, deps, du):
+        deps[:, self.unknown] += x[:, :self.unknown.size]
+        if self.undrained:
+            du += x[:, -1]
+
+    def solve(self, active, stress, state, tangent, inc, dt):
+        """Newton for the ``active`` points (others get a zero strain increment and are ignored). Returns the
+        results dict with ``ok`` (converged active points)."""
+        n = stress.shape[0]
+        target = inc[:, self.unknown]
+        deps = np.where(self.control & active[:, None], inc, 0.0)
+        du = np.zeros(n)
+        if self.n_u:  # predictor with the start-of-step tangent
+            lin = np.einsum("nij,nj->ni", tangent, deps)
+            r = np.where(active[:, None], self._residual(lin, deps, du, target), 0.0)
+            self._apply(self._correction(tangent, r), deps, du)
+        done = ~active
+        excluded = np.zeros(n, dtype=bool)
+        res = {"stress": stress.copy(), "state": state, "tangent": tangent.copy()}
+        for _ in range(self.max_iterations):
+            try:
+                s_new, st_new, C = self.model.update(stress, state, deps, dt)
+            except IntegrationError as err:
+                bad = int(err.point)
+                if excluded[bad] or not active[bad]:
+                    raise
+                excluded[bad] = done[bad] = True
+                deps[bad], du[bad] = 0.0, 0.0
+                continue
+            if self.n_u:
+                r = self._residual(s_new - stress, deps, du, target)
+                stress_ok = np.abs(r[:, :self.unknown.size]).max(axis=1, initial=0.0) <= self.tol * (
+                    1.0 + np.abs(s_new).max(axis=1))
+                ok = stress_ok & (np.abs(r[:, -1]) <= 1e-3 * self.tol) if self.undrained else stress_ok
+            else:
+                r, ok = np.zeros((n, 0)), np.ones(n, dtype=bool)
+            newly = ok & ~done
+            res["stress"][newly] = s_new[newly]
+            res["state"] = _where_state(newly, st_new, res["state"])
+            res["tangent"][newly] = C[newly]
+            done |= ok
+            if np.all(done):
+                break
+            self._apply(self._correction(C, np.where(done[:, None], 0.0, r)), deps, du)
+        converged = done & ~excluded & active
+        res.update(deps=np.where(converged[:, None], deps, 0.0), du=np.where(converged, du, 0.0), ok=converged)
+        return res
+
+    def advance(self, active, stress, state, tangent, inc, dt, cuts_left):
+        """Solve the step; points that fail repeat it as two half steps (recursively, ``cuts_left`` levels)."""
+        res = self.solve(active, stress, state, tangent, inc, dt)
+        bad = active & ~res["ok"]
+        if not np.any(bad) or cuts_left == 0:
+            return res
+        first = self.advance(bad, stress, state, tangent, 0.5 * inc, 0.5 * dt, cuts_left - 1)
+        again = bad & first["ok"]
+        second = self.advance(again, first["stress"], first["state"], first["tangent"], 0.5 * inc, 0.5 * dt,
+                              cuts_left - 1)
+        fixed = again & second["ok"]
+        res["stress"] = np.where(fixed[:, None], second["stress"], res["stress"])
+        res["state"] = _where_state(fixed, second["state"], res["state"])
+        res["tangent"] = np.where(fixed[:, None, None], second["tangent"], res["tangent"])
+        res["deps"] = np.where(fixed[:, None], first["deps"] + second["deps"], res["deps"])
+        res["du"] = np.where(fixed, first["du"] + second["du"], res["du"])
+        res["ok"] = res["ok"] | fixed
+        return res
 
 
 def _curves(hist):

@@ -124,8 +124,9 @@ class ModifiedCamClay(MaterialModel):
         prm = {"M": self.M, "lam": self.lambda_, "kap": self.kappa}
         prm["G" if self.G is not None else "nu"] = self.G if self.G is not None else self.nu
         prm = {k: np.broadcast_to(v, (n,)) for k, v in prm.items()}
-        new_stress, pc, deps_p, tangent = self._integrate(stress, state["pc"], state["void_ratio"], dstrain, prm,
-                                                          np.arange(n), 0)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # failed trials are sub-stepped
+            new_stress, pc, deps_p, tangent = self._integrate(stress, state["pc"], state["void_ratio"], dstrain,
+                                                              prm, np.arange(n), 0)
         e = state["void_ratio"]
         new_state = {"pc": pc, "void_ratio": e - (1.0 + e) * dstrain[:, :3].sum(axis=1),
                      "plastic_strain": state["plastic_strain"] + deps_p}
@@ -209,33 +210,33 @@ class ModifiedCamClay(MaterialModel):
         ok = np.ones(n, dtype=bool)
         if np.any(plastic):
             active = plastic.copy()
-            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-                for _ in range(self.max_iterations):
-                    J11, J12, J21, J22, _, _ = jacobian(y, dl, ev)
-                    det = J11 * J22 - J12 * J21
-                    det = np.where(det != 0.0, det, np.finfo(float).tiny)
-                    dy = -(J22 * ev["r1"] - J12 * ev["r2"]) / det
-                    dd = -(-J21 * ev["r1"] + J11 * ev["r2"]) / det
-                    dy, dd = np.where(active, dy, 0.0), np.where(active, dd, 0.0)
-                    m0 = merit(ev)
-                    step = np.ones(n)
-                    for _ls in range(12):  # backtracking on the merit function, dlambda kept >= 0
-                        y_t = y + step * dy
-                        dl_t = np.where(dl + step * dd < 0.0, 0.5 * dl, dl + step * dd)
-                        ev_t = evaluate(y_t, dl_t)
-                        m_t = merit(ev_t)
-                        worse = active & ~(np.isfinite(m_t) & ((m_t < m0) | (m_t <= self.tolerance ** 2)))
-                        if not np.any(worse):
-                            break
-                        step = np.where(worse, 0.5 * step, step)
-                    y, dl, ev = y_t, dl_t, ev_t  # inactive points had a zero step: ev_t is their ev
-                    done = (np.abs(b * ev["r1"]) <= self.tolerance) & (np.abs(ev["r2"]) <= self.tolerance)
-                    active &= ~done
-                    if not np.any(active):
+            for _ in range(self.max_iterations):
+                J11, J12, J21, J22, _, _ = jacobian(y, dl, ev)
+                det = J11 * J22 - J12 * J21
+                det = np.where(det != 0.0, det, np.finfo(float).tiny)
+                dy = -(J22 * ev["r1"] - J12 * ev["r2"]) / det
+                dd = -(-J21 * ev["r1"] + J11 * ev["r2"]) / det
+                dy, dd = np.where(active, dy, 0.0), np.where(active, dd, 0.0)
+                m0 = merit(ev)
+                step = np.ones(n)
+                for _ls in range(12):  # backtracking on the merit function, dlambda kept >= 0
+                    y_t = y + step * dy
+                    dl_t = np.where(dl + step * dd < 0.0, 0.5 * dl, dl + step * dd)
+                    ev_t = evaluate(y_t, dl_t)
+                    m_t = merit(ev_t)
+                    worse = active & ~(np.isfinite(m_t) & ((m_t < m0) | (m_t <= self.tolerance ** 2)))
+                    if not np.any(worse):
                         break
+                    step = np.where(worse, 0.5 * step, step)
+                y, dl, ev = y_t, dl_t, ev_t  # inactive points had a zero step: ev_t is their ev
+                done = (np.abs(b * ev["r1"]) <= self.tolerance) & (np.abs(ev["r2"]) <= self.tolerance)
+                active &= ~done
+                if not np.any(active):
+                    break
             ok = ~active & np.isfinite(ev["p"]) & np.isfinite(ev["q"])
-            y, dl = np.where(ok, y, 0.0), np.where(ok, dl, 0.0)
-            ev = evaluate(y, dl)
+            if not np.all(ok):  # failed points (sub-stepped by the caller) get a finite elastic trial
+                y, dl = np.where(ok, y, 0.0), np.where(ok, dl, 0.0)
+                ev = evaluate(y, dl)
 
         # stress, plastic strain increment
         s = ev["s_tr"] / ev["den"][:, None]

@@ -1,0 +1,154 @@
+"""Modified Cam Clay: undrained closed form (REFERENCE.md section 4), exact NCL/kappa lines, consistent tangent
+against finite differences, robustness over wide parameter ranges, parameter validation."""
+import numpy as np
+import pytest
+
+from constitutive import IntegrationError, ModifiedCamClay, ParameterError
+from constitutive import labtests as lt
+from constitutive.invariants import deviatoric_stress, mean_stress
+
+# REFERENCE.md section 4 check case
+M, LAM, KAP, V, P0, R0, G = 1.2, 0.2, 0.04, 2.0, 100.0, 1.5, 2000.0
+
+
+def closed_form(eta):
+    """p'/p'_0 and eps_q (elastic q/(3G) + plastic from first yield) of the undrained MCC test (REFERENCE.md s. 4)."""
+    Lam = (LAM - KAP) / LAM
+    ratio = (R0 / (1 + eta**2 / M**2)) ** Lam
+    eta_y = M * np.sqrt(R0 - 1)
+    g = lambda x: np.log((M + x) / (M - x)) - 2 * np.arctan(x / M)  # noqa: E731
+    eps_p = KAP * Lam / (V * M) * (g(eta) - g(eta_y))
+    return ratio, eta * ratio * P0 / (3 * G) + eps_p
+
+
+def test_closed_form_reproduces_published_check_values():
+    """The formula coded in this test reproduces REFERENCE.md's check values (guards the oracle itself)."""
+    r, e = closed_form(np.array([1.0, 1.15]))
+    np.testing.assert_allclose(r, [0.90709, 0.82134], atol=5e-6)
+    np.testing.assert_allclose(e, [0.021473, 0.039610], atol=5e-7)
+
+
+def _undrained(n_steps):
+    m = ModifiedCamClay(M=M, lambda_=LAM, kappa=KAP, G=G, ocr=R0)
+    c = lt.undrained_triaxial(m, V - 1.0, P0, np.linspace(0, 0.06, n_steps + 1)[1:])
+    eta = c["q"][0] / c["p"][0]
+    return eta, c["p"][0] / P0, c["axial_strain"][0], c
+
+
+def test_undrained_triaxial_closed_form():
+    """p'/p'_0 follows the closed form exactly (the exponential p', p'_c laws are exact at constant volume);
+    eps_q converges at first order and, Richardson-extrapolated, matches the check values."""
+    results = {}
+    for n in (300, 600):
+        eta, ratio, eps_q, c = _undrained(n)
+        yielded = eta > M * np.sqrt(R0 - 1) + 1e-9
+        np.testing.assert_allclose(ratio[yielded], closed_form(eta[yielded])[0], rtol=1e-10)
+        # isochoric: eps_q = eps_a; total radial stress constant, u = p_total - p0 - (p' - p0)
+        np.testing.assert_allclose(c["excess_pore_pressure"][0], c["q"][0] / 3 - (c["p"][0] - P0), rtol=1e-8)
+        results[n] = np.interp([1.0, 1.15], eta, eps_q)
+        err = results[n] - closed_form(np.array([1.0, 1.15]))[1]
+        assert np.all(np.abs(err) < 0.2 * closed_form(np.array([1.0, 1.15]))[1] * 300 / n)
+    e300 = results[300] - closed_form(np.array([1.0, 1.15]))[1]
+    e600 = results[600] - closed_form(np.array([1.0, 1.15]))[1]
+    order = np.log2(e300 / e600)
+    np.testing.assert_allclose(order, 1.0, atol=0.1)
+    extrapolated = 2 * results[600] - results[300]
+    np.testing.assert_allclose(extrapolated, [0.021473, 0.039610], atol=1e-6)
+
+
+def test_ncl_and_swelling_line_exact_for_any_step():
+    """Isotropic loading of NC clay follows e = e0 - lambda ln(p'/p'0), unloading e = e_max - kappa ln(p'/p'_max),
+    independently of the step size (exact integration of the e-ln p' laws)."""
+    m = ModifiedCamClay(M=M, lambda_=LAM, kappa=KAP, nu=0.3)
+    for substeps in (1, 7):
+        c = lt.isotropic_compression(m, 1.2, 50.0, [200.0, 400.0, 100.0, 20.0], substeps=substeps)
+        e, p = c["e"][0], c["p"][0]  # p' reached, as recorded
+        np.testing.assert_allclose(p, [200.0, 400.0, 100.0, 20.0], atol=1e-6)  # 28 steps x 1e-10 x 401 kPa
+        np.testing.assert_allclose(e[:2], 1.2 - LAM * np.log(p[:2] / 50.0), rtol=1e-12)
+        np.testing.assert_allclose(e[2:], e[1] - KAP * np.log(p[2:] / p[1]), rtol=1e-12)
+
+
+@pytest.mark.parametrize("elastic", [{"G": 2000.0}, {"nu": 0.3}])
+def test_consistent_tangent_matches_finite_differences(elastic):
+    rng = np.random.default_rng(3)
+    n = 8
+    m = ModifiedCamClay(M=rng.uniform(0.8, 1.5, n), lambda_=0.2, kappa=0.04, ocr=rng.uniform(1, 4, n), **elastic)
+    stress = np.tile([100.0, 80.0, 90.0, 10.0, -5.0, 3.0], (n, 1))
+    state = m.initial_state(stress, 1.0)
+    deps = rng.normal(scale=0.005, size=(n, 6))
+    deps[:, :3] += rng.uniform(-0.005, 0.01, (n, 1))
+    deps[0] *= 1e-3  # elastic
+    _, new, C = m.update(stress, state, deps, 1.0)
+    assert np.any(new["pc"] > state["pc"])  # some points plastic
+    h = 1e-7
+    for j in range(6):
+        dp, dm = deps.copy(), deps.copy()
+        dp[:, j] += h
+        dm[:, j] -= h
+        fd = (m.update(stress, state, dp, 1.0)[0] - m.update(stress, state, dm, 1.0)[0]) / (2 * h)
+        np.testing.assert_allclose(C[:, :, j], fd, rtol=1e-6, atol=1e-6 * np.abs(fd).max())
+
+
+def test_large_increments_end_on_the_yield_surface_and_robust_over_wide_ranges():
+    rng = np.random.default_rng(4)
+    n = 400
+    lam = rng.uniform(0.01, 0.5, n)
+    m = ModifiedCamClay(M=rng.uniform(0.5, 2.0, n), lambda_=lam, kappa=lam * rng.uniform(0.05, 0.5, n),
+                        nu=rng.uniform(0.0, 0.45, n), ocr=np.exp(rng.uniform(0, np.log(20), n)))
+    stress = np.tile([100.0, 100.0, 100.0, 0, 0, 0], (n, 1))
+    state = m.initial_state(stress, rng.uniform(0.4, 2.5, n))
+    deps = rng.normal(scale=0.05, size=(n, 6))  # up to ~15 % strain in one increment
+    s, new, _ = m.update(stress, state, deps, 1.0)
+    plastic = new["pc"] != state["pc"]
+    f = deviatoric_stress(s) ** 2 + m.M**2 * mean_stress(s) * (mean_stress(s) - new["pc"])
+    assert plastic.sum() > n // 2
+    np.testing.assert_allclose(f[plastic] / new["pc"][plastic] ** 2, 0.0, atol=1e-9)
+    assert np.all(f[~plastic] <= 1e-9 * new["pc"][~plastic] ** 2)
+
+
+def test_drivers_over_wide_parameter_ranges():
+    """Drained and undrained triaxial to 25 % in 2 % steps over wide ranges. Wet-side (ocr <= 2) points must all
+    complete; heavily overconsolidated points may fail only where first yield on the dry side softens faster than
+    elastic unloading (snap-back under axial strain control, no continuous solution): those are flagged, not hidden."""
+    rng = np.random.default_rng(5)
+    n = 100
+    lam = rng.uniform(0.01, 0.5, n)
+    ocr = np.exp(rng.uniform(0, np.log(20), n))
+    m = ModifiedCamClay(M=rng.uniform(0.5, 2.0, n), lambda_=lam, kappa=lam * rng.uniform(0.05, 0.5, n),
+                        nu=rng.uniform(0.0, 0.45, n), ocr=ocr)
+    e0 = rng.uniform(0.4, 2.5, n)
+    for driver in (lt.drained_triaxial, lt.undrained_triaxial):
+        c = driver(m, e0, 100.0, np.linspace(0, 0.25, 13)[1:], on_failure="nan")
+        assert not np.any(c["failed"] & (ocr <= 2.0))
+        assert c["failed"].sum() <= n // 10
+        assert np.all(np.isfinite(c["q"][~c["failed"]]))
+        assert np.all(np.isnan(c["q"][c["failed"], -1]))
+
+
+def test_bad_parameters_raise():
+    ok = dict(M=1.2, lambda_=0.2, kappa=0.04, G=2000.0)
+    for change, name in [({"kappa": 0.2}, "kappa"), ({"kappa": 0.3}, "kappa"), ({"M": 0.0}, "M"),
+                         ({"M": -1.0}, "M"), ({"G": -5.0}, "G"), ({"kappa": 0.0}, "kappa"), ({"ocr": 0.5}, "ocr"),
+                         ({"G": None, "nu": 0.5}, "nu"), ({"pc0": -1.0}, "pc0")]:
+        with pytest.raises(ParameterError, match=name):
+            ModifiedCamClay(**{**ok, **change})
+    with pytest.raises(ParameterError, match="exactly one"):
+        ModifiedCamClay(**ok, nu=0.3)
+    with pytest.raises(ParameterError, match="void_ratio0"):
+        ModifiedCamClay(**ok).initial_state(np.array([100.0, 100, 100, 0, 0, 0]), 0.0)
+    with pytest.raises(ParameterError, match="void_ratio0"):
+        ModifiedCamClay(**ok).initial_state(np.array([100.0, 100, 100, 0, 0, 0]), -0.3)
+    with pytest.raises(ValueError, match="outside the yield surface"):
+        ModifiedCamClay(**ok, pc0=50.0).initial_state(np.array([100.0, 100, 100, 0, 0, 0]), 1.0)
+
+
+def test_integration_error_names_the_point():
+    m = ModifiedCamClay(M=1.2, lambda_=0.2, kappa=0.04, G=2000.0)
+    m.max_iterations = 1  # force the local Newton to fail
+    m.max_substep_depth = 0
+    stress = np.tile([100.0, 100.0, 100.0, 0, 0, 0], (3, 1))
+    deps = np.zeros((3, 6))
+    deps[2] = [0.05, -0.02, -0.02, 0, 0, 0]
+    with pytest.raises(IntegrationError) as info:
+        m.update(stress, m.initial_state(stress, 1.0), deps, 1.0)
+    assert info.value.point == 2
