@@ -73,7 +73,7 @@ class Mesh:
                      radii=None):
         """Structured strip a0 <= r <= R, 0 <= z <= height, graded geometrically toward the cavity.
 
-        a0 (m) cavity radius; outer_radius R (m), default 200 a0 (outer-boundary study in notes/fem.md);
+        a0 (m) cavity radius; outer_radius R (m), default 3200 a0 (outer-boundary study in notes/fem.md);
         n_radial x n_vertical elements; ``ratio`` the size ratio of the last to the first radial element, default
         R/a0 (sizes proportional to r: equal spacing in ln r, natural for fields decaying as 1/r and ln r);
         height (m) default n_vertical times the first radial size, so the elements at the cavity are square. The
@@ -88,7 +88,7 @@ class Mesh:
             a0, outer_radius, n_radial, ratio = r[0], r[-1], r.size - 1, (r[-1] - r[-2]) / (r[1] - r[0])
         if a0 <= 0:
             raise MeshError(f"cavity radius a0 = {a0} m must be positive")
-        R = 200.0 * a0 if outer_radius is None else float(outer_radius)
+        R = 3200.0 * a0 if outer_radius is None else float(outer_radius)
         if R <= a0:
             raise MeshError(f"outer_radius = {R} m must exceed the cavity radius a0 = {a0} m")
         if n_radial < 1 or n_vertical < 1:

@@ -203,7 +203,7 @@ def edges_of_set(mesh, name):
 def pressuremeter(material, *, mesh=None, a0=0.0415, sigma_v0=31.0, K0=0.9, u0=38.8, permeability=3.3e-9,
                   void_ratio0=2.0, strain_rate=0.00167, max_strain=0.10, n_increments=100, hold_time=0.0,
                   hold_increments=20, unload_strain=None, unload_increments=20, outer="fixed", monitor_radii=(),
-                  **options):
+                  stabilization=False, **options):
     """A self-boring pressuremeter test (REFERENCE.md section 5, Burswood defaults) as a Problem.
 
     Expansion at cavity strain rate ``strain_rate`` (1/s; 0.00167 = 0.167 %/s, 0.000185 = 0.0185 %/s) to
@@ -211,13 +211,18 @@ def pressuremeter(material, *, mesh=None, a0=0.0415, sigma_v0=31.0, K0=0.9, u0=3
     pore pressure dissipates, geometrically growing steps) of ``hold_time`` s and an unloading phase to
     ``unload_strain`` at the same rate. Top and bottom fixed vertically, cavity wall impermeable, outer boundary
     drained (u = u0) and either fixed radially (outer='fixed', the paper) or moved as the infinite-medium elastic
-    field u_r(R) = u_a a0/R (outer='field').
+    field u_r(R) = u_a a0/R (outer='field'). Default mesh: 60 x 4 elements graded in ln r, R = 3200 a0 for 'fixed'
+    (the cavity curve then changes < 0.5 % when R is doubled; a fixed boundary closer in adds a spurious far-field
+    pore pressure ~ 1/R) and R = 200 a0 for 'field' (insensitive to R). Pressure stabilization is off by default
+    here, as in ABAQUS CAX4RP: on this graded mesh the projection term of the large outer elements acts as a
+    spurious drain (notes/fem.md); the checkerboard it would remove stays in the outer elements.
     """
-    mesh = Mesh.cavity_strip(a0=a0) if mesh is None else mesh
-    if not strain_rate > 0:
-        raise ProblemError(f"strain_rate = {strain_rate} 1/s must be positive")
     if outer not in ("fixed", "field"):
         raise ProblemError(f"outer = {outer!r} must be 'fixed' or 'field'")
+    if mesh is None:
+        mesh = Mesh.cavity_strip(a0=a0, outer_radius=(3200.0 if outer == "fixed" else 200.0) * a0)
+    if not strain_rate > 0:
+        raise ProblemError(f"strain_rate = {strain_rate} 1/s must be positive")
     R = mesh.nodes[mesh.node_set("outer"), 0].max()
     a = mesh.nodes[mesh.node_set("cavity"), 0].min()
     history = [Phase(max_strain / strain_rate, max_strain, n_increments, name="expansion")]
@@ -229,4 +234,5 @@ def pressuremeter(material, *, mesh=None, a0=0.0415, sigma_v0=31.0, K0=0.9, u0=3
     dirichlet = [Dirichlet("cavity", "ur", a), Dirichlet("outer", "ur", a * a / R if outer == "field" else 0.0),
                  Dirichlet("top", "uz"), Dirichlet("bottom", "uz"), Dirichlet("outer", "p")]
     return Problem(mesh, material, Geostatic(sigma_v0, K0, u0), void_ratio0=void_ratio0, permeability=permeability,
-                   dirichlet=dirichlet, history=history, monitor_radii=tuple(monitor_radii), **options)
+                   dirichlet=dirichlet, history=history, monitor_radii=tuple(monitor_radii),
+                   stabilization=stabilization, **options)

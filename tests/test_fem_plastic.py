@@ -1,0 +1,90 @@
+"""Undrained cavity expansion with plastic soils: Gibson & Anderson (von Mises/Tresca) and the exact strain-path
+oracle with Modified Cam Clay (REFERENCE.md section 6). Small strain, as the FE."""
+import numpy as np
+import pytest
+
+import constitutive as C
+import fem
+from fem import oracles
+
+A0 = 0.0415
+FAST = 0.1 / 60           # 10 % in 60 s; with k = 1e-14 m/s the expansion is undrained (T = c t/a^2 ~ 1e-6)
+
+
+def undrained_problem(material, n_radial=60, R=200, sigma_v0=50.0, u0=30.0, n_increments=40, **kw):
+    mesh = fem.Mesh.cavity_strip(a0=A0, outer_radius=R * A0, n_radial=n_radial, n_vertical=2)
+    return fem.pressuremeter(material, mesh=mesh, sigma_v0=sigma_v0, K0=1.0, u0=u0, permeability=1e-14,
+                             strain_rate=FAST, n_increments=n_increments, outer="field", monitor_radii=(1.5 * A0,),
+                             **kw)
+
+
+def test_gibson_anderson_von_mises():
+    """Pressure rise along the whole curve and excess pore pressures 2 s_u ln(R_p/r) at the wall and at 1.5 a0."""
+    G, su = 2000.0, 20.0
+    r = fem.solve(undrained_problem(C.VonMises(s_u=su, nu=0.49, G=G), n_radial=120))
+    rise, rp = oracles.gibson_anderson(G, su, r.cavity_strain)
+    assert np.max(np.abs(r.cavity_pressure - 80.0 - rise)) < 0.01 * rise[-1]          # measured 0.1 %
+    assert r.cavity_excess_pore_pressure[-1] == pytest.approx(2 * su * np.log(rp[-1]), rel=0.02)
+    u15 = r.monitor_excess_pore_pressure[1.5 * A0][-1]
+    assert u15 == pytest.approx(2 * su * np.log(rp[-1] / 1.5), rel=0.01)
+    # first yield at 2 G eps_c = s_u: still elastic there
+    elastic = r.cavity_strain <= su / (2 * G)
+    assert np.allclose(r.cavity_pressure[elastic] - 80.0, 2 * G * r.cavity_strain[elastic], rtol=1e-5)
+
+
+def test_modified_cam_clay_undrained_strain_path_and_convergence():
+    """MCC cavity pressure rise and wall excess pore pressure against the exact undrained strain-path integral;
+    the error decreases under mesh refinement (order measured ~1-2)."""
+    mcc = C.ModifiedCamClay(M=1.2, lambda_=0.2, kappa=0.04, G=2000.0, ocr=1.5)
+    s0 = np.array([100.0, 100.0, 100.0, 0.0, 0.0, 0.0])
+    e, rise, pex = oracles.undrained_strain_path(mcc, s0, 1.0, 0.1, n_steps=2000)
+    err_p, err_u = [], []
+    for n in (30, 60, 120):
+        r = fem.solve(undrained_problem(mcc, n_radial=n, R=50, sigma_v0=100.0, void_ratio0=1.0, n_increments=20))
+        err_p.append(abs(r.cavity_pressure[-1] - 130.0 - rise[-1]))
+        err_u.append(abs(r.cavity_excess_pore_pressure[-1] - pex[-1]))
+    # measured: pressure 1.09/0.79/0.39 kPa (of 161.8), wall excess pore pressure 6.07/3.45/1.31 kPa (of 127.4)
+    assert err_p[0] > err_p[1] > err_p[2] and err_u[0] > err_u[1] > err_u[2]
+    assert err_p[-1] < 0.005 * rise[-1]
+    assert err_u[-1] < 0.015 * pex[-1]
+    assert np.log2(err_u[1] / err_u[2]) > 1.0
+
+
+def test_strain_path_oracle_reduces_to_lame_and_gibson_anderson():
+    """Independent check of the oracle itself: elastic -> 2 G eps; von Mises -> Gibson & Anderson (small strain)."""
+    s0 = np.array([50.0, 50.0, 50.0, 0.0, 0.0, 0.0])
+    e, rise, _ = oracles.undrained_strain_path(C.LinearElastic(5000.0, 0.3), s0, 1.0, 0.1, n_steps=200)
+    assert rise[-1] == pytest.approx(2 * 5000.0 / 2.6 * 0.1, rel=1e-12)
+    e, rise, pex = oracles.undrained_strain_path(C.VonMises(s_u=20.0, nu=0.49, G=2000.0), s0, 1.0, 0.1, n_steps=4000)
+    ga, rp = oracles.gibson_anderson(2000.0, 20.0, 0.1)
+    assert rise[-1] == pytest.approx(float(ga), rel=1e-4)
+    assert pex[-1] == pytest.approx(2 * 20.0 * np.log(float(rp)), rel=1e-3)
+
+
+def test_integration_error_triggers_step_cutting_then_convergence_error():
+    """A material that fails above a strain level: the solver cuts the step, then raises fem.ConvergenceError."""
+
+    class Brittle(C.LinearElastic):
+        def update(self, stress, state, dstrain, dt):
+            if np.abs(dstrain).max() > 1e-9:
+                raise C.IntegrationError(0, "strain increment too large")
+            return super().update(stress, state, dstrain, dt)
+
+    pb = undrained_problem(Brittle(5000.0, 0.3), n_radial=10, n_increments=2)
+    pb.max_cuts = 3
+    with pytest.raises(fem.ConvergenceError, match="step cuts"):
+        fem.solve(pb)
+
+
+def test_step_cutting_recovers():
+    """A material that fails for increments above a threshold converges after cuts, to the uncut answer."""
+
+    class Fussy(C.LinearElastic):
+        def update(self, stress, state, dstrain, dt):
+            if np.abs(dstrain).max() > 2e-3:
+                raise C.IntegrationError(0, "strain increment too large")
+            return super().update(stress, state, dstrain, dt)
+
+    cut = fem.solve(undrained_problem(Fussy(5000.0, 0.3), n_radial=20, n_increments=2))
+    plain = fem.solve(undrained_problem(C.LinearElastic(5000.0, 0.3), n_radial=20, n_increments=2))
+    assert cut.cavity_pressure[-1] == pytest.approx(plain.cavity_pressure[-1], rel=1e-6)
