@@ -96,6 +96,7 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     u = np.zeros(n)
     t = 0.0
     alive = np.ones(n, dtype=bool)
+    prescribed = np.zeros((n, 6))  # accumulated prescribed total stress on stress-controlled components
     _, _, tangent = model.update(stress, state, np.zeros((n, 6)), 0.0)
     out = {k: [] for k in ("stress", "strain", "pore_pressure", "void_ratio", "time")}
 
@@ -111,8 +112,15 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     for k in range(n_steps):
         if und[k] and not np.any(~control[k] & NORMAL):
             raise ValueError(f"step {k}: an undrained step needs a stress-controlled normal component")
+        # stress-controlled components aim at the accumulated prescribed total stress, so that the Newton
+        # tolerance does not accumulate into a drift; a component that becomes stress-controlled starts from the
+        # actual total stress
+        total = stress + u[:, None] * NORMAL
+        fresh = ~control[k] & (control[k - 1] if k else True)
+        prescribed = np.where(fresh, total, prescribed) + np.where(control[k], 0.0, inc[k])
+        step_inc = np.where(control[k], inc[k], prescribed - total)
         step = _Step(model, control[k], bool(und[k]), tol, max_iterations)
-        res = step.advance(alive.copy(), stress, state, tangent, inc[k], dt[k], max_cuts)
+        res = step.advance(alive.copy(), stress, state, tangent, step_inc, dt[k], max_cuts)
         failed = alive & ~res["ok"]
         if np.any(failed):
             if on_failure == "raise":

@@ -1,0 +1,93 @@
+"""Mixed-control driver with Modified Cam Clay: critical state, convergence order, batching, failure handling."""
+import numpy as np
+import pytest
+
+from constitutive import IntegrationError, LinearElastic, ModifiedCamClay
+from constitutive import labtests as lt
+
+M, LAM, KAP = 1.2, 0.2, 0.04
+
+
+def test_drained_triaxial_reaches_critical_state():
+    """q/p' -> M and e -> e_cs(p') = e_N - lambda ln p' - (lambda - kappa) ln 2 (MCC CSL below the NCL)."""
+    m = ModifiedCamClay(M=M, lambda_=LAM, kappa=KAP, G=2000.0, ocr=1.5)
+    c = lt.drained_triaxial(m, 1.0, 100.0, [0.5, 1.0, 2.0], substeps=200)
+    e_N = 1.0 + KAP * np.log(100.0 / 150.0) + LAM * np.log(150.0)  # NCL through the initial yield surface
+    e_cs = e_N - LAM * np.log(c["p"][0]) - (LAM - KAP) * np.log(2.0)
+    eta = c["q"][0] / c["p"][0]
+    np.testing.assert_allclose(eta[-1], M, rtol=1e-6)
+    np.testing.assert_allclose(c["e"][0, -1], e_cs[-1], atol=1e-7)
+    assert np.all(np.diff(np.abs(eta - M)) < 0) and np.all(np.diff(np.abs(c["e"][0] - e_cs)) < 0)
+    np.testing.assert_allclose(c["radial_stress"][0], 100.0, rtol=1e-10)
+    np.testing.assert_allclose(c["q"][0], 3 * (c["p"][0] - 100.0), rtol=1e-9)  # stress path slope 3
+
+
+def test_convergence_order_of_driver_and_model():
+    """Halving the strain increment: differences shrink by 2 (backward Euler, first order)."""
+    m = ModifiedCamClay(M=M, lambda_=LAM, kappa=KAP, nu=0.3, ocr=1.2)
+    qs = np.array([lt.drained_triaxial(m, 1.0, 100.0, [0.02, 0.05, 0.10], substeps=s)["q"][0] for s in (8, 16, 32, 64)])
+    d = np.abs(np.diff(qs, axis=0))
+    order = np.log2(d[:-1] / d[1:])
+    np.testing.assert_allclose(order, 1.0, atol=0.15)
+    extrapolated = 2 * qs[-1] - qs[-2]
+    assert np.all(np.abs(qs[-1] - extrapolated) < 2e-3 * extrapolated)
+
+
+@pytest.mark.parametrize("driver", [lt.drained_triaxial, lt.undrained_triaxial])
+def test_batched_equals_individual(driver):
+    rng = np.random.default_rng(7)
+    n = 6
+    prm = dict(M=rng.uniform(0.8, 1.5, n), lambda_=rng.uniform(0.1, 0.3, n), kappa=rng.uniform(0.01, 0.05, n),
+               nu=rng.uniform(0.1, 0.4, n), ocr=rng.uniform(1.0, 4.0, n))
+    e0, p0 = rng.uniform(0.6, 1.4, n), rng.uniform(50, 300, n)
+    ea = np.linspace(0, 0.15, 16)[1:]
+    batch = driver(ModifiedCamClay(**prm), e0, p0, ea, substeps=2)
+    for i in range(n):
+        one = driver(ModifiedCamClay(**{k: v[i] for k, v in prm.items()}), e0[i], p0[i], ea, substeps=2)
+        for key in ("q", "p", "e", "volumetric_strain", "excess_pore_pressure"):
+            np.testing.assert_allclose(batch[key][i], one[key][0], rtol=1e-12, atol=1e-12 * np.abs(one["p"]).max())
+
+
+def test_undrained_driver_matches_strain_controlled_model():
+    """Undrained triaxial through the mixed driver (du unknown, total radial stress fixed) equals integrating the
+    model directly along the isochoric path eps_r = -eps_a/2 (exact for isotropic models)."""
+    m = ModifiedCamClay(M=M, lambda_=LAM, kappa=KAP, nu=0.25, ocr=2.0)
+    ea = np.linspace(0, 0.1, 51)[1:]
+    c = lt.undrained_triaxial(m, 0.9, 150.0, ea)
+    stress = np.array([[150.0, 150.0, 150.0, 0, 0, 0]])
+    state = m.initial_state(stress, 0.9)
+    qs = []
+    for _ in ea:
+        stress, state, _ = m.update(stress, state, 0.002 * np.array([[1.0, -0.5, -0.5, 0, 0, 0]]), 1.0)
+        qs.append(stress[0, 0] - stress[0, 1])
+    np.testing.assert_allclose(c["q"][0], qs, rtol=1e-8)
+    np.testing.assert_allclose(c["radial_strain"][0], -ea / 2, rtol=1e-10)
+
+
+class _FailsAtStrain(LinearElastic):
+    """Linear elastic, but point 1 fails (IntegrationError) once its axial strain would pass 0.004."""
+
+    def initial_state(self, stress0, void_ratio0=None):
+        st = super().initial_state(stress0, void_ratio0)
+        st["eps_a"] = np.zeros(len(st["void_ratio"]))
+        return st
+
+    def update(self, stress, state, dstrain, dt):
+        if state["eps_a"][1] + dstrain[1, 0] > 0.004:
+            raise IntegrationError(1, "test failure")
+        s, st, C = super().update(stress, {"void_ratio": state["void_ratio"]}, dstrain, dt)
+        st["eps_a"] = state["eps_a"] + dstrain[:, 0]
+        return s, st, C
+
+
+def test_failure_raises_or_freezes_only_that_point():
+    m = _FailsAtStrain(E=np.full(3, 1e4), nu=0.3)
+    ea = np.linspace(0, 0.01, 11)[1:]
+    with pytest.raises(IntegrationError) as info:
+        lt.drained_triaxial(m, 1.0, 100.0, ea)
+    assert info.value.point == 1
+    c = lt.drained_triaxial(m, 1.0, 100.0, ea, on_failure="nan")
+    np.testing.assert_array_equal(c["failed"], [False, True, False])
+    np.testing.assert_allclose(c["q"][[0, 2]], 1e4 * np.vstack([ea, ea]), rtol=1e-10)
+    np.testing.assert_allclose(c["q"][1, :4], 1e4 * ea[:4], rtol=1e-10)
+    assert np.all(np.isnan(c["q"][1, 4:]))
