@@ -367,8 +367,8 @@ class ANICREEP(MaterialModel):
                 use_c = (L_t > 0.0) & (dlam_c > 0.0) & (dlam_ref > 0.0)
                 z0 = np.where(use_c, np.minimum(z0, np.log(np.where(use_c, dlam_c / dlam_ref, 1.0))), z0)
             else:
-                dlam_ref = np.ones(n)
                 active = L_t > 1e-12
+                dlam_ref = active.astype(float)
                 z0 = np.where(active, np.log(np.where(active & (dlam_c > 0), dlam_c, 1e-300)), 0.0)
             valid_trial = np.isfinite(L_t) & (p_t > 0.0)
             z0 = np.where(valid_trial & np.isfinite(z0), z0, 0.0)

@@ -1,0 +1,355 @@
+"""ANICREEP (REFERENCE.md section 4) against independent oracles: closed forms, REFERENCE values, MCC."""
+import itertools
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq, fsolve
+
+from constitutive import ANICREEP, IntegrationError, ModifiedCamClay, ParameterError
+from constitutive import labtests
+from constitutive.anicreep import anisotropy_constants
+
+BURSWOOD = dict(lambda_=0.40, kappa=0.026, nu=0.3, e0=2.0)
+
+
+def _triaxial_state(model, p0, n=1):
+    """Isotropic stress p0 (kPa) and the model's initial state."""
+    s0 = np.zeros((n, 6))
+    s0[:, :3] = p0
+    return s0, model.initial_state(s0)
+
+
+def _undrained_path(model, p0, eps_a_max, n_steps, dt):
+    """Isochoric axisymmetric strain path (eps_r = -eps_a/2): pure strain control. Returns p', q, eps_q^p, e_a."""
+    sig, st = _triaxial_state(model, p0)
+    de = np.array([[1.0, -0.5, -0.5, 0.0, 0.0, 0.0]]) * eps_a_max / n_steps
+    out = []
+    for _ in range(n_steps):
+        sig, st, _ = model.update(sig, st, de, dt)
+        vp = st["vp_strain"][0]
+        out.append((sig[0, :3].mean(), sig[0, 0] - sig[0, 1], 2.0 / 3.0 * (vp[0] - vp[1])))
+    return np.array(out).T
+
+
+def _mcc_closed_form(eta, M, lam, kap, v, R0):
+    """REFERENCE section 4: undrained MCC from isotropic p'_0: p'/p'_0 and plastic eps_q beyond first yield."""
+    Lam = (lam - kap) / lam
+    ratio = (R0 / (1.0 + eta**2 / M**2)) ** Lam
+    eta_y = M * np.sqrt(R0 - 1.0)
+
+    def F(x):
+        return np.log((M + x) / (M - x)) - 2.0 * np.arctan(x / M)
+
+    eps_qp = kap * Lam / (v * M) * (F(eta) - F(eta_y))
+    return ratio, eps_qp
+
+
+# --------------------------------------------------------------------------------------------- parameters
+def test_anisotropy_constants_hand_values():
+    # M = 1.2: sin phi' = 0.5, K0_nc = 0.5, eta_K0 = 0.75, alpha_K0 = (0.5625 + 2.25 - 1.44)/3 = 0.4575,
+    # omega_d = 3(5.76 - 2.25 - 2.25)/(8(0.5625 + 1.5 - 1.44)) = 3.78/4.98
+    k0, eta, alpha, omega_d = anisotropy_constants(1.2)
+    assert (k0, eta) == pytest.approx((0.5, 0.75), rel=1e-14)
+    assert alpha == pytest.approx(0.4575, rel=1e-14)
+    assert omega_d == pytest.approx(3.78 / 4.98, rel=1e-14)
+
+
+@pytest.mark.parametrize("bad, name", [
+    (dict(kappa=0.5), "kappa = 0.5"), (dict(e0=0.0), "e0 = 0"), (dict(M=-1.0), "M = -1"), (dict(M=3.0), "M = 3"),
+    (dict(C_alpha_e=0.0), "C_alpha_e = 0"), (dict(nu=0.5), "nu = 0.5"), (dict(nu=-1.0), "nu = -1"),
+    (dict(tau=0.0), "tau = 0"), (dict(sigma_p0=-5.0), "sigma_p0 = -5"), (dict(vertical_axis=4), "vertical_axis = 4"),
+    (dict(C_alpha_e=None), "C_alpha_e is required"),
+])
+def test_bad_parameters_raise_naming_parameter_and_value(bad, name):
+    prm = dict(M=1.2, sigma_p0=60.0, C_alpha_e=0.02, **BURSWOOD)
+    prm.update(bad)
+    with pytest.raises(ParameterError, match=name.replace("(", r"\(")):
+        ANICREEP(**prm)
+
+
+def test_rate_independent_needs_no_creep_index():
+    m = ANICREEP(M=1.2, sigma_p0=60.0, viscous=False, **BURSWOOD)
+    assert m.C_alpha_e is None and np.isinf(m.beta)
+
+
+# --------------------------------------------------------------------------------------------- 1D oracles
+def test_1d_creep_slope_equals_c_alpha_e():
+    """Incremental oedometer, stage held 1e7 s on the NCL: de/dln t -> -C_alpha_e after the transient."""
+    ca = 0.02
+    m = ANICREEP(M=1.2, sigma_p0=40.0, C_alpha_e=ca, **BURSWOOD)
+    c = labtests.oedometer_loading(m, 2.0, 31.0, [100.0], stage_duration=1e8, n_times=30, load_time=10.0,
+                                   load_substeps=20, substeps=4, k0=m.k0_nc)
+    e, t = c["e"][0], c["stage_time"][0]
+    slope = np.diff(e) / np.diff(np.log(t))
+    assert slope[-1] == pytest.approx(-ca, rel=5e-3)
+    assert slope[-3] == pytest.approx(-ca, rel=1e-2)
+
+
+@pytest.mark.parametrize("anisotropy", [True, False])
+def test_crs_rate_effect_on_ncl(anisotropy):
+    """CRS at 1e-6 and 1e-5 /s: at equal total strain on the NCL sigma'_v2/sigma'_v1 = 10^(C_alpha_e/lambda) = 1.1220."""
+    m = ANICREEP(M=1.2, sigma_p0=40.0, C_alpha_e=0.020, anisotropy=anisotropy, **BURSWOOD)
+    strains = np.linspace(0.005, 0.35, 70)
+    sv = [labtests.oedometer_crs(m, 2.0, 31.0, strains, rate, k0=m.k0_nc, substeps=4)["axial_stress"][0]
+          for rate in (1e-6, 1e-5)]
+    ratio = sv[1] / sv[0]
+    assert 10.0 ** (0.020 / 0.40) == pytest.approx(1.1220, abs=5e-5)
+    assert ratio[-1] == pytest.approx(10.0 ** (0.020 / 0.40), rel=2e-4)
+
+
+def _steady_k0_state(M, lam, kap, nu):
+    """Steady 1D compression of the rate-independent S-CLAY1 surfaces including elastic strains (triaxial forms of
+    REFERENCE section 4): alpha stationary under (R) and total strain increment 1D (d eps_d/d eps_v = 2/3) with
+    d eps_v^e/d eps_v = kappa/lambda on the NCL, d eps_d^e = d q/(3G) = eta d eps_v^e K/(3G)."""
+    _, eta_k0, alpha_k0, omega_d = anisotropy_constants(M)
+    r_g = 1.5 * (1 - 2 * nu) / (1 + nu)
+
+    def eqs(x):
+        eta, a = x
+        flow = 2.0 * (eta - a) / (M**2 - eta**2)  # d eps_d^vp/d eps_v^vp
+        return [0.75 * eta - a + omega_d * (eta / 3.0 - a) * abs(flow),
+                kap / lam * eta / (3.0 * r_g) + (lam - kap) / lam * flow - 2.0 / 3.0]
+
+    eta, a = fsolve(eqs, [eta_k0, alpha_k0], xtol=1e-14)
+    return eta, a, eta_k0, alpha_k0
+
+
+@pytest.mark.parametrize("vertical_axis", [1, 2])
+def test_k0_loading_keeps_alpha_and_k0nc(vertical_axis):
+    M = 1.2
+    m = ANICREEP(M=M, sigma_p0=40.0, C_alpha_e=0.02, vertical_axis=vertical_axis, **BURSWOOD)
+    v = vertical_axis - 1
+    sig = np.zeros((1, 6))
+    sig[0, :3] = m.k0_nc * 31.0
+    sig[0, v] = 31.0
+    st = m.initial_state(sig)
+    de = np.zeros((1, 6))
+    de[0, v] = 2e-3
+    for _ in range(150):
+        sig, st, _ = m.update(sig, st, de, 200.0)
+    others = [i for i in range(3) if i != v]
+    assert sig[0, others[0]] == pytest.approx(sig[0, others[1]], rel=1e-12)
+    k_sim = sig[0, others[0]] / sig[0, v]
+    alpha_sim = 1.5 * st["alpha"][0, v]
+    eta, a, eta_k0, alpha_k0 = _steady_k0_state(M, 0.40, 0.026, 0.3)
+    k_exact = (3.0 - eta) / (3.0 + 2.0 * eta)
+    # exact steady state of the equations (elastic strains included)
+    assert k_sim == pytest.approx(k_exact, rel=2e-4)
+    assert alpha_sim == pytest.approx(a, rel=2e-4)
+    # REFERENCE: K0_nc and alpha_K0 kept (they neglect elastic strains, O(kappa/lambda) = 6.5 % of the flow)
+    assert k_sim == pytest.approx(m.k0_nc, rel=5e-3)
+    assert alpha_sim == pytest.approx(alpha_k0, rel=5e-3)
+
+
+def test_isotropic_loading_rotates_alpha_to_ten_percent_after_one_efold():
+    """Isotropic (stress-controlled) loading from inside the reference surface: eta = 0, and (R) integrates in closed
+    form in s = ln(p'_m^r/p'_m^r0) = (1 + e0)/(lambda - kappa) eps_v^vp:
+    ln(a/a0) - ln((M^2 + 2 omega_d a)/(M^2 + 2 omega_d a0)) = -omega s (lambda - kappa)/(1 + e0); a = a0/10 at s = 1.
+    Backward Euler is first order: the error halves with the step and the Richardson extrapolation is exact."""
+    M = 1.2
+    m = ANICREEP(M=M, sigma_p0=40.0, C_alpha_e=0.02, **BURSWOOD)
+    s0 = np.zeros((1, 6))
+    s0[0, :3] = 20.0
+    st0 = m.initial_state(s0)
+    a0 = 1.5 * st0["alpha"][0, 0]
+    om, omd = float(m.omega), float(m.omega_d)
+    c = (0.40 - 0.026) / 3.0
+
+    def closed(a, s):
+        return np.log(a / a0) - np.log((M**2 + 2 * omd * a) / (M**2 + 2 * omd * a0)) + om * s * c
+
+    sims, exact = [], []
+    for n_steps in (100, 200):
+        inc = np.zeros((n_steps, 6))
+        inc[:, :3] = (90.0 - 20.0) / n_steps
+        st = labtests.mixed_control(m, s0, st0, labtests.NORMAL_STRESS, inc, np.full(n_steps, 2e4 / n_steps))["state"]
+        s = np.log(st["pm_ref"][0] / st0["pm_ref"][0])
+        assert s > 0.9  # about one e-fold of p'_m^r
+        exact.append(brentq(closed, 1e-8 * a0, a0, args=(s,)))
+        sims.append(np.sqrt(1.5 * np.sum(np.array([1, 1, 1, 2, 2, 2]) * st["alpha"][0] ** 2)))
+    err = np.array(sims) / np.array(exact) - 1.0
+    assert err[1] < 0.02 and 1.8 < err[0] / err[1] < 2.2
+    assert 2 * sims[1] - sims[0] == pytest.approx(exact[1], rel=2e-4)
+    # REFERENCE: 10 % of alpha_K0 after one e-fold of p'_m (closed form of (R) with the omega of (K))
+    assert brentq(closed, 1e-8, a0, args=(1.0,)) / a0 == pytest.approx(0.1, rel=1e-10)
+
+
+# --------------------------------------------------------------------------------------------- MCC limits
+def _mcc_check_model(**kw):
+    """M = 1.2, lambda = 0.2, kappa = 0.04, v = 2 (e0 = 1), isotropic p'_0 = 100 with p'_m^r0 = R0 p'_0 = 150
+    (sigma'_p0 chosen so that the K0_nc state at sigma'_p0 lies on that surface, alpha = 0)."""
+    M = 1.2
+    k0 = 1.0 - 3 * M / (6 + M)
+    factor = (1 + 2 * k0) / 3 + 3 * (1 - k0) ** 2 / (M**2 * (1 + 2 * k0))  # p'_m/sigma'_v on the K0_nc state
+    return ANICREEP(M=M, lambda_=0.2, kappa=0.04, nu=0.3, e0=1.0, sigma_p0=150.0 / factor, anisotropy=False, **kw)
+
+
+def _at_eta(eta_target, p, q, epq):
+    eta = q / p
+    return np.interp(eta_target, eta, p), np.interp(eta_target, eta, epq)
+
+
+def test_reference_closed_form_check_values():
+    """Our transcription of the MCC closed form reproduces REFERENCE's check values (G = 2000 kPa elastic part)."""
+    for eta, p_ref, eq_ref in ((1.0, 0.90709, 0.021473), (1.15, 0.82134, 0.039610)):
+        ratio, epq = _mcc_closed_form(eta, 1.2, 0.2, 0.04, 2.0, 1.5)
+        assert ratio == pytest.approx(p_ref, abs=1e-5)
+        assert epq + eta * ratio * 100.0 / (3 * 2000.0) == pytest.approx(eq_ref, abs=1e-6)
+
+
+def test_rate_independent_isotropic_is_mcc_and_converges_first_order():
+    """Undrained MCC closed form: p'(eta) exact whatever the step (exact exponential laws; only the interpolation in
+    eta errs); plastic eps_q converges at order 1 (backward Euler) and its Richardson extrapolation is exact."""
+    m = _mcc_check_model(viscous=False)
+    assert m.initial_state(np.array([[100.0, 100, 100, 0, 0, 0]]))["pm_ref"][0] == pytest.approx(150.0, rel=1e-12)
+    errors, eq_sims = [], []
+    for n_steps in (100, 200):
+        p, q, epq = _undrained_path(m, 100.0, 0.06, n_steps, 1.0)
+        err, eqs = [], []
+        for eta in (1.0, 1.15):
+            ratio, eq_exact = _mcc_closed_form(eta, 1.2, 0.2, 0.04, 2.0, 1.5)
+            p_sim, eq_sim = _at_eta(eta, p, q, epq)
+            err += [p_sim / 100.0 / ratio - 1.0, eq_sim / eq_exact - 1.0]
+            eqs.append(eq_sim / eq_exact)
+        errors.append(np.abs(err))
+        eq_sims.append(np.array(eqs))
+    assert np.max(errors[1][[0, 2]]) < 1e-5
+    rate = errors[0][[1, 3]] / errors[1][[1, 3]]
+    assert np.all((rate > 1.8) & (rate < 2.2))
+    assert 2 * eq_sims[1] - eq_sims[0] == pytest.approx(1.0, abs=1e-3)
+
+
+def test_rate_independent_isotropic_matches_mcc_module_undrained():
+    """Undrained, e is constant, so (1 + e0) = (1 + e) and ANICREEP(anisotropy off, viscous off) must equal
+    constitutive.mcc.ModifiedCamClay (same backward-Euler scheme, same exact exponential laws)."""
+    m = _mcc_check_model(viscous=False)
+    mcc = ModifiedCamClay(M=1.2, lambda_=0.2, kappa=0.04, nu=0.3, pc0=150.0)
+    s0 = np.array([[100.0, 100, 100, 0, 0, 0]])
+    sa, sta = s0.copy(), m.initial_state(s0)
+    sb, stb = s0.copy(), mcc.initial_state(s0, 1.0)
+    de = np.array([[1.0, -0.5, -0.5, 0, 0, 0]]) * 2e-4
+    for _ in range(250):
+        sa, sta, ta = m.update(sa, sta, de, 1.0)
+        sb, stb, tb = mcc.update(sb, stb, de, 1.0)
+        assert sa == pytest.approx(sb, rel=1e-8, abs=1e-8)
+    assert ta == pytest.approx(tb, rel=1e-6, abs=1e-6 * np.abs(tb).max())
+
+
+def test_small_creep_index_approaches_mcc():
+    """C_alpha_e = 1e-4 (beta = 1600), anisotropy off, slow undrained shear (1e-8 /s): p'(eta) within a fraction of a
+    percent of the MCC closed form, and the whole path within a fraction of a percent of the rate-independent switch
+    run with the same steps (which isolates viscosity from the time-discretization error)."""
+    m = _mcc_check_model(C_alpha_e=1e-4)
+    ri = _mcc_check_model(viscous=False)
+    p, q, epq = _undrained_path(m, 100.0, 0.06, 200, 3e-4 / 1e-8)
+    p_ri, q_ri, epq_ri = _undrained_path(ri, 100.0, 0.06, 200, 1.0)
+    for eta in (1.0, 1.15):
+        ratio, _ = _mcc_closed_form(eta, 1.2, 0.2, 0.04, 2.0, 1.5)
+        p_sim, eq_sim = _at_eta(eta, p, q, epq)
+        assert p_sim / 100.0 == pytest.approx(ratio, rel=3e-3)
+    assert q == pytest.approx(q_ri, rel=5e-3)
+    assert p == pytest.approx(p_ri, rel=5e-3)
+
+
+# --------------------------------------------------------------------------------------------- numerics
+def _cavity_increment(n, size=1e-3):
+    """Undrained cavity-expansion strain increment with the FE axes r->1, z->2, theta->3: eps_r = -eps_theta."""
+    de = np.zeros((n, 6))
+    de[:, 0], de[:, 2] = size, -size
+    return de
+
+
+def _loaded_states(viscous):
+    rng = np.random.default_rng(3)
+    n = 6
+    M = rng.uniform(0.8, 1.8, n)
+    m = ANICREEP(M=M, sigma_p0=rng.uniform(30, 80, n), C_alpha_e=0.02 if viscous else None, viscous=viscous,
+                 vertical_axis=2, **BURSWOOD)
+    sig = np.tile([0.9 * 31.0, 31.0, 0.9 * 31.0, 0, 0, 0], (n, 1))
+    st = m.initial_state(sig)
+    de = _cavity_increment(n) + rng.normal(0, 3e-4, (n, 6))
+    for _ in range(15):
+        sig, st, _ = m.update(sig, st, de, 1.0)
+    return m, sig, st, rng
+
+
+@pytest.mark.parametrize("viscous", [True, False])
+def test_consistent_tangent_matches_finite_differences(viscous):
+    m, sig, st, rng = _loaded_states(viscous)
+    n = sig.shape[0]
+    de = _cavity_increment(n, 5e-4) + rng.normal(0, 2e-4, (n, 6))
+    _, _, T = m.update(sig, st, de, 1.0)
+    h = 1e-7
+    fd = np.zeros_like(T)
+    for j in range(6):
+        dp, dm = de.copy(), de.copy()
+        dp[:, j] += h
+        dm[:, j] -= h
+        fd[:, :, j] = (m.update(sig, st, dp, 1.0)[0] - m.update(sig, st, dm, 1.0)[0]) / (2 * h)
+    scale = np.abs(fd).max(axis=(1, 2))[:, None, None]
+    assert np.max(np.abs(T - fd) / scale) < 1e-6
+
+
+def test_update_does_not_mutate_inputs_and_parameters_per_point_equal_separate_runs():
+    M, sp, ca = np.array([0.6, 1.2, 1.9]), np.array([20.0, 58.4, 150.0]), np.array([0.002, 0.02, 0.045])
+    batch = ANICREEP(M=M, sigma_p0=sp, C_alpha_e=ca, vertical_axis=2, **BURSWOOD)
+    s0 = np.tile([27.9, 31.0, 27.9, 0, 0, 0], (3, 1))
+    sig, st = s0.copy(), batch.initial_state(s0)
+    for _ in range(30):
+        keep = (sig.copy(), {k: v.copy() for k, v in st.items()})
+        sig_new, st_new, Tb = batch.update(sig, st, _cavity_increment(3), 1.0)
+        assert np.array_equal(sig, keep[0]) and all(np.array_equal(st[k], keep[1][k]) for k in st)
+        sig, st = sig_new, st_new
+    for i in range(3):
+        one = ANICREEP(M=M[i], sigma_p0=sp[i], C_alpha_e=ca[i], vertical_axis=2, **BURSWOOD)
+        s1, t1 = s0[i:i + 1].copy(), one.initial_state(s0[i:i + 1])
+        for _ in range(30):
+            s1, t1, T1 = one.update(s1, t1, _cavity_increment(1), 1.0)
+        assert s1[0] == pytest.approx(sig[i], rel=1e-10, abs=1e-10)
+        assert T1[0] == pytest.approx(Tb[i], rel=1e-7, abs=1e-7 * np.abs(T1).max())
+
+
+def test_viscous_response_converges_when_increment_halved():
+    m = ANICREEP(M=1.2, sigma_p0=58.4, C_alpha_e=0.02, vertical_axis=2, **BURSWOOD)
+    s0 = np.tile([27.9, 31.0, 27.9, 0, 0, 0], (1, 1))
+    finals = []
+    for n_steps in (25, 50, 100):
+        sig, st = s0.copy(), m.initial_state(s0)
+        for _ in range(n_steps):
+            sig, st, _ = m.update(sig, st, _cavity_increment(1, 0.05 / n_steps), 6.0 * 50 / n_steps)
+        finals.append(sig[0])
+    d1 = np.abs(finals[0] - finals[1]).max()
+    d2 = np.abs(finals[1] - finals[2]).max()
+    assert d2 < 0.6 * d1 and d2 < 1e-2 * np.abs(finals[2]).max()
+
+
+def test_robust_over_burswood_prior_box_cavity_expansion():
+    """Corners and random draws of M in [0.5, 2], sigma'_p0 in [10, 200] kPa, C_alpha_e in [0.001, 0.05]; cavity
+    increments of 0.1 % with dt 0.6 s and 6 s to 5 % strain: no failure, p' > 0, finite tangent."""
+    corners = np.array(list(itertools.product([0.5, 2.0], [10.0, 200.0], [0.001, 0.05])))
+    rng = np.random.default_rng(11)
+    draws = np.column_stack([rng.uniform(0.5, 2.0, 24), rng.uniform(10, 200, 24),
+                             np.exp(rng.uniform(np.log(1e-3), np.log(0.05), 24))])
+    prm = np.vstack([corners, draws])
+    n = prm.shape[0]
+    m = ANICREEP(M=prm[:, 0], sigma_p0=prm[:, 1], C_alpha_e=prm[:, 2], vertical_axis=2, **BURSWOOD)
+    for dt in (0.6, 6.0):
+        sig = np.tile([27.9, 31.0, 27.9, 0, 0, 0], (n, 1))
+        st = m.initial_state(sig)
+        for _ in range(50):
+            sig, st, T = m.update(sig, st, _cavity_increment(n), dt)
+        assert np.all(np.isfinite(sig)) and np.all(np.isfinite(T))
+        assert np.all(sig[:, :3].mean(axis=1) > 0.0)
+        alpha2 = 1.5 * np.sum(np.array([1, 1, 1, 2, 2, 2]) * st["alpha"] ** 2, axis=1)
+        assert np.all(alpha2 < prm[:, 0] ** 2)
+
+
+def test_failed_point_raises_integration_error_naming_it():
+    m = ANICREEP(M=1.2, sigma_p0=58.4, C_alpha_e=0.02, **BURSWOOD)
+    sig = np.tile([31.0, 27.9, 27.9, 0, 0, 0], (3, 1))
+    st = m.initial_state(sig)
+    de = np.zeros((3, 6))
+    de[1, :3] = -5.0  # a volumetric extension of 500 %: p' would have to reach exp(-1150) p'_0
+    with pytest.raises(IntegrationError) as err:
+        m.update(sig, st, de, 1.0)
+    assert err.value.point == 1
