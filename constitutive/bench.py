@@ -12,6 +12,7 @@ import numpy as np
 
 from . import labtests
 from .mcc import ModifiedCamClay
+from .anicreep import ANICREEP
 
 
 def _mcc_batch(n, seed=0):
@@ -57,8 +58,24 @@ def mcc_update_points(n=240, n_increments=200):
             "seconds": round(wall, 4), "us_per_point_increment": round(1e6 * wall / (n * n_increments), 3)}
 
 
+def anicreep_update_points(n=240, n_increments=50, dt=0.6):
+    """ANICREEP update over n Gauss points, Burswood parameters (M 1.71, sigma'_p0 58.4 kPa, C_alpha_e 0.02), undrained
+    cavity-expansion increments (eps_r = -eps_theta = 0.1 %, FE axes r->1, z->2 vertical, theta->3), dt 0.6 s."""
+    model = ANICREEP(M=1.71, lambda_=0.40, kappa=0.026, nu=0.3, e0=2.0, sigma_p0=58.4, C_alpha_e=0.02,
+                     vertical_axis=2)
+    stress = np.tile([27.9, 31.0, 27.9, 0.0, 0.0, 0.0], (n, 1))
+    state = model.initial_state(stress)
+    dstrain = np.tile([1e-3, 0.0, -1e-3, 0.0, 0.0, 0.0], (n, 1))
+    t0 = time.perf_counter()
+    for _ in range(n_increments):
+        stress, state, _ = model.update(stress, state, dstrain, dt)
+    wall = time.perf_counter() - t0
+    return {"benchmark": "anicreep_update_points", "n_points": n, "n_increments": n_increments,
+            "seconds": round(wall, 4), "us_per_point_increment": round(1e6 * wall / (n * n_increments), 3)}
+
+
 #: benchmarks run in order by ``python -m constitutive.bench``; each returns one JSON-able dict
-BENCHMARKS = [mcc_update_points, mcc_drained_triaxial_batch, mcc_undrained_triaxial_batch]
+BENCHMARKS = [mcc_update_points, anicreep_update_points, mcc_drained_triaxial_batch, mcc_undrained_triaxial_batch]
 
 
 def main():
