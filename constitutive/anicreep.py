@@ -366,6 +366,13 @@ class ANICREEP(MaterialModel):
                 z0 = L_t / prm["inv_beta"]
                 use_c = (L_t > 0.0) & (dlam_c > 0.0) & (dlam_ref > 0.0)
                 z0 = np.where(use_c, np.minimum(z0, np.log(np.where(use_c, dlam_c / dlam_ref, 1.0))), z0)
+                # scalar Newton on the linearized (V): L_t - A dlam_ref e^z - z/beta = 0 (concave, decreasing in z,
+                # started right of its root), a cheap predictor for the full local Newton
+                lin = use_c & (A > 0.0)
+                for _ in range(8):
+                    dl = dlam_ref * np.exp(z0)
+                    phi = L_t - A * dl - prm["inv_beta"] * z0
+                    z0 = np.where(lin, z0 + phi / (A * dl + prm["inv_beta"]), z0)
             else:
                 active = L_t > 1e-12
                 dlam_ref = active.astype(float)
@@ -374,6 +381,11 @@ class ANICREEP(MaterialModel):
             z0 = np.where(valid_trial & np.isfinite(z0), z0, 0.0)
             X = Xt.copy()
             X[:, 12] = z0
+            # stress predictor: linearized return sigma'_E - d lambda D W g (tangent elastic D at the trial state)
+            dl0 = np.where(valid_trial & active, dlam_ref * np.exp(z0), 0.0)
+            pred = X[:, :6] - (dl0 * K_t)[:, None] * (tr_g[:, None] * IDENTITY + 2.0 * prm["r_G"][:, None] * g_dev)
+            ok_pred = valid_trial & (mean_stress(pred) > 0.0) & np.all(np.isfinite(pred), axis=1)
+            X[:, :6] = np.where(ok_pred[:, None], pred, X[:, :6])
             d["dlam_ref"], d["active"] = dlam_ref, active
 
             eye = np.eye(_NX)
