@@ -110,10 +110,10 @@ class Problem:
     (phases), stabilization (polynomial pressure projection, tau = 1/(2 G_hg)), hourglass_scale c_hg (fixed input,
     default 0.05) and hourglass_modulus G_hg (kPa; None: the elastic shear modulus of the initial material tangent,
     per cell, computed once), monitor_radii (m; pore pressure histories at these radii at mid-height, like SBP
-    pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls: rtol (relative
-    residual norms, against the sums of absolute contributions), max_iterations, refresh_ratio (modified Newton: the
+    pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls: rtol, max_iterations, refresh_ratio (modified Newton: the
     factorization is refreshed when an iteration reduces the residual by less than this factor; 0 = full Newton),
-    max_cuts (step halvings before ConvergenceError).
+    max_cuts (step halvings before ConvergenceError). Convergence: at every free dof |R_i| <= rtol * (sum of the
+    absolute element contributions to dof i, floored at 1e-8 of the largest such sum of that field).
     """
 
     mesh: Mesh
@@ -130,7 +130,7 @@ class Problem:
     hourglass_modulus: float | None = None
     monitor_radii: tuple = ()
     save_fields: str = "phases"
-    rtol: float = 1e-7
+    rtol: float = 1e-6
     max_iterations: int = 25
     refresh_ratio: float = 0.1
     max_cuts: int = 10
