@@ -432,10 +432,10 @@ class ANICREEP(MaterialModel):
             dR = np.swapaxes(Rd.imag / _H, 1, 2)  # (n, 13, 6)
             safe_jac = np.where(converged[:, None, None], jac, np.eye(_NX))
             dX = -np.linalg.solve(safe_jac, dR)
+            ratio = np.exp(ln_ratio)
         tangent = dX[:, :6, :]
         dvp = dlam[:, None] * STRESS_WEIGHTS * g
         alpha_new = X[:, 6:12] - (X[:, 6:9].sum(1) / 3.0)[:, None] * IDENTITY
         pm_new = pm_ref * np.exp(prm["c_p"] * dvp[:, :3].sum(1))
-        ratio = np.exp(ln_ratio)
         converged &= np.all(np.isfinite(tangent), axis=(1, 2)) & (mean_stress(X[:, :6]) > 0.0)
         return X[:, :6].copy(), alpha_new, pm_new, dvp, tangent, ratio, converged

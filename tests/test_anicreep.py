@@ -97,6 +97,15 @@ def test_crs_rate_effect_on_ncl(anisotropy):
     assert ratio[-1] == pytest.approx(10.0 ** (0.020 / 0.40), rel=2e-4)
 
 
+def test_undrained_triaxial_reaches_critical_state_ratio_m():
+    """Undrained triaxial compression (labtests) from a K-consolidated state: q/p' -> M (tr g = 0 at eta = M)."""
+    M = np.array([0.5, 1.2, 2.0])
+    m = ANICREEP(M=M, sigma_p0=np.array([20.0, 60.0, 150.0]), C_alpha_e=0.02, **BURSWOOD)
+    c = labtests.undrained_triaxial(m, 2.0, 50.0, np.linspace(0.0, 0.2, 41)[1:], substeps=3, k0=0.7)
+    assert not c["failed"].any()
+    assert c["q"][:, -1] / c["p"][:, -1] == pytest.approx(M, rel=3e-3)
+
+
 def _steady_k0_state(M, lam, kap, nu):
     """Steady 1D compression of the rate-independent S-CLAY1 surfaces including elastic strains (triaxial forms of
     REFERENCE section 4): alpha stationary under (R) and total strain increment 1D (d eps_d/d eps_v = 2/3) with
