@@ -45,6 +45,10 @@ P_AT = 101.325
 #: void ratio at which the stiffness of (III) vanishes
 E_MAX_STIFFNESS = 2.97
 _SQRT3_HALF3 = 1.5 * np.sqrt(3.0)
+#: mixed control fails (IntegrationError) where the tangent on the stress-controlled components falls below this
+#: fraction of the elastic one: the path (e.g. drained triaxial with extreme dilatancy) is about to become
+#: uncontrollable and the lateral strain rate unbounded
+CONTROL_STIFFNESS_RATIO = 1e-2
 
 
 def friction_ratio(tan_phi, sin3theta, derivatives=True):
@@ -173,7 +177,7 @@ class SIMSAND(MaterialModel):
 
     Options: ``p_at`` (kPa, 101.325), ``p_min`` (kPa, tension cutoff and stiffness floor, default 0.1),
     ``stol`` (relative local error tolerance of the substepping, default 1e-4), ``ftol`` (yield-function drift
-    tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 10000).
+    tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 1000).
 
     State (dict of (n,) arrays): ``void_ratio`` e, ``void_ratio_initial`` e_0 (reference of e = e_0 - (1 + e_0)
     eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0).
@@ -184,7 +188,7 @@ class SIMSAND(MaterialModel):
     parameter_names = ("nu", "K_0", "n", "e_ref", "lambda_c", "xi", "phi_mu", "k_p", "A_d", "n_p", "n_d")
 
     def __init__(self, nu, K_0, n, e_ref, lambda_c, xi, phi_mu, k_p, A_d, n_p, n_d, *,
-                 p_at=P_AT, p_min=0.1, stol=1e-4, ftol=1e-8, max_substeps=10000):
+                 p_at=P_AT, p_min=0.1, stol=1e-4, ftol=1e-8, max_substeps=1000):
         m = self.name
         self.nu = check_parameter("nu", nu, lower=-1.0, upper=0.5, model=m)
         self.K_0 = check_parameter("K_0", K_0, lower=0.0, model=m)
@@ -328,7 +332,7 @@ class SIMSAND(MaterialModel):
         # row acting on a strain increment: a:D d eps + (df/de) de, with de = -(1 + e_0) d eps_v (caller adds v0)
         Da = space.strain_row * (2.0 * G[:, None] * a_dev + (df_dp * K)[:, None] * I)
         return {"p": p, "q": q, "eta": eta, "Mp": Mp, "Mpt": Mpt, "f": f, "K": K, "G": G, "Dm": Dm, "den": den,
-                "Da": Da, "df_de": df_de, "Kp": Kp}
+                "Da": Da, "df_de": df_de, "Kp": Kp, "a": a_dev + (df_dp / 3.0)[:, None] * I}
 
     @staticmethod
     def _elastic(space, ev, deps):
@@ -365,8 +369,14 @@ class SIMSAND(MaterialModel):
         Tss = T[:, control][:, :, control]
         if control.size == 1:
             deps[:, control] = rhs / Tss[:, 0]
+            stiff = Tss[:, 0, 0]
         else:
             deps[:, control] = np.linalg.solve(Tss, rhs[:, :, None])[:, :, 0]
+            stiff = np.linalg.det(Tss)
+        # controllable: the tangent on the stress-controlled components stays above a fraction of the elastic one
+        D = space.stiffness(ev["K"], ev["G"])[:, control][:, :, control]
+        stiff_el = D[:, 0, 0] if control.size == 1 else np.linalg.det(D)
+        deps[~(stiff > CONTROL_STIFFNESS_RATIO * stiff_el)] = np.nan
         return deps
 
     # ------------------------------------------------------------------ integration
@@ -405,10 +415,20 @@ class SIMSAND(MaterialModel):
             bad = pl & ~(ev0["den"] > 0.0)
             if np.any(bad):
                 raise IntegrationError(int(act[np.argmax(bad)]), "a:D m + K_p <= 0 (no unique plastic response)")
+            bad = ~np.all(np.isfinite(deps1), axis=1)
+            if np.any(bad):
+                raise IntegrationError(int(act[np.argmax(bad)]), "mixed control lost: the tangent stiffness on the "
+                                       f"stress-controlled components fell below {CONTROL_STIFFNESS_RATIO} of the "
+                                       "elastic one (uncontrollable path)")
             ddv1 = -v0 * (deps1 @ space.volumetric_row)
             # stage 2 at the Euler estimate
             ev1 = self._evaluate(space, s0 + dsig1, e0 + ddv1, k0 + dlam1, par, dstrain=dl)
             dsig2, deps2, dlam2, _ = self._rates(space, ev1, dl, v0, pl, control)
+            bad = ~np.all(np.isfinite(deps2), axis=1) & np.all(np.isfinite(ev1["Dm"]), axis=1)
+            if control.size and np.any(bad):
+                raise IntegrationError(int(act[np.argmax(bad)]), "mixed control lost within the substep: the tangent "
+                                       "stiffness on the stress-controlled components fell below "
+                                       f"{CONTROL_STIFFNESS_RATIO} of the elastic one")
             sig_new = s0 + 0.5 * (dsig1 + dsig2)
             deps_new = 0.5 * (deps1 + deps2)
             eps_new = np.maximum(k0 + 0.5 * (dlam1 + dlam2), 0.0)
@@ -487,12 +507,15 @@ class SIMSAND(MaterialModel):
         return alpha
 
     def _drift_correct(self, space, sig, e, eps, deps, v0, par, points, control, iterations=5):
-        """Return to f = 0 (consistent correction of Sloan et al. 2001), keeping prescribed stress components.
+        """Return to f = 0 (Sloan et al. 2001), keeping prescribed stress components.
 
-        Correction at fixed total strain on strain-controlled components: d sigma = d lambda (D w - D m),
-        d eps = d lambda w with w the strain on stress-controlled components that keeps their stress
-        (w = 0 under strain control), d lambda = f / (a:D m + K_p - row . w).
+        Consistent correction at fixed total strain on strain-controlled components: d sigma = d lambda (D w - D m),
+        d eps = d lambda w, w the strain on stress-controlled components that keeps their stress (w = 0 under
+        strain control), d lambda = f / (a:D m + K_p - row . w). Where that denominator is not positive (softening
+        under mixed control) or the correction does not reduce |f|, the stress alone is projected along the yield
+        gradient restricted to the free components (normal correction).
         """
+        held = np.isin(np.arange(space.size), control)
         for _ in range(iterations):
             ev = self._evaluate(space, sig, e, eps, par, dstrain=deps)
             f = ev["f"]
@@ -501,22 +524,33 @@ class SIMSAND(MaterialModel):
                 break
             if control.size:
                 row = ev["Da"] - (ev["df_de"] * v0)[:, None] * space.volumetric_row
-                w = self._solve_mixed(space, ev, np.where(np.isin(np.arange(space.size), control), ev["Dm"], 0.0),
-                                      row, np.zeros(f.shape, dtype=bool), control)
+                w = self._solve_mixed(space, ev, np.where(held, ev["Dm"], 0.0), row, np.zeros(f.shape, dtype=bool),
+                                      control)
                 dir_sig = self._elastic(space, ev, w) - ev["Dm"]
                 den = ev["den"] - np.einsum("ij,ij->i", row, w)
             else:
-                w, dir_sig, den = 0.0, -ev["Dm"], ev["den"]
-            if np.any(todo & ~(den > 0.0)):
-                raise IntegrationError(int(points[np.argmax(todo & ~(den > 0.0))]), "drift correction: a:D m + K_p <= 0")
-            dl = np.where(todo, f / den, 0.0)
+                w, dir_sig, den = np.zeros_like(deps), -ev["Dm"], ev["den"]
+            consistent = den > 0.0
+            dl = np.where(todo & consistent, f / np.where(consistent, den, 1.0), 0.0)
             dl = np.maximum(dl, -eps)  # eps_d^p stays >= 0
-            sig = sig + dl[:, None] * dir_sig
-            eps = eps + dl
-            if control.size:
-                dw = dl[:, None] * w
-                deps = deps + dw
-                e = e - v0 * (dw @ space.volumetric_row)
+            sig_c = sig + dl[:, None] * dir_sig
+            eps_c = eps + dl
+            dw = dl[:, None] * w
+            e_c = e - v0 * (dw @ space.volumetric_row)
+            f_c = self._evaluate(space, sig_c, e_c, eps_c, par, gradients=False)["f"]
+            use = consistent & (np.abs(f_c) < np.abs(f))
+            if not np.all(use | ~todo):  # normal correction: a = df/dp I/3 + a_dev on the free components
+                a = np.where(held, 0.0, ev["a"])
+                aa = (a * a) @ space.weights
+                if np.any(~use & todo & ~(aa > 0.0)):
+                    raise IntegrationError(int(points[np.argmax(~use & todo & ~(aa > 0.0))]),
+                                           "drift correction failed (no free stress component changes f)")
+                sig_n = sig - (f / np.where(aa > 0.0, aa, 1.0))[:, None] * a
+                sig_c = np.where(use[:, None], sig_c, sig_n)
+                eps_c = np.where(use, eps_c, eps)
+                e_c = np.where(use, e_c, e)
+                dw = np.where(use[:, None], dw, 0.0)
+            sig, eps, e, deps = sig_c, eps_c, e_c, deps + dw
         return sig, e, eps, deps
 
     # ------------------------------------------------------------------ public updates
@@ -546,6 +580,56 @@ class SIMSAND(MaterialModel):
         control = np.flatnonzero(np.asarray(stress_control, dtype=bool))
         sig, e, eps, deps, _ = self._integrate(TRIAXIAL, stress, state, dload, control)
         return sig, self._state(state, e, eps), deps
+
+    def triaxial_test(self, e0, p0, axial_strain, *, drained=True, substeps=1, on_failure="raise"):
+        """Fast triaxial compression/extension from the isotropic state (e0, p0 kPa) with :meth:`update_triaxial`.
+
+        Drained: constant sigma'_r, axial strain control (the radial stress is held at every stage of every substep,
+        so the result does not depend on the step size beyond the error tolerance). Undrained: isochoric,
+        d eps_r = -d eps_a/2, constant total radial stress, excess pore pressure u = -(sigma'_r - p0).
+        axial_strain (n_points,) requested strains from 0, each interval split in ``substeps`` steps; e0, p0 scalars
+        or (n,). Returns named curves (n, n_points) as :mod:`constitutive.labtests` (axial_strain, radial_strain,
+        volumetric_strain, q, p, e, excess_pore_pressure, axial_stress, radial_stress) and ``failed`` (n,):
+        with ``on_failure="nan"`` a point whose integration fails is frozen and its curves are NaN from there.
+        """
+        if on_failure not in ("raise", "nan"):
+            raise ValueError(f"on_failure must be 'raise' or 'nan', got {on_failure!r}")
+        targets = np.asarray(axial_strain, dtype=float).ravel()
+        n = max(self.n_sets, np.size(e0), np.size(p0))
+        p0 = np.broadcast_to(np.asarray(p0, dtype=float), (n,))
+        state = self.initial_state(p0[:, None] * IDENTITY, np.broadcast_to(np.asarray(e0, dtype=float), (n,)))
+        sig = np.stack([p0, p0], axis=1)
+        control = (False, True) if drained else (False, False)
+        strain = np.zeros((n, 2))
+        alive = np.ones(n, dtype=bool)
+        rec = {k: np.full((n, targets.size), np.nan) for k in ("eps_a", "eps_r", "sig_a", "sig_r", "e")}
+        previous = 0.0
+        for j, target in enumerate(targets):
+            d_a = (target - previous) / substeps
+            previous = target
+            for _ in range(substeps):
+                dload = np.zeros((n, 2))
+                dload[:, 0] = d_a
+                if not drained:
+                    dload[:, 1] = -0.5 * d_a
+                while True:
+                    try:
+                        new_sig, new_state, deps = self.update_triaxial(sig, state, np.where(alive[:, None], dload, 0.0),
+                                                                        control)
+                        break
+                    except IntegrationError as err:
+                        if on_failure == "raise" or not alive[err.point]:
+                            raise
+                        alive[err.point] = False
+                sig, state, strain = new_sig, new_state, strain + deps
+            for key, val in (("eps_a", strain[:, 0]), ("eps_r", strain[:, 1]), ("sig_a", sig[:, 0]),
+                             ("sig_r", sig[:, 1]), ("e", state["void_ratio"])):
+                rec[key][:, j] = np.where(alive, val, np.nan)
+        return {"axial_strain": rec["eps_a"], "radial_strain": rec["eps_r"],
+                "volumetric_strain": rec["eps_a"] + 2.0 * rec["eps_r"], "q": rec["sig_a"] - rec["sig_r"],
+                "p": (rec["sig_a"] + 2.0 * rec["sig_r"]) / 3.0, "e": rec["e"],
+                "excess_pore_pressure": p0[:, None] - rec["sig_r"], "axial_stress": rec["sig_a"],
+                "radial_stress": rec["sig_r"], "failed": ~alive}
 
     @staticmethod
     def _state(state, e, eps):
