@@ -487,7 +487,7 @@ def _fingerprint(loglike, prior, settings):
 
 
 def tmcmc(loglike, prior: Prior, n_samples=2000, proposal="de", *, de_variant="redblue", chains="particles",
-          n_steps="adaptive", min_steps=2, max_steps=12, corr_threshold=0.3, beta2=0.04, cov_target=1.0,
+          n_steps="adaptive", min_steps=2, max_steps=25, corr_threshold=0.3, beta2=0.04, cov_target=1.0,
           de_c=0.1, de_c_star=1e-12, de_delta=3.0, de_cr=0.9, executor=None, dispatch="dynamic", seed=0,
           checkpoint=None, resume=False, checkpoint_every=60.0, checkpoint_evals=None, progress=True,
           progress_every=10.0, vectorized=False, timeout=None, max_failure_fraction=0.1, max_stages=200,
