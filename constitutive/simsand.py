@@ -176,11 +176,14 @@ class SIMSAND(MaterialModel):
         n_d      interlocking exponent for the phase-transformation angle (VII) >= 0
 
     Options: ``p_at`` (kPa, 101.325), ``p_min`` (kPa, tension cutoff and stiffness floor, default 0.1),
-    ``stol`` (relative local error tolerance of the substepping, default 1e-4), ``ftol`` (yield-function drift
+    ``stol`` (relative local error tolerance of the substepping, default 1e-3: curves within about 1e-3 of the
+    converged ones), ``ftol`` (yield-function drift
     tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 1000).
 
     State (dict of (n,) arrays): ``void_ratio`` e, ``void_ratio_initial`` e_0 (reference of e = e_0 - (1 + e_0)
-    eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0).
+    eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0), ``substep`` the first trial substep of
+    the next increment as a fraction of it (the last size proposed by the error control; an efficiency hint only).
+    Mechanical state: e, eps_d^p and the stress; e_0 is a reference constant.
     """
 
     name = "SIMSAND"
@@ -188,7 +191,7 @@ class SIMSAND(MaterialModel):
     parameter_names = ("nu", "K_0", "n", "e_ref", "lambda_c", "xi", "phi_mu", "k_p", "A_d", "n_p", "n_d")
 
     def __init__(self, nu, K_0, n, e_ref, lambda_c, xi, phi_mu, k_p, A_d, n_p, n_d, *,
-                 p_at=P_AT, p_min=0.1, stol=1e-4, ftol=1e-8, max_substeps=1000):
+                 p_at=P_AT, p_min=0.1, stol=1e-3, ftol=1e-8, max_substeps=1000):
         m = self.name
         self.nu = check_parameter("nu", nu, lower=-1.0, upper=0.5, model=m)
         self.K_0 = check_parameter("K_0", K_0, lower=0.0, model=m)
@@ -274,7 +277,7 @@ class SIMSAND(MaterialModel):
             raise ValueError(f"{self.name}: initial stress ratio q/p' = {eta[i]:.4g} at point {i} is not below the "
                              f"peak-strength ratio M_p = {Mp[i]:.4g}")
         eps_dp = par["k_p"] * eta / (Mp - eta)
-        return {"void_ratio": e0, "void_ratio_initial": e0.copy(), "eps_dp": eps_dp}
+        return {"void_ratio": e0, "void_ratio_initial": e0.copy(), "eps_dp": eps_dp, "substep": np.ones(n)}
 
     # ------------------------------------------------------------------ local evaluation
     def _evaluate(self, space, sig, e, eps_dp, par, gradients=True, dstrain=None):
@@ -358,33 +361,40 @@ class SIMSAND(MaterialModel):
 
     @staticmethod
     def _solve_mixed(space, ev, dload, row, plastic, control):
-        """Strain increment meeting the prescribed stress increments on ``control`` with the stage tangent."""
-        T = space.stiffness(ev["K"], ev["G"])
-        upd = ev["Dm"][:, :, None] * (row / ev["den"][:, None])[:, None, :]
-        T = T - np.where(plastic[:, None, None], upd, 0.0)
-        free = np.setdiff1d(np.arange(space.size), control)
+        """Strain increment meeting the prescribed stress increments on ``control`` with the stage tangent
+        T = D - D m (x) row / den (plastic points) or D; NaN rows where the path is uncontrollable."""
+        held, free = control, np.setdiff1d(np.arange(space.size), control)
+        D = space.stiffness(ev["K"], ev["G"])
+        scale = np.where(plastic, 1.0 / ev["den"], 0.0)
+        Dm_s = ev["Dm"][:, held] * scale[:, None]
+        T_sf = D[:, held][:, :, free] - Dm_s[:, :, None] * row[:, None, free]
+        D_ss = D[:, held][:, :, held]
+        T_ss = D_ss - Dm_s[:, :, None] * row[:, None, held]
+        rhs = dload[:, held] - np.einsum("nij,nj->ni", T_sf, dload[:, free])
         deps = dload.copy()
-        deps[:, control] = 0.0
-        rhs = dload[:, control] - np.einsum("nij,nj->ni", T[:, control][:, :, free], dload[:, free])
-        Tss = T[:, control][:, :, control]
-        if control.size == 1:
-            deps[:, control] = rhs / Tss[:, 0]
-            stiff = Tss[:, 0, 0]
+        if held.size == 1:
+            deps[:, held] = rhs / T_ss[:, 0]
+            stiff, stiff_el = T_ss[:, 0, 0], D_ss[:, 0, 0]
         else:
-            deps[:, control] = np.linalg.solve(Tss, rhs[:, :, None])[:, :, 0]
-            stiff = np.linalg.det(Tss)
+            deps[:, held] = np.linalg.solve(T_ss, rhs[:, :, None])[:, :, 0]
+            stiff, stiff_el = np.linalg.det(T_ss), np.linalg.det(D_ss)
         # controllable: the tangent on the stress-controlled components stays above a fraction of the elastic one
-        D = space.stiffness(ev["K"], ev["G"])[:, control][:, :, control]
-        stiff_el = D[:, 0, 0] if control.size == 1 else np.linalg.det(D)
         deps[~(stiff > CONTROL_STIFFNESS_RATIO * stiff_el)] = np.nan
         return deps
 
     # ------------------------------------------------------------------ integration
-    def _integrate(self, space, stress, state, dload, control):
+    def _integrate(self, space, stress, state, dload, control, raise_errors=True, active=None):
         """Modified Euler substepping with error control (Sloan et al. 2001) over one increment of all points.
 
-        Returns (stress, void ratio, eps_d^p, strain increment, plastic flag of the last substep).
+        Returns (stress, void ratio, eps_d^p, strain increment, plastic flag of the last substep, failed mask).
+        A point that fails raises IntegrationError, or with ``raise_errors=False`` is left at its last accepted
+        substep and flagged in the failed mask while the others carry on. Points outside ``active`` (bool (n,),
+        default all) are left unchanged.
         """
+        with np.errstate(all="ignore"):
+            return self._substeps(space, stress, state, dload, control, raise_errors, active)
+
+    def _substeps(self, space, stress, state, dload, control, raise_errors, active):
         n = stress.shape[0]
         par_all = self._point_params(n)
         sig = stress.copy()
@@ -393,16 +403,23 @@ class SIMSAND(MaterialModel):
         eps = np.array(state["eps_dp"], dtype=float)
         strain = np.zeros_like(stress)
         T = np.zeros(n)
-        dT = np.ones(n)
+        dT = np.array(state.get("substep", np.ones(n)), dtype=float)  # first trial substep (fraction of increment)
         plastic_end = np.zeros(n, dtype=bool)
         nsub = np.zeros(n, dtype=int)
-        act = np.arange(n)
+        failed = np.zeros(n, dtype=bool)
+        act = np.arange(n) if active is None else np.flatnonzero(active)
         stol, ftol = self.stol, self.ftol
         par = None
         while act.size:
             if par is None or par["k_p"].shape[0] != act.size:
                 par = {k: v[act] for k, v in par_all.items()}
             s0, e0, k0, v0 = sig[act], e[act], eps[act], v0_all[act]
+            fail = np.zeros(act.size, dtype=bool)
+
+            def flag(mask, reason):
+                if raise_errors and np.any(mask):
+                    raise IntegrationError(int(act[np.argmax(mask)]), reason)
+                fail[mask] = True
             h = np.minimum(dT[act], 1.0 - T[act])
             dl = h[:, None] * dload[act]
             ev0 = self._evaluate(space, s0, e0, k0, par, dstrain=dl)
@@ -412,23 +429,17 @@ class SIMSAND(MaterialModel):
             pl = on_surface & (dlam1 > 0.0)
             if np.any(on_surface & ~pl):
                 dsig1, deps1, dlam1, _ = self._rates(space, ev0, dl, v0, pl, control)
-            bad = pl & ~(ev0["den"] > 0.0)
-            if np.any(bad):
-                raise IntegrationError(int(act[np.argmax(bad)]), "a:D m + K_p <= 0 (no unique plastic response)")
-            bad = ~np.all(np.isfinite(deps1), axis=1)
-            if np.any(bad):
-                raise IntegrationError(int(act[np.argmax(bad)]), "mixed control lost: the tangent stiffness on the "
-                                       f"stress-controlled components fell below {CONTROL_STIFFNESS_RATIO} of the "
-                                       "elastic one (uncontrollable path)")
+            flag(pl & ~(ev0["den"] > 0.0), "a:D m + K_p <= 0 (no unique plastic response)")
+            flag(~np.all(np.isfinite(deps1), axis=1), "mixed control lost: the tangent stiffness on the stress-"
+                 f"controlled components fell below {CONTROL_STIFFNESS_RATIO} of the elastic one (uncontrollable path)")
             ddv1 = -v0 * (deps1 @ space.volumetric_row)
             # stage 2 at the Euler estimate
             ev1 = self._evaluate(space, s0 + dsig1, e0 + ddv1, k0 + dlam1, par, dstrain=dl)
             dsig2, deps2, dlam2, _ = self._rates(space, ev1, dl, v0, pl, control)
-            bad = ~np.all(np.isfinite(deps2), axis=1) & np.all(np.isfinite(ev1["Dm"]), axis=1)
-            if control.size and np.any(bad):
-                raise IntegrationError(int(act[np.argmax(bad)]), "mixed control lost within the substep: the tangent "
-                                       "stiffness on the stress-controlled components fell below "
-                                       f"{CONTROL_STIFFNESS_RATIO} of the elastic one")
+            if control.size:
+                flag(~np.all(np.isfinite(deps2), axis=1) & np.all(np.isfinite(ev1["Dm"]), axis=1) & ~fail,
+                     "mixed control lost within the substep: the tangent stiffness on the stress-controlled "
+                     f"components fell below {CONTROL_STIFFNESS_RATIO} of the elastic one")
             sig_new = s0 + 0.5 * (dsig1 + dsig2)
             deps_new = 0.5 * (deps1 + deps2)
             eps_new = np.maximum(k0 + 0.5 * (dlam1 + dlam2), 0.0)
@@ -439,7 +450,7 @@ class SIMSAND(MaterialModel):
             err = 0.5 * dnorm / np.maximum(snorm, self.p_min)
             err = np.maximum(err, 0.5 * np.abs(dlam2 - dlam1) * par["k_p"] / (par["k_p"] + eps_new) ** 2)
             err = np.where(np.isfinite(err) & ~(pl & ~(ev1["den"] > 0.0)), err, np.inf)
-            ok = err <= stol
+            ok = (err <= stol) & ~fail
             frac = np.ones(act.size)
             # accepted elastic substeps that end outside the yield surface
             el = np.flatnonzero(ok & ~pl)
@@ -463,34 +474,36 @@ class SIMSAND(MaterialModel):
             # drift correction of accepted plastic substeps
             c = np.flatnonzero(ok & pl)
             if c.size:
-                sig_new[c], e_new[c], eps_new[c], deps_new[c] = self._drift_correct(
+                sig_new[c], e_new[c], eps_new[c], deps_new[c], bad = self._drift_correct(
                     space, sig_new[c], e_new[c], eps_new[c], deps_new[c], v0[c], {k: v[c] for k, v in par.items()},
-                    act[c], control)
+                    control)
+                fc = np.zeros(act.size, dtype=bool)
+                fc[c[bad]] = True
+                flag(fc, "drift correction failed (no free stress component changes f)")
             # tension cutoff (sand carries no tension): isotropic p' = p_min
             low = ok & ((sig_new @ space.volumetric_row if space.size == 2 else sig_new[:, :3].sum(axis=1))
                         < 3.0 * self.p_min)
             if np.any(low):
                 sig_new[low] = self.p_min * space.identity
+            flag(ok & ~((e_new > 0.0) & (e_new < E_MAX_STIFFNESS) & np.all(np.isfinite(sig_new), axis=1)),
+                 f"void ratio outside (0, {E_MAX_STIFFNESS}) or non-finite stress")
+            ok &= ~fail
             # commit accepted substeps
             acc = act[ok]
             sig[acc], e[acc], eps[acc] = sig_new[ok], e_new[ok], eps_new[ok]
             strain[acc] += deps_new[ok]
             T[acc] += (h * frac)[ok]
             plastic_end[acc] = pl[ok]
-            badv = ~((e[acc] > 0.0) & (e[acc] < E_MAX_STIFFNESS) & np.all(np.isfinite(sig[acc]), axis=1))
-            if np.any(badv):
-                i = int(acc[np.argmax(badv)])
-                raise IntegrationError(i, f"void ratio {e[i]:.4g} outside (0, {E_MAX_STIFFNESS}) or non-finite stress")
             # next substep: q = 0.9 sqrt(STOL/R) in [0.1, 2] (<= 1 after a rejection); a restart quarters it
             fac = np.clip(0.9 * np.sqrt(stol / np.maximum(err, 1e-30)), 0.1, np.where(ok, 2.0, 1.0))
             dT[act] = np.where(cross, h * (1.0 - frac), np.where(restart, 0.25, fac) * h)
             nsub[act] += 1
-            fail = (dT[act] < 1e-12) & (T[act] < 1.0 - 1e-12) | (nsub[act] > self.max_substeps)
-            if np.any(fail):
-                raise IntegrationError(int(act[np.argmax(fail)]), "error control cannot be met (substep below 1e-12 "
-                                       f"of the increment or more than {self.max_substeps} substeps)")
-            act = act[T[act] < 1.0 - 1e-12]
-        return sig, e, eps, strain, plastic_end
+            flag(~fail & ((dT[act] < 1e-12) & (T[act] < 1.0 - 1e-12) | (nsub[act] > self.max_substeps)),
+                 f"error control cannot be met (substep below 1e-12 of the increment or more than "
+                 f"{self.max_substeps} substeps)")
+            failed[act[fail]] = True
+            act = act[(T[act] < 1.0 - 1e-12) & ~fail]
+        return sig, e, eps, strain, plastic_end, failed, np.minimum(dT, 1.0)
 
     def _crossing(self, space, s0, dsig, e0, de, eps, f0, f1, par, iterations=30):
         """Fraction alpha of an elastic substep where f = 0 (Pegasus method along the linearised elastic path)."""
@@ -506,52 +519,44 @@ class SIMSAND(MaterialModel):
             a1, f1 = alpha, fa
         return alpha
 
-    def _drift_correct(self, space, sig, e, eps, deps, v0, par, points, control, iterations=5):
-        """Return to f = 0 (Sloan et al. 2001), keeping prescribed stress components.
+    def _drift_correct(self, space, sig, e, eps, deps, v0, par, control):
+        """One correction back to f = 0 (Sloan et al. 2001), keeping prescribed stress components.
 
         Consistent correction at fixed total strain on strain-controlled components: d sigma = d lambda (D w - D m),
         d eps = d lambda w, w the strain on stress-controlled components that keeps their stress (w = 0 under
-        strain control), d lambda = f / (a:D m + K_p - row . w). Where that denominator is not positive (softening
-        under mixed control) or the correction does not reduce |f|, the stress alone is projected along the yield
-        gradient restricted to the free components (normal correction).
+        strain control), d lambda = f / (a:D m + K_p - row . w). It converges quadratically; what remains (of order
+        f^2) is carried by the consistency condition of the next substep. Where the denominator is not positive
+        (softening under mixed control) the stress alone is projected along the yield gradient restricted to the
+        free components (normal correction). Returns the corrected (stress, void ratio, eps_d^p, strain increment)
+        and a mask of points where no correction is possible.
         """
-        held = np.isin(np.arange(space.size), control)
-        for _ in range(iterations):
-            ev = self._evaluate(space, sig, e, eps, par, dstrain=deps)
-            f = ev["f"]
-            todo = np.abs(f) > self.ftol
-            if not np.any(todo):
-                break
-            if control.size:
-                row = ev["Da"] - (ev["df_de"] * v0)[:, None] * space.volumetric_row
-                w = self._solve_mixed(space, ev, np.where(held, ev["Dm"], 0.0), row, np.zeros(f.shape, dtype=bool),
-                                      control)
-                dir_sig = self._elastic(space, ev, w) - ev["Dm"]
-                den = ev["den"] - np.einsum("ij,ij->i", row, w)
-            else:
-                w, dir_sig, den = np.zeros_like(deps), -ev["Dm"], ev["den"]
-            consistent = den > 0.0
-            dl = np.where(todo & consistent, f / np.where(consistent, den, 1.0), 0.0)
-            dl = np.maximum(dl, -eps)  # eps_d^p stays >= 0
-            sig_c = sig + dl[:, None] * dir_sig
-            eps_c = eps + dl
-            dw = dl[:, None] * w
-            e_c = e - v0 * (dw @ space.volumetric_row)
-            f_c = self._evaluate(space, sig_c, e_c, eps_c, par, gradients=False)["f"]
-            use = consistent & (np.abs(f_c) < np.abs(f))
-            if not np.all(use | ~todo):  # normal correction: a = df/dp I/3 + a_dev on the free components
-                a = np.where(held, 0.0, ev["a"])
-                aa = (a * a) @ space.weights
-                if np.any(~use & todo & ~(aa > 0.0)):
-                    raise IntegrationError(int(points[np.argmax(~use & todo & ~(aa > 0.0))]),
-                                           "drift correction failed (no free stress component changes f)")
-                sig_n = sig - (f / np.where(aa > 0.0, aa, 1.0))[:, None] * a
-                sig_c = np.where(use[:, None], sig_c, sig_n)
-                eps_c = np.where(use, eps_c, eps)
-                e_c = np.where(use, e_c, e)
-                dw = np.where(use[:, None], dw, 0.0)
-            sig, eps, e, deps = sig_c, eps_c, e_c, deps + dw
-        return sig, e, eps, deps
+        ev = self._evaluate(space, sig, e, eps, par, dstrain=deps)
+        f = ev["f"]
+        todo = np.abs(f) > self.ftol
+        if control.size:
+            held = np.isin(np.arange(space.size), control)
+            row = ev["Da"] - (ev["df_de"] * v0)[:, None] * space.volumetric_row
+            w = self._solve_mixed(space, ev, np.where(held, ev["Dm"], 0.0), row, np.zeros(f.shape, dtype=bool),
+                                  control)
+            dir_sig = self._elastic(space, ev, w) - ev["Dm"]
+            den = ev["den"] - np.einsum("ij,ij->i", row, w)
+        else:
+            held = np.zeros(space.size, dtype=bool)
+            w, dir_sig, den = np.zeros_like(deps), -ev["Dm"], ev["den"]
+        consistent = den > 0.0
+        dl = np.where(todo & consistent, f / np.where(consistent, den, 1.0), 0.0)
+        dl = np.maximum(dl, -eps)  # eps_d^p stays >= 0
+        dw = dl[:, None] * w
+        sig = sig + dl[:, None] * dir_sig
+        e = e - v0 * (dw @ space.volumetric_row)
+        normal = todo & ~consistent
+        bad = np.zeros(f.shape, dtype=bool)
+        if np.any(normal):  # normal correction: a = df/dp I/3 + a_dev on the free components
+            a = np.where(held, 0.0, ev["a"])
+            aa = (a * a) @ space.weights
+            bad = normal & ~(aa > 0.0)
+            sig = sig - np.where(normal, f / np.where(aa > 0.0, aa, 1.0), 0.0)[:, None] * a
+        return sig, e, eps + dl, deps + dw, bad
 
     # ------------------------------------------------------------------ public updates
     def update(self, stress, state, dstrain, dt=0.0):
@@ -563,23 +568,26 @@ class SIMSAND(MaterialModel):
         dstrain = as_points(dstrain, "dstrain")
         if dstrain.shape[0] != stress.shape[0]:
             raise ValueError(f"{self.name}: stress has {stress.shape[0]} points, dstrain {dstrain.shape[0]}")
-        sig, e, eps, _, plastic = self._integrate(GENERAL, stress, state, dstrain, np.array([], dtype=int))
-        new_state = self._state(state, e, eps)
+        sig, e, eps, _, plastic, _, sub = self._integrate(GENERAL, stress, state, dstrain, np.array([], dtype=int))
+        new_state = self._state(state, e, eps, sub)
         return sig, new_state, self._tangent(sig, new_state, plastic, dstrain)
 
-    def update_triaxial(self, stress, state, dload, stress_control=(False, True)):
+    def update_triaxial(self, stress, state, dload, stress_control=(False, True), raise_errors=True, active=None):
         """Fast path for axisymmetric triaxial states (the same equations and integrator in two components).
 
         stress (n, 2) = (sigma'_a, sigma'_r) in kPa; ``dload`` (n, 2): per component the strain increment where
         strain-controlled, the stress increment (kPa) where ``stress_control`` is True (default: drained triaxial,
-        radial stress prescribed). Returns (stress, state, strain increment (n, 2) = (d eps_a, d eps_r)).
-        Undrained triaxial: strain control with d eps_r = -d eps_a/2.
+        radial stress prescribed). Undrained triaxial: strain control with d eps_r = -d eps_a/2.
+        Returns (stress, state, strain increment (n, 2) = (d eps_a, d eps_r), failed (n,) bool); failed points
+        raise IntegrationError unless ``raise_errors`` is False (they then stay at their last accepted substep).
+        Points outside ``active`` (bool (n,), default all) are left unchanged.
         """
         stress = np.asarray(stress, dtype=float).reshape(-1, 2)
         dload = np.broadcast_to(np.asarray(dload, dtype=float), stress.shape)
         control = np.flatnonzero(np.asarray(stress_control, dtype=bool))
-        sig, e, eps, deps, _ = self._integrate(TRIAXIAL, stress, state, dload, control)
-        return sig, self._state(state, e, eps), deps
+        sig, e, eps, deps, _, failed, sub = self._integrate(TRIAXIAL, stress, state, dload, control, raise_errors,
+                                                            active)
+        return sig, self._state(state, e, eps, sub), deps, failed
 
     def triaxial_test(self, e0, p0, axial_strain, *, drained=True, substeps=1, on_failure="raise"):
         """Fast triaxial compression/extension from the isotropic state (e0, p0 kPa) with :meth:`update_triaxial`.
@@ -607,21 +615,15 @@ class SIMSAND(MaterialModel):
         for j, target in enumerate(targets):
             d_a = (target - previous) / substeps
             previous = target
+            dload = np.zeros((n, 2))
+            dload[:, 0] = d_a
+            if not drained:
+                dload[:, 1] = -0.5 * d_a
             for _ in range(substeps):
-                dload = np.zeros((n, 2))
-                dload[:, 0] = d_a
-                if not drained:
-                    dload[:, 1] = -0.5 * d_a
-                while True:
-                    try:
-                        new_sig, new_state, deps = self.update_triaxial(sig, state, np.where(alive[:, None], dload, 0.0),
-                                                                        control)
-                        break
-                    except IntegrationError as err:
-                        if on_failure == "raise" or not alive[err.point]:
-                            raise
-                        alive[err.point] = False
-                sig, state, strain = new_sig, new_state, strain + deps
+                sig, state, deps, failed = self.update_triaxial(sig, state, dload, control,
+                                                                raise_errors=on_failure == "raise", active=alive)
+                strain += deps
+                alive &= ~failed
             for key, val in (("eps_a", strain[:, 0]), ("eps_r", strain[:, 1]), ("sig_a", sig[:, 0]),
                              ("sig_r", sig[:, 1]), ("e", state["void_ratio"])):
                 rec[key][:, j] = np.where(alive, val, np.nan)
@@ -632,9 +634,9 @@ class SIMSAND(MaterialModel):
                 "radial_stress": rec["sig_r"], "failed": ~alive}
 
     @staticmethod
-    def _state(state, e, eps):
+    def _state(state, e, eps, substep):
         return {"void_ratio": e, "void_ratio_initial": np.array(state["void_ratio_initial"], dtype=float),
-                "eps_dp": eps}
+                "eps_dp": eps, "substep": substep}
 
     def _tangent(self, sig, state, plastic, dstrain):
         """Continuum tangent at the end state: elastic D, minus D m (x) row / den where the last substep was plastic."""
