@@ -322,7 +322,8 @@ class SIMSAND(MaterialModel):
         if dstrain is not None and not np.all(shear):
             d = space.deviatoric_strain(dstrain)
             dd = (d * d) @ space.weights
-            scale = np.sqrt(1.5 / np.where(dd > 0.0, dd, 1.0)) * (dd > 0.0)
+            shearing = dd > 1e-20 * (dstrain * dstrain).sum(axis=1)  # not round-off of a volumetric increment
+            scale = np.sqrt(1.5 / np.where(shearing, dd, 1.0)) * shearing
             nhat = np.where(shear[:, None], nhat, d * scale[:, None])
         a_dev = nhat / pe[:, None]  # df/dq = 1/p'
         if lode_grad is not None:
@@ -572,6 +573,20 @@ class SIMSAND(MaterialModel):
         new_state = self._state(state, e, eps, sub)
         return sig, new_state, self._tangent(sig, new_state, plastic, dstrain)
 
+    def _tangent(self, sig, state, plastic, dstrain):
+        """Continuum tangent at the end state: D - D m (x) row / den where the last substep was plastic, or where the
+        increment is zero and the stress lies on the yield surface (a loading predictor); elastic D elsewhere."""
+        n = sig.shape[0]
+        par = self._point_params(n)
+        ev = self._evaluate(GENERAL, sig, state["void_ratio"], state["eps_dp"], par, dstrain=dstrain)
+        D = isotropic_stiffness(ev["K"], ev["G"])
+        plastic = plastic | (~np.any(dstrain != 0.0, axis=1) & (ev["f"] >= -self.ftol))
+        if np.any(plastic):
+            row = ev["Da"] - (ev["df_de"] * (1.0 + state["void_ratio_initial"]))[:, None] * IDENTITY
+            upd = ev["Dm"][:, :, None] * (row / ev["den"][:, None])[:, None, :]
+            D = D - np.where(plastic[:, None, None], upd, 0.0)
+        return D
+
     def update_triaxial(self, stress, state, dload, stress_control=(False, True), raise_errors=True, active=None):
         """Fast path for axisymmetric triaxial states (the same equations and integrator in two components).
 
@@ -637,15 +652,3 @@ class SIMSAND(MaterialModel):
     def _state(state, e, eps, substep):
         return {"void_ratio": e, "void_ratio_initial": np.array(state["void_ratio_initial"], dtype=float),
                 "eps_dp": eps, "substep": substep}
-
-    def _tangent(self, sig, state, plastic, dstrain):
-        """Continuum tangent at the end state: elastic D, minus D m (x) row / den where the last substep was plastic."""
-        n = sig.shape[0]
-        par = self._point_params(n)
-        ev = self._evaluate(GENERAL, sig, state["void_ratio"], state["eps_dp"], par, dstrain=dstrain)
-        D = isotropic_stiffness(ev["K"], ev["G"])
-        if np.any(plastic):
-            row = ev["Da"] - (ev["df_de"] * (1.0 + state["void_ratio_initial"]))[:, None] * IDENTITY
-            upd = ev["Dm"][:, :, None] * (row / ev["den"][:, None])[:, None, :]
-            D = D - np.where(plastic[:, None, None], upd, 0.0)
-        return D
