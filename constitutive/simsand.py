@@ -27,7 +27,8 @@ correction (Sloan, Abbo & Sheng 2001), vectorised over points with per-point pse
 elastic-plastic transition inside a substep is located by the Pegasus method on the yield function. At the origin of
 loading (q = 0 and eps_d^p = 0 the yield surface degenerates to the hydrostatic axis) the deviatoric flow direction is
 taken along the deviatoric strain increment. Below ``p_min`` (kPa) the stress is cut off to the isotropic state
-p' = p_min (tension cutoff: sand carries no tension); stiffness and friction are evaluated with p' >= p_min.
+p' = p_min for the rest of the increment (tension cutoff: liquefied sand carries no effective stress); stiffness and
+friction are evaluated with p' >= p_min.
 
 The returned tangent is the continuum elasto-plastic tangent at the end of the increment
 (D - D m (x) D a / (a:D m + K_p), including the void-ratio term of M_p), or the elastic D where the last substep was
@@ -49,6 +50,9 @@ _SQRT3_HALF3 = 1.5 * np.sqrt(3.0)
 #: fraction of the elastic one: the path (e.g. drained triaxial with extreme dilatancy) is about to become
 #: uncontrollable and the lateral strain rate unbounded
 CONTROL_STIFFNESS_RATIO = 1e-2
+#: the relative stress error of a substep is measured against max(|sigma'|, this fraction of p_at) so that states
+#: near the tension cutoff (liquefied sand) do not demand vanishing substeps
+STRESS_ERROR_FLOOR = 1e-2
 
 
 def friction_ratio(tan_phi, sin3theta, derivatives=True):
@@ -448,7 +452,7 @@ class SIMSAND(MaterialModel):
             # local error (Sloan et al. 2001): stress relative; hardening through the mobilised ratio H (absolute)
             dnorm = np.sqrt(((dsig2 - dsig1) ** 2) @ space.weights)
             snorm = np.sqrt((sig_new**2) @ space.weights)
-            err = 0.5 * dnorm / np.maximum(snorm, self.p_min)
+            err = 0.5 * dnorm / np.maximum(snorm, STRESS_ERROR_FLOOR * self.p_at)
             err = np.maximum(err, 0.5 * np.abs(dlam2 - dlam1) * par["k_p"] / (par["k_p"] + eps_new) ** 2)
             err = np.where(np.isfinite(err) & ~(pl & ~(ev1["den"] > 0.0)), err, np.inf)
             ok = (err <= stol) & ~fail
@@ -481,7 +485,7 @@ class SIMSAND(MaterialModel):
                 fc = np.zeros(act.size, dtype=bool)
                 fc[c[bad]] = True
                 flag(fc, "drift correction failed (no free stress component changes f)")
-            # tension cutoff (sand carries no tension): isotropic p' = p_min
+            # tension cutoff (sand carries no tension): isotropic p' = p_min for the rest of the increment
             low = ok & ((sig_new @ space.volumetric_row if space.size == 2 else sig_new[:, :3].sum(axis=1))
                         < 3.0 * self.p_min)
             if np.any(low):
@@ -494,6 +498,7 @@ class SIMSAND(MaterialModel):
             sig[acc], e[acc], eps[acc] = sig_new[ok], e_new[ok], eps_new[ok]
             strain[acc] += deps_new[ok]
             T[acc] += (h * frac)[ok]
+            T[act[low]] = 1.0  # cut off: the rest of the increment is absorbed at p' = p_min
             plastic_end[acc] = pl[ok]
             # next substep: q = 0.9 sqrt(STOL/R) in [0.1, 2] (<= 1 after a rejection); a restart quarters it
             fac = np.clip(0.9 * np.sqrt(stol / np.maximum(err, 1e-30)), 0.1, np.where(ok, 2.0, 1.0))

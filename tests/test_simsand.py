@@ -250,8 +250,8 @@ def test_true_value_curves_dense_peaks_and_dilates_loose_contracts():
 def test_generic_driver_converges_to_the_fast_path_when_the_step_is_halved():
     """labtests.drained_triaxial (6-component update, radial stress met at step ends) converges to the fast path
     (radial stress held within every substep) as the strain increment is halved, at second order."""
-    model = SIMSAND(**TRUE, stol=1e-6)
-    ea = np.linspace(0.0025, 0.05, 20)
+    model = SIMSAND(**TRUE, stol=1e-5)
+    ea = np.linspace(0.0025, 0.025, 10)
     ref = model.triaxial_test(0.7, 200.0, ea)
     errors = []
     for sub in (1, 2, 4):
