@@ -19,7 +19,6 @@ import os
 import signal
 import sys
 import threading
-import time
 import traceback
 
 import numpy as np
@@ -184,7 +183,9 @@ class PoolExecutor(_BaseExecutor):
     """A local process pool (the embedded default on a laptop or workstation without mpirun).
 
     Workers are forked with the evaluator already in memory (nothing but parameter vectors crosses processes);
-    where fork is unavailable the evaluator is pickled once per worker.
+    where fork is unavailable the evaluator is pickled once per worker. Workers ignore SIGTERM/SIGINT so that a
+    signal sent to the whole process group (Slurm) reaches only the parent, which checkpoints; the pool is shut down
+    with sentinels (running evaluations finish, queued ones are cancelled), never with signals.
     """
 
     name = "pool"
@@ -199,6 +200,7 @@ class PoolExecutor(_BaseExecutor):
 
     def _ensure(self, evaluator):
         import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
 
         if self._pool is not None and self._evaluator is evaluator:
             return
@@ -209,10 +211,12 @@ class PoolExecutor(_BaseExecutor):
             ctx, initarg = mp.get_context("fork"), None
         else:  # pragma: no cover - not on Linux
             ctx, initarg = mp.get_context("spawn"), evaluator
-        self._pool = ctx.Pool(self.processes, initializer=_pool_init, initargs=(initarg,))
+        self._pool = ProcessPoolExecutor(self.processes, mp_context=ctx, initializer=_pool_init, initargs=(initarg,))
         self._evaluator = evaluator
 
     def evaluate(self, evaluator, thetas, callback=None, stop=None):
+        from concurrent.futures import as_completed
+
         self._ensure(evaluator)
         m = len(thetas)
         values = np.full(m, np.nan)
@@ -220,23 +224,28 @@ class PoolExecutor(_BaseExecutor):
         ranks = np.zeros(m, dtype=int)
         vec = evaluator.vectorized or getattr(evaluator.loglike, "batch", False)
         chunk = self.chunk or (math.ceil(m / self.processes) if vec else max(1, m // (8 * self.processes)))
-        tasks = [(np.arange(s, min(m, s + chunk)), thetas[s:s + chunk]) for s in range(0, m, chunk)]
-        for idx, v, r, pid in self._pool.imap_unordered(_pool_task, tasks):
-            rank = self._pids.setdefault(pid, len(self._pids))
-            values[idx] = v
-            ranks[idx] = rank
-            for i, reason in zip(idx, r):
-                reasons[i] = reason
-            if callback is not None:
-                callback(idx, v, r, ranks[idx])
-            if stop is not None and stop():
-                break
+        futures = [self._pool.submit(_pool_task, (np.arange(s, min(m, s + chunk)), thetas[s:s + chunk]))
+                   for s in range(0, m, chunk)]
+        try:
+            for fut in as_completed(futures):
+                idx, v, r, pid = fut.result()
+                rank = self._pids.setdefault(pid, len(self._pids))
+                values[idx] = v
+                ranks[idx] = rank
+                for i, reason in zip(idx, r):
+                    reasons[i] = reason
+                if callback is not None:
+                    callback(idx, v, r, ranks[idx])
+                if stop is not None and stop():
+                    break
+        finally:
+            for fut in futures:
+                fut.cancel()
         return values, reasons, ranks
 
     def close(self):
         if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
+            self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
             self._evaluator = None
 

@@ -34,7 +34,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from .checkpoint import load_checkpoint, save_checkpoint
-from .executors import Evaluator, MPIExecutor, SerialExecutor, default_executor
+from .executors import Evaluator, MPIExecutor, default_executor
 from .likelihood import Likelihood
 from .priors import Prior
 from .results import Posterior

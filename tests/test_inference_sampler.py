@@ -133,21 +133,25 @@ def test_mpi_job_with_failing_workers_ends_without_hanging(tmp_path):
     assert "forward evaluations failed" in proc.stderr
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
-def test_kill_and_resume_gives_the_uninterrupted_result(tmp_path, sig):
+@pytest.mark.parametrize("sig,executor", [(signal.SIGTERM, "serial"), (signal.SIGKILL, "serial"),
+                                          (signal.SIGTERM, "pool")])
+def test_kill_and_resume_gives_the_uninterrupted_result(tmp_path, sig, executor):
+    """Killed mid-stage, resumed (with the serial executor), the run ends exactly as the uninterrupted one. With the
+    pool, SIGTERM goes to the whole process group, as Slurm sends it."""
     ref, _ = _script(tmp_path, "ref", "--executor", "serial")
     ckpt = str(tmp_path / "run.ckpt")
     out = str(tmp_path / "resumed.npz")
-    cmd = [sys.executable, SCRIPT, out, "--executor", "serial", "--checkpoint", ckpt, "--sleep", "0.003"]
-    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    cmd = [sys.executable, SCRIPT, out, "--executor", executor, "--checkpoint", ckpt, "--sleep", "0.003"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     deadline = time.time() + 30
     while not os.path.exists(ckpt) and time.time() < deadline:
         time.sleep(0.05)
     time.sleep(0.4)
-    proc.send_signal(sig)
+    os.killpg(proc.pid, sig)
     proc.wait(timeout=30)
     assert proc.returncode == (75 if sig == signal.SIGTERM else -signal.SIGKILL)
     assert not os.path.exists(out), "the run finished before it was interrupted: make it slower"
+    cmd[cmd.index(executor, 3)] = "serial"
     subprocess.run(cmd[:-2] + ["--resume"], cwd=ROOT, check=True, timeout=120, capture_output=True)
     got = np.load(out)
     assert float(got["log_evidence"]) == float(ref["log_evidence"])
