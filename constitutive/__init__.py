@@ -8,5 +8,6 @@ from .elastic import LinearElastic
 from .von_mises import VonMises
 from .mcc import ModifiedCamClay
 from .anicreep import ANICREEP
+from .simsand import SIMSAND
 
-__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises", "ModifiedCamClay", "ANICREEP"]
+__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises", "ModifiedCamClay", "ANICREEP", "SIMSAND"]

@@ -13,6 +13,7 @@ import numpy as np
 from . import labtests
 from .mcc import ModifiedCamClay
 from .anicreep import ANICREEP
+from .simsand import SIMSAND
 
 
 def _mcc_batch(n, seed=0):
@@ -74,8 +75,42 @@ def anicreep_update_points(n=240, n_increments=50, dt=0.6):
             "seconds": round(wall, 4), "us_per_point_increment": round(1e6 * wall / (n * n_increments), 3)}
 
 
+def _simsand_batch(n, seed=0):
+    """SIMSAND parameter sets drawn from the synthetic-study prior box (REFERENCE section 5), nu, K_0, n fixed."""
+    rng = np.random.default_rng(seed)
+    bounds = dict(e_ref=(0.5, 1.5), lambda_c=(0.001, 0.1), xi=(0.01, 1.0), phi_mu=(20.0, 50.0), k_p=(1e-4, 1e-2),
+                  A_d=(0.5, 2.0), n_p=(0.1, 10.0), n_d=(0.1, 10.0))
+    return SIMSAND(nu=0.2, K_0=100.0, n=0.6, **{k: rng.uniform(lo, hi, n) for k, (lo, hi) in bounds.items()})
+
+
+def simsand_drained_triaxial_batch(n=2000, n_points=100, e0=0.7, p0=200.0):
+    """SIMSAND drained triaxial to 25 % axial strain over n prior parameter sets, one vectorized call of the
+    triaxial fast path (SIMSAND.triaxial_test); failed (uncontrollable) points are flagged, not retried."""
+    model = _simsand_batch(n)
+    axial = np.linspace(0.0, 0.25, n_points + 1)[1:]
+    t0 = time.perf_counter()
+    curves = model.triaxial_test(e0, p0, axial, on_failure="nan")
+    wall = time.perf_counter() - t0
+    return {"benchmark": "simsand_drained_triaxial_batch", "path": "SIMSAND.triaxial_test", "n_particles": n,
+            "n_steps": n_points, "e0": e0, "p0": p0, "stol": model.stol, "n_failed": int(curves["failed"].sum()),
+            "seconds": round(wall, 3), "ms_per_particle_test": round(1e3 * wall / n, 4)}
+
+
+def simsand_drained_triaxial_generic(n=20, n_points=100, e0=0.7, p0=200.0):
+    """The same test through the generic mixed-control driver (labtests.drained_triaxial, 6-component update)."""
+    model = _simsand_batch(n)
+    axial = np.linspace(0.0, 0.25, n_points + 1)[1:]
+    t0 = time.perf_counter()
+    curves = labtests.drained_triaxial(model, e0, p0, axial, on_failure="nan")
+    wall = time.perf_counter() - t0
+    return {"benchmark": "simsand_drained_triaxial_generic", "path": "labtests.drained_triaxial", "n_particles": n,
+            "n_steps": n_points, "e0": e0, "p0": p0, "stol": model.stol, "n_failed": int(curves["failed"].sum()),
+            "seconds": round(wall, 3), "ms_per_particle_test": round(1e3 * wall / n, 4)}
+
+
 #: benchmarks run in order by ``python -m constitutive.bench``; each returns one JSON-able dict
-BENCHMARKS = [mcc_update_points, anicreep_update_points, mcc_drained_triaxial_batch, mcc_undrained_triaxial_batch]
+BENCHMARKS = [mcc_update_points, anicreep_update_points, mcc_drained_triaxial_batch, mcc_undrained_triaxial_batch,
+              simsand_drained_triaxial_batch, simsand_drained_triaxial_generic]
 
 
 def main():
