@@ -6,7 +6,7 @@ log-likelihood (or -inf), the failure reason (or None) and the rank that compute
 index, so the order in which workers finish never changes the answer.
 
 MPI (mpi4py, chosen automatically under ``mpirun -n K`` with K > 1):
-- ``dynamic`` (default): rank 0 hands out one parameter vector at a time and keeps two in flight per worker, and
+- ``dynamic`` (default): rank 0 hands out one parameter vector at a time and keeps four in flight per worker, and
   computes vectors itself between polls, so every rank is busy even when forward-solve times differ;
 - ``spmd``: static round-robin, rank r evaluates particles k with k % K == r (the paper's ``labindex`` scheme).
 Every rank calls :func:`inference.tmcmc`; rank 0 runs the sampler, the others serve evaluations and receive the
@@ -276,7 +276,7 @@ class MPIExecutor(_BaseExecutor):
 
     name = "mpi"
 
-    def __init__(self, comm=None, mode="dynamic", depth=2):
+    def __init__(self, comm=None, mode="dynamic", depth=4):
         if mode not in ("dynamic", "spmd"):
             raise ValueError(f"MPI dispatch mode {mode!r}: use 'dynamic' or 'spmd'")
         self.comm = comm if comm is not None else mpi_world()
