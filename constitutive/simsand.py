@@ -163,6 +163,17 @@ GENERAL = GeneralStress()
 TRIAXIAL = TriaxialStress()
 
 
+class MixedControl:
+    """Which components of a stress space have prescribed stress increments (``held``) and which prescribed strain
+    increments (``free``); ``size`` is the number held (0: pure strain control)."""
+
+    def __init__(self, n_components, held):
+        self.held = np.asarray(held, dtype=int)
+        self.mask = np.isin(np.arange(n_components), self.held)
+        self.free = np.flatnonzero(~self.mask)
+        self.size = self.held.size
+
+
 class SIMSAND(MaterialModel):
     """SIMSAND sand model (REFERENCE.md section 3).
 
@@ -368,7 +379,7 @@ class SIMSAND(MaterialModel):
     def _solve_mixed(space, ev, dload, row, plastic, control):
         """Strain increment meeting the prescribed stress increments on ``control`` with the stage tangent
         T = D - D m (x) row / den (plastic points) or D; NaN rows where the path is uncontrollable."""
-        held, free = control, np.setdiff1d(np.arange(space.size), control)
+        held, free = control.held, control.free
         D = space.stiffness(ev["K"], ev["G"])
         scale = np.where(plastic, 1.0 / ev["den"], 0.0)
         Dm_s = ev["Dm"][:, held] * scale[:, None]
@@ -397,7 +408,7 @@ class SIMSAND(MaterialModel):
         default all) are left unchanged.
         """
         with np.errstate(all="ignore"):
-            return self._substeps(space, stress, state, dload, control, raise_errors, active)
+            return self._substeps(space, stress, state, dload, MixedControl(space.size, control), raise_errors, active)
 
     def _substeps(self, space, stress, state, dload, control, raise_errors, active):
         n = stress.shape[0]
@@ -481,7 +492,7 @@ class SIMSAND(MaterialModel):
             if c.size:
                 sig_new[c], e_new[c], eps_new[c], deps_new[c], bad = self._drift_correct(
                     space, sig_new[c], e_new[c], eps_new[c], deps_new[c], v0[c], {k: v[c] for k, v in par.items()},
-                    control)
+                    control, {k: v[c] for k, v in ev1.items()})
                 fc = np.zeros(act.size, dtype=bool)
                 fc[c[bad]] = True
                 flag(fc, "drift correction failed (no free stress component changes f)")
@@ -525,7 +536,7 @@ class SIMSAND(MaterialModel):
             a1, f1 = alpha, fa
         return alpha
 
-    def _drift_correct(self, space, sig, e, eps, deps, v0, par, control):
+    def _drift_correct(self, space, sig, e, eps, deps, v0, par, control, ev):
         """One correction back to f = 0 (Sloan et al. 2001), keeping prescribed stress components.
 
         Consistent correction at fixed total strain on strain-controlled components: d sigma = d lambda (D w - D m),
@@ -533,14 +544,15 @@ class SIMSAND(MaterialModel):
         strain control), d lambda = f / (a:D m + K_p - row . w). It converges quadratically; what remains (of order
         f^2) is carried by the consistency condition of the next substep. Where the denominator is not positive
         (softening under mixed control) the stress alone is projected along the yield gradient restricted to the
-        free components (normal correction). Returns the corrected (stress, void ratio, eps_d^p, strain increment)
-        and a mask of points where no correction is possible.
+        free components (normal correction). The yield function is evaluated at the end of the substep; gradients,
+        moduli and flow come from ``ev``, the evaluation at the second-stage state of the same substep (a nearby
+        state: the correction is of the order of the local error). Returns the corrected (stress, void ratio,
+        eps_d^p, strain increment) and a mask of points where no correction is possible.
         """
-        ev = self._evaluate(space, sig, e, eps, par, dstrain=deps)
-        f = ev["f"]
+        f = self._evaluate(space, sig, e, eps, par, gradients=False)["f"]
         todo = np.abs(f) > self.ftol
         if control.size:
-            held = np.isin(np.arange(space.size), control)
+            held = control.mask
             row = ev["Da"] - (ev["df_de"] * v0)[:, None] * space.volumetric_row
             w = self._solve_mixed(space, ev, np.where(held, ev["Dm"], 0.0), row, np.zeros(f.shape, dtype=bool),
                                   control)
