@@ -235,6 +235,8 @@ class SIMSAND(MaterialModel):
         self.n_sets = sizes.pop() if sizes else 1
         # derived constants, (III) and (VII)
         self._tan_mu = np.tan(np.radians(self.phi_mu))
+        self._log_tan_mu = np.log(self._tan_mu)
+        self._log_e_ref = np.log(self.e_ref)
         self._shear_ratio = 1.5 * (1.0 - 2.0 * self.nu) / (1.0 + self.nu)  # G/K
 
     # ------------------------------------------------------------------ parameters per point
@@ -242,7 +244,8 @@ class SIMSAND(MaterialModel):
         """Parameters broadcast to (n,) (n must equal the number of parameter sets where they are arrays)."""
         if self.n_sets not in (1, n):
             raise ValueError(f"{self.name}: {n} points but parameter arrays of length {self.n_sets}")
-        names = ("K_0", "n", "e_ref", "lambda_c", "xi", "k_p", "A_d", "n_p", "n_d", "_tan_mu", "_shear_ratio")
+        names = ("K_0", "n", "lambda_c", "xi", "k_p", "A_d", "n_p", "n_d", "_log_e_ref", "_log_tan_mu",
+                 "_shear_ratio")
         return {k: np.broadcast_to(getattr(self, k), (n,)) for k in names}
 
     # ------------------------------------------------------------------ closed-form pieces
@@ -314,10 +317,9 @@ class SIMSAND(MaterialModel):
         # (VI) critical state line and (VII) interlocking
         log_pr = np.log(pe / self.p_at)
         x = np.exp(par["xi"] * log_pr)
-        ec = par["e_ref"] * np.exp(-par["lambda_c"] * x)
-        log_r = np.log(ec / e)
-        tan_p = np.exp(par["n_p"] * log_r) * par["_tan_mu"]
-        tan_pt = np.exp(-par["n_d"] * log_r) * par["_tan_mu"]
+        log_r = par["_log_e_ref"] - par["lambda_c"] * x - np.log(e)  # ln(e_c/e)
+        tan_p = np.exp(par["n_p"] * log_r + par["_log_tan_mu"])
+        tan_pt = np.exp(par["_log_tan_mu"] - par["n_d"] * log_r)
         H = eps_dp / (par["k_p"] + eps_dp)
         if not gradients:
             Mp = friction_ratio(tan_p, sin3, derivatives=False)
