@@ -362,7 +362,7 @@ class SIMSAND(MaterialModel):
         return (ev["K"] * dv)[:, None] * space.identity + 2.0 * ev["G"][:, None] * space.deviatoric_strain(deps)
 
     def _rates(self, space, ev, dload, v0, plastic, control):
-        """Stage increments (d sigma, d eps, d lambda, loading) for one substep.
+        """Stage increments (d sigma, d eps, d lambda) for one substep.
 
         ``dload`` holds the prescribed strain increments on strain-controlled components and the prescribed stress
         increments on the stress-controlled ones (``control`` = indices of the latter, possibly empty); the unknown
@@ -373,9 +373,8 @@ class SIMSAND(MaterialModel):
             deps = dload
         else:
             deps = self._solve_mixed(space, ev, dload, row, plastic, control)
-        load = np.einsum("ij,ij->i", row, deps)
-        dlam = np.where(plastic, load / ev["den"], 0.0)
-        return self._elastic(space, ev, deps) - dlam[:, None] * ev["Dm"], deps, dlam, load
+        dlam = np.where(plastic, np.einsum("ij,ij->i", row, deps) / ev["den"], 0.0)
+        return self._elastic(space, ev, deps) - dlam[:, None] * ev["Dm"], deps, dlam
 
     @staticmethod
     def _solve_mixed(space, ev, dload, row, plastic, control):
@@ -404,7 +403,9 @@ class SIMSAND(MaterialModel):
     def _integrate(self, space, stress, state, dload, control, raise_errors=True, active=None):
         """Modified Euler substepping with error control (Sloan et al. 2001) over one increment of all points.
 
-        Returns (stress, void ratio, eps_d^p, strain increment, plastic flag of the last substep, failed mask).
+        ``control``: indices of the stress-controlled components (empty: strain control).
+        Returns (stress, void ratio, eps_d^p, strain increment, plastic flag of the last substep, failed mask,
+        proposed first substep of the next increment).
         A point that fails raises IntegrationError, or with ``raise_errors=False`` is left at its last accepted
         substep and flagged in the failed mask while the others carry on. Points outside ``active`` (bool (n,),
         default all) are left unchanged.
@@ -443,17 +444,17 @@ class SIMSAND(MaterialModel):
             ev0 = self._evaluate(space, s0, e0, k0, par, dstrain=dl)
             on_surface = ev0["f"] >= -ftol
             # stage 1 (forward Euler); plastic where on the surface and loading
-            dsig1, deps1, dlam1, _ = self._rates(space, ev0, dl, v0, on_surface, control)
+            dsig1, deps1, dlam1 = self._rates(space, ev0, dl, v0, on_surface, control)
             pl = on_surface & (dlam1 > 0.0)
-            if np.any(on_surface & ~pl):
-                dsig1, deps1, dlam1, _ = self._rates(space, ev0, dl, v0, pl, control)
+            if np.any(on_surface & ~pl):  # unloading from the surface (elastic; mixed control: re-solve)
+                dsig1, deps1, dlam1 = self._rates(space, ev0, dl, v0, pl, control)
             flag(pl & ~(ev0["den"] > 0.0), "a:D m + K_p <= 0 (no unique plastic response)")
             flag(~np.all(np.isfinite(deps1), axis=1), "mixed control lost: the tangent stiffness on the stress-"
                  f"controlled components fell below {CONTROL_STIFFNESS_RATIO} of the elastic one (uncontrollable path)")
             ddv1 = -v0 * (deps1 @ space.volumetric_row)
             # stage 2 at the Euler estimate
             ev1 = self._evaluate(space, s0 + dsig1, e0 + ddv1, k0 + dlam1, par, dstrain=dl)
-            dsig2, deps2, dlam2, _ = self._rates(space, ev1, dl, v0, pl, control)
+            dsig2, deps2, dlam2 = self._rates(space, ev1, dl, v0, pl, control)
             if control.size:
                 flag(~np.all(np.isfinite(deps2), axis=1) & np.all(np.isfinite(ev1["Dm"]), axis=1) & ~fail,
                      "mixed control lost within the substep: the tangent stiffness on the stress-controlled "

@@ -45,7 +45,8 @@ def test_mismatched_parameter_arrays_raise():
 
 # ----------------------------------------------------------------------------------------------- closed forms
 def test_friction_ratio_compression_and_extension():
-    """Sheng et al.: M(sin3theta = +1) = M_c = 6 sin phi/(3 - sin phi), M(-1) = c M_c, c = (3 - sin phi)/(3 + sin phi)."""
+    """Sheng et al.: M(sin3theta = +1) = M_c = 6 sin phi/(3 - sin phi), M(-1) = c M_c,
+    c = (3 - sin phi)/(3 + sin phi)."""
     for phi in (20.0, 30.0, 45.0):
         s = np.sin(np.radians(phi))
         Mc = 6 * s / (3 - s)
