@@ -479,7 +479,8 @@ class SIMSAND(MaterialModel):
                 pel = {k: v[el] for k, v in par.items()}
                 f_el = self._evaluate(space, sig_new[el], e_new[el], eps_new[el], pel, gradients=False)["f"]
                 out = f_el > ftol
-                restart[el[out & on_surface[el]]] = True  # unloading then reloading inside the substep: shorten
+                # from the surface: unloading then reloading inside the substep (f grows past its start): shorten
+                restart[el[out & on_surface[el] & (f_el > np.maximum(ev0["f"][el], 0.0) + ftol)]] = True
                 c = out & ~on_surface[el]
                 if np.any(c):  # elastic to plastic: stop the substep at the crossing (Pegasus on f)
                     ci = el[c]
