@@ -320,3 +320,18 @@ def test_undrained_loose_liquefies_to_the_tension_cutoff_without_failure():
     assert np.all(np.isfinite(c["p"])) and c["p"][0].min() >= model.p_min - 1e-9
     assert c["p"][0, -1] < 10.0 and c["excess_pore_pressure"][0, -1] > 90.0
     np.testing.assert_allclose(c["volumetric_strain"][0], 0.0, atol=1e-15)
+
+
+def test_zero_increment_leaves_a_slightly_drifted_state_unchanged():
+    """A zero strain increment at a state marginally outside the yield surface (drift left by a previous
+    correction) returns the same stress without error (the generic driver freezes points this way)."""
+    model = SIMSAND(**TRUE)
+    stress = triaxial_stress(500.0, 300.0)
+    p, q = mean_stress(stress)[0], deviatoric_stress(stress)[0]
+    Mp, _ = model.friction_ratios(p, 0.65, 1.0)
+    eta = q / p
+    state = {"void_ratio": np.array([0.65]), "void_ratio_initial": np.array([0.65]),
+             "eps_dp": np.atleast_1d(0.003 * eta / (Mp - eta) * (1 - 1e-5)), "substep": np.ones(1)}
+    new, new_state, _ = model.update(stress, state, np.zeros((1, 6)), 0.0)
+    np.testing.assert_array_equal(new, stress)
+    assert new_state["eps_dp"][0] == state["eps_dp"][0]
