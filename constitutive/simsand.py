@@ -426,7 +426,8 @@ class SIMSAND(MaterialModel):
         plastic_end = np.zeros(n, dtype=bool)
         nsub = np.zeros(n, dtype=int)
         failed = np.zeros(n, dtype=bool)
-        act = np.arange(n) if active is None else np.flatnonzero(active)
+        moving = np.any(dload != 0.0, axis=1)  # a zero increment (zero loads) changes nothing
+        act = np.flatnonzero(moving if active is None else moving & active)
         stol, ftol = self.stol, self.ftol
         par = None
         while act.size:
@@ -479,8 +480,7 @@ class SIMSAND(MaterialModel):
                 pel = {k: v[el] for k, v in par.items()}
                 f_el = self._evaluate(space, sig_new[el], e_new[el], eps_new[el], pel, gradients=False)["f"]
                 out = f_el > ftol
-                # from the surface: unloading then reloading inside the substep (f grows past its start): shorten
-                restart[el[out & on_surface[el] & (f_el > np.maximum(ev0["f"][el], 0.0) + ftol)]] = True
+                restart[el[out & on_surface[el]]] = True  # unloading then reloading inside the substep: shorten
                 c = out & ~on_surface[el]
                 if np.any(c):  # elastic to plastic: stop the substep at the crossing (Pegasus on f)
                     ci = el[c]
