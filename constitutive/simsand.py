@@ -196,8 +196,8 @@ class SIMSAND(MaterialModel):
     tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 1000).
 
     State (dict of (n,) arrays): ``void_ratio`` e, ``void_ratio_initial`` e_0 (reference of e = e_0 - (1 + e_0)
-    eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0), ``substep`` the first trial substep of
-    the next increment as a fraction of it (the last size proposed by the error control; an efficiency hint only).
+    eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0), ``substep`` the last substep size proposed
+    by the error control, as a fraction of an increment (the next increment tries twice it first; a hint only).
     Mechanical state: e, eps_d^p and the stress; e_0 is a reference constant.
     """
 
@@ -422,7 +422,8 @@ class SIMSAND(MaterialModel):
         eps = np.array(state["eps_dp"], dtype=float)
         strain = np.zeros_like(stress)
         T = np.zeros(n)
-        dT = np.array(state.get("substep", np.ones(n)), dtype=float)  # first trial substep (fraction of increment)
+        # first trial substep (fraction of the increment): twice the last size proposed by the error control
+        dT = np.minimum(2.0 * np.array(state.get("substep", np.ones(n)), dtype=float), 1.0)
         plastic_end = np.zeros(n, dtype=bool)
         nsub = np.zeros(n, dtype=int)
         failed = np.zeros(n, dtype=bool)
