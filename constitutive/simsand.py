@@ -314,6 +314,13 @@ class SIMSAND(MaterialModel):
         shear = q > 1e-9 * pe  # a deviator exists; else the origin of loading or a hydrostatic state
         J2s = np.where(shear, J2, 1.0)
         sin3, lode_grad = space.lode(s, J2s, shear)
+        d_dir = None
+        if dstrain is not None and not np.all(shear):
+            # origin of loading: the deviatoric direction (and its Lode angle) of the strain increment
+            d_dir = space.deviatoric_strain(dstrain)
+            dd = (d_dir * d_dir) @ space.weights
+            shearing = ~shear & (dd > 1e-20 * (dstrain * dstrain).sum(axis=1))  # not round-off of a volumetric one
+            sin3 = np.where(shearing, space.lode(d_dir, np.where(shearing, 0.5 * dd, 1.0), shearing)[0], sin3)
         # (VI) critical state line and (VII) interlocking
         log_pr = np.log(pe / self.p_at)
         x = np.exp(par["xi"] * log_pr)
@@ -336,12 +343,9 @@ class SIMSAND(MaterialModel):
         df_de = HdM / e
         # nhat = dq/dsigma = 3 s/(2 q) (nhat:nhat = 3/2); at q = 0 along the deviatoric strain increment
         nhat = 1.5 * s / np.where(shear, q, 1.0)[:, None]
-        if dstrain is not None and not np.all(shear):
-            d = space.deviatoric_strain(dstrain)
-            dd = (d * d) @ space.weights
-            shearing = dd > 1e-20 * (dstrain * dstrain).sum(axis=1)  # not round-off of a volumetric increment
+        if d_dir is not None:
             scale = np.sqrt(1.5 / np.where(shearing, dd, 1.0)) * shearing
-            nhat = np.where(shear[:, None], nhat, d * scale[:, None])
+            nhat = np.where(shear[:, None], nhat, d_dir * scale[:, None])
         a_dev = nhat / pe[:, None]  # df/dq = 1/p'
         if lode_grad is not None:
             a_dev = a_dev - (H * dMp_dsin3)[:, None] * lode_grad
@@ -383,16 +387,20 @@ class SIMSAND(MaterialModel):
         held, free = control.held, control.free
         D = space.stiffness(ev["K"], ev["G"])
         scale = np.where(plastic, 1.0 / ev["den"], 0.0)
-        Dm_s = ev["Dm"][:, held] * scale[:, None]
-        T_sf = D[:, held][:, :, free] - Dm_s[:, :, None] * row[:, None, free]
-        D_ss = D[:, held][:, :, held]
-        T_ss = D_ss - Dm_s[:, :, None] * row[:, None, held]
-        rhs = dload[:, held] - np.einsum("nij,nj->ni", T_sf, dload[:, free])
         deps = dload.copy()
-        if held.size == 1:
-            deps[:, held] = rhs / T_ss[:, 0]
-            stiff, stiff_el = T_ss[:, 0, 0], D_ss[:, 0, 0]
+        if held.size == 1:  # one stress-controlled component (drained triaxial): scalar equation
+            i = held[0]
+            D_row = D[:, i, :]
+            T_row = D_row - (ev["Dm"][:, i] * scale)[:, None] * row
+            d_free = np.where(control.mask, 0.0, dload)
+            stiff, stiff_el = T_row[:, i], D_row[:, i]
+            deps[:, i] = (dload[:, i] - np.einsum("ij,ij->i", T_row, d_free)) / stiff
         else:
+            Dm_s = ev["Dm"][:, held] * scale[:, None]
+            T_sf = D[:, held][:, :, free] - Dm_s[:, :, None] * row[:, None, free]
+            D_ss = D[:, held][:, :, held]
+            T_ss = D_ss - Dm_s[:, :, None] * row[:, None, held]
+            rhs = dload[:, held] - np.einsum("nij,nj->ni", T_sf, dload[:, free])
             deps[:, held] = np.linalg.solve(T_ss, rhs[:, :, None])[:, :, 0]
             stiff, stiff_el = np.linalg.det(T_ss), np.linalg.det(D_ss)
         # controllable: the tangent on the stress-controlled components stays above a fraction of the elastic one
@@ -465,11 +473,16 @@ class SIMSAND(MaterialModel):
             deps_new = 0.5 * (deps1 + deps2)
             eps_new = np.maximum(k0 + 0.5 * (dlam1 + dlam2), 0.0)
             e_new = e0 - v0 * (deps_new @ space.volumetric_row)
-            # local error (Sloan et al. 2001): stress relative; hardening through the mobilised ratio H (absolute)
+            # local error (Sloan et al. 2001): stress relative; hardening through the mobilised ratio H (absolute);
+            # under pure stress control the strain error through the elastic stiffness
             dnorm = np.sqrt(((dsig2 - dsig1) ** 2) @ space.weights)
             snorm = np.sqrt((sig_new**2) @ space.weights)
-            err = 0.5 * dnorm / np.maximum(snorm, STRESS_ERROR_FLOOR * self.p_at)
+            floor = STRESS_ERROR_FLOOR * self.p_at
+            err = 0.5 * dnorm / np.maximum(snorm, floor)
             err = np.maximum(err, 0.5 * np.abs(dlam2 - dlam1) * par["k_p"] / (par["k_p"] + eps_new) ** 2)
+            if control.free.size == 0:  # pure stress control: the strain error, as the stress error it would make
+                dstr = self._elastic(space, ev0, deps2 - deps1)
+                err = np.maximum(err, 0.5 * np.sqrt((dstr**2) @ space.weights) / np.maximum(snorm, floor))
             err = np.where(np.isfinite(err) & ~(pl & ~(ev1["den"] > 0.0)), err, np.inf)
             ok = (err <= stol) & ~fail
             frac = np.ones(act.size)

@@ -335,3 +335,23 @@ def test_zero_increment_leaves_a_slightly_drifted_state_unchanged():
     new, new_state, _ = model.update(stress, state, np.zeros((1, 6)), 0.0)
     np.testing.assert_array_equal(new, stress)
     assert new_state["eps_dp"][0] == state["eps_dp"][0]
+
+
+def test_stress_controlled_isotropic_compression_in_the_triaxial_space():
+    """Both triaxial components stress-controlled (general mixed-control solve): an isotropic load step from
+    100 to 400 kPa is elastic and its volumetric strain is the integral of dp'/K(p', e) (scipy, independent)."""
+    model = SIMSAND(**TRUE, stol=1e-6)
+    e0 = 0.7
+    state = model.initial_state(100.0 * np.array([[1.0, 1, 1, 0, 0, 0]]), e0)
+    sig, state, deps, failed = model.update_triaxial(np.array([[100.0, 100.0]]), state, np.array([[300.0, 300.0]]),
+                                                     stress_control=(True, True))
+    np.testing.assert_allclose(sig[0], [400.0, 400.0], rtol=1e-12)
+    assert deps[0, 0] == pytest.approx(deps[0, 1], rel=1e-12) and not failed[0]
+
+    def strain_rate(p, ev):  # d eps_v/dp' = 1/K(p', e(eps_v))
+        e = e0 - (1 + e0) * ev
+        return 1.0 / (100.0 * P_AT * (2.97 - e) ** 2 / (1 + e) * (p / P_AT) ** 0.6)
+
+    ev_ref = solve_ivp(strain_rate, (100.0, 400.0), [0.0], rtol=1e-11, atol=1e-14).y[0, -1]
+    assert deps[0, 0] + 2 * deps[0, 1] == pytest.approx(ev_ref, rel=1e-5)
+    assert state["eps_dp"][0] == 0.0
