@@ -22,17 +22,20 @@ M_p (through e_c(p') and sin 3theta); the flow direction is the stress-space gra
 deviatoric plane). The void ratio enters M_p and M_pt and follows the total volumetric strain,
 e = e_0 - (1 + e_0) eps_v (linearised small strain, as the laboratory void ratio is computed from Delta V / V_0).
 
-Stress-point integration (strain control): explicit modified Euler with local error control and consistent drift
-correction (Sloan, Abbo & Sheng 2001), vectorised over points with per-point pseudo-time and substep size. The
-elastic-plastic transition inside a substep is located by the Pegasus method on the yield function. At the origin of
-loading (q = 0 and eps_d^p = 0 the yield surface degenerates to the hydrostatic axis) the deviatoric flow direction is
-taken along the deviatoric strain increment. Below ``p_min`` (kPa) the stress is cut off to the isotropic state
+Stress-point integration: explicit modified Euler with local error control and consistent drift correction
+(Sloan, Abbo & Sheng 2001), vectorised over points with per-point pseudo-time and substep size. One integrator serves
+the six-component space (``update``, strain control) and the triaxial space (``update_triaxial`` and the fast
+``triaxial_test``, where prescribed stress components are held at every stage of every substep). The elastic-plastic
+transition inside a substep is located by the Pegasus method on the yield function. At the origin of loading (q = 0
+and eps_d^p = 0 the yield surface degenerates to the hydrostatic axis) the deviatoric flow direction and the Lode
+angle are taken from the deviatoric strain increment (for stress-controlled components, from the prescribed part). Below ``p_min`` (kPa) the stress is cut off to the isotropic state
 p' = p_min for the rest of the increment (tension cutoff: liquefied sand carries no effective stress); stiffness and
 friction are evaluated with p' >= p_min.
 
 The returned tangent is the continuum elasto-plastic tangent at the end of the increment
-(D - D m (x) D a / (a:D m + K_p), including the void-ratio term of M_p), or the elastic D where the last substep was
-elastic: ``tangent_kind = "continuum"``. Good for lab-test mixed-control iterations; not the algorithmic tangent.
+(D - D m (x) D a / (a:D m + K_p), including the void-ratio term of M_p) where the last substep was plastic or the
+increment is zero on the yield surface, else the elastic D: ``tangent_kind = "continuum"``. Good for lab-test
+mixed-control iterations; not the algorithmic tangent (an FE Newton converges linearly with it).
 """
 from __future__ import annotations
 
