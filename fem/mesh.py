@@ -97,30 +97,25 @@ class Mesh:
         H = n_vertical * (r[1] - r[0]) if height is None else float(height)
         if H <= 0:
             raise MeshError(f"height = {H} m must be positive")
-        z = np.linspace(0.0, H, n_vertical + 1)
-        nz = n_vertical + 1
-        rr, zz = np.meshgrid(r, z, indexing="ij")
-        nodes = np.column_stack([rr.ravel(), zz.ravel()])
-        i, j = np.meshgrid(np.arange(n_radial), np.arange(n_vertical), indexing="ij")
-        n0 = (i * nz + j).ravel()
-        cells = np.column_stack([n0, n0 + nz, n0 + nz + 1, n0 + 1])
-        ids = np.arange(nodes.shape[0]).reshape(n_radial + 1, nz)
-        sets = {"cavity": ids[0], "outer": ids[-1], "bottom": ids[:, 0], "top": ids[:, -1]}
-        return cls(nodes, cells, sets)
+        return cls._structured(r, np.linspace(0.0, H, n_vertical + 1), "cavity")
 
     @classmethod
     def column(cls, height=1.0, n_vertical=10, r_inner=1.0, width=0.1, n_radial=1):
         """Structured column r_inner <= r <= r_inner + width, 0 <= z <= height (Terzaghi and patch tests)."""
         r = np.linspace(r_inner, r_inner + width, n_radial + 1)
-        z = np.linspace(0.0, height, n_vertical + 1)
-        nz = n_vertical + 1
+        return cls._structured(r, np.linspace(0.0, height, n_vertical + 1), "inner")
+
+    @classmethod
+    def _structured(cls, r, z, inner_name):
+        """Quadrilaterals on the r x z grid, node numbering fastest in z (narrow band); sets inner/outer/bottom/top."""
+        nr, nz = len(r) - 1, len(z)
         rr, zz = np.meshgrid(r, z, indexing="ij")
         nodes = np.column_stack([rr.ravel(), zz.ravel()])
-        i, j = np.meshgrid(np.arange(n_radial), np.arange(n_vertical), indexing="ij")
+        i, j = np.meshgrid(np.arange(nr), np.arange(nz - 1), indexing="ij")
         n0 = (i * nz + j).ravel()
         cells = np.column_stack([n0, n0 + nz, n0 + nz + 1, n0 + 1])
-        ids = np.arange(nodes.shape[0]).reshape(n_radial + 1, nz)
-        sets = {"inner": ids[0], "outer": ids[-1], "bottom": ids[:, 0], "top": ids[:, -1]}
+        ids = np.arange(nodes.shape[0]).reshape(nr + 1, nz)
+        sets = {inner_name: ids[0], "outer": ids[-1], "bottom": ids[:, 0], "top": ids[:, -1]}
         return cls(nodes, cells, sets)
 
     # ------------------------------------------------------------------ meshio

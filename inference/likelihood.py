@@ -149,13 +149,12 @@ class Likelihood:
         jg = self.goodness_of_fit(self.simulated_at_observations(result))
         return float(sum(self.weights[t] * log_likelihood_test(jg[t], self.n_points[t], sigma) for t in jg))
 
+    def _forward_one(self, params):
+        return self.forward([params])[0] if self.batch else self.forward(params)
+
     def __call__(self, theta) -> float:
         params, sigma = self.split(theta)
-        if self.batch:
-            result = self.forward([params])[0]
-        else:
-            result = self.forward(params)
-        return self.log_likelihood_from(result, sigma)
+        return self.log_likelihood_from(self._forward_one(params), sigma)
 
     def evaluate_many(self, thetas):
         """Batch evaluation: (values (m,), reasons list) with -inf and a reason for each failed parameter set."""
@@ -174,7 +173,7 @@ class Likelihood:
                 if results is not None:
                     res = results[i]
                 else:
-                    res = self.forward([params])[0] if self.batch else self.forward(params)
+                    res = self._forward_one(params)
                 values[i] = self.log_likelihood_from(res, sigma)
             except Exception as exc:
                 reasons[i] = f"{type(exc).__name__}: {exc}"
@@ -184,7 +183,7 @@ class Likelihood:
     def residuals(self, theta) -> dict:
         """Relative residuals (U_obs - U_num)/U_obs per (test, curve) at theta (excluded points as NaN)."""
         params, _ = self.split(theta)
-        result = self.forward([params])[0] if self.batch else self.forward(params)
+        result = self._forward_one(params)
         sim = self.simulated_at_observations(result)
         out = {}
         for t in self.observations:
@@ -196,5 +195,5 @@ class Likelihood:
 
     def summary_goodness(self, theta) -> dict:
         params, _ = self.split(theta)
-        result = self.forward([params])[0] if self.batch else self.forward(params)
+        result = self._forward_one(params)
         return self.goodness_of_fit(self.simulated_at_observations(result))

@@ -520,7 +520,7 @@ def tmcmc(loglike, prior: Prior, n_samples=2000, proposal="de", *, de_variant="r
         raise ValueError(f"n_steps = {n_steps!r}: use 'adaptive' or a positive integer")
     if proposal == "de" and n_samples < 5:
         raise ValueError("DE-TMCMC needs n_samples >= 5 (three distinct partners per move)")
-    if not 0 < beta2 and not 0 < cov_target:
+    if not (beta2 > 0 and cov_target > 0):
         raise ValueError("beta2 and cov_target must be > 0")
     if isinstance(loglike, Likelihood):
         loglike.bind(prior.names)
