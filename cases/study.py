@@ -1,0 +1,197 @@
+"""What every runnable study shares: the command line of DESIGN.md, the calibration call, and the outputs.
+
+Command line (DESIGN.md "Runnable contracts"), the same for every case:
+    python -m cases.<name> [--quick] [--method de|o] [--samples N] [--seed S] [--runs R] [--out DIR] [--resume]
+                           [--dispatch dynamic|spmd] [--processes P]
+It runs unchanged under ``mpirun -n K``: every rank calls :func:`calibrate`, rank 0 samples and writes, the other
+ranks run forward solves. Without mpirun the local process pool is used (``--processes``, default one per core).
+
+Outputs of one run in DIR (``--runs R`` puts run r in DIR/seed_<S+r>):
+- ``summary.json``: case, method, seed, n_samples, n_stages, n_forward_solves, wall_s, ranks, parameters
+  {name: {map, mean, std, q2.5, median, q97.5}}, sigma_eps, log_evidence, J_g at MAP per test, stage records;
+- ``posterior.npz`` (numpy only) and ``failed_solves.jsonl`` (one line per zero-likelihood particle and reason);
+- ``progress.log`` (the sampler's stage-by-stage lines), ``run.ckpt`` while running (``--resume`` continues it);
+- figures: ``marginals.png`` (posterior histograms with reference values marked), ``stages.png`` (samples per stage).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+import inference
+from inference.executors import mpi_world
+
+__all__ = ["arguments", "is_root", "method_name", "calibrate", "write_summary", "parameter_table",
+           "runs_table", "plot_marginals", "plot_stages", "run_directories"]
+
+PROPOSALS = {"de": "de", "o": "gaussian"}
+
+
+def arguments(description, argv=None, quick_help="small preset", add=None):
+    """Parse the common options (plus the case's own, added by ``add(parser)``)."""
+    ap = argparse.ArgumentParser(description=description,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help=quick_help)
+    ap.add_argument("--method", choices=sorted(PROPOSALS), default="de", help="de: DE-TMCMC, o: O-TMCMC")
+    ap.add_argument("--samples", type=int, help="particles per stage N_s (default: the preset's)")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--runs", type=int, default=1, help="independent runs with seeds S, S+1, ...")
+    ap.add_argument("--out", type=Path, help="output directory")
+    ap.add_argument("--resume", action="store_true", help="continue from DIR/run.ckpt")
+    ap.add_argument("--dispatch", choices=("dynamic", "spmd"), default="dynamic",
+                    help="MPI dispatch under mpirun (spmd = the paper's labindex scheme)")
+    ap.add_argument("--processes", type=int, help="local process-pool size without mpirun (default: cores)")
+    if add is not None:
+        add(ap)
+    args = ap.parse_args(argv)
+    if args.samples is not None and args.samples < 5:
+        ap.error(f"--samples {args.samples}: DE-TMCMC needs at least 5 particles")
+    if args.runs < 1:
+        ap.error(f"--runs {args.runs}: need at least 1")
+    return args
+
+
+def is_root() -> bool:
+    comm = mpi_world()
+    return comm is None or comm.Get_rank() == 0
+
+
+def method_name(method: str) -> str:
+    return {"de": "DE-TMCMC", "o": "O-TMCMC"}[method]
+
+
+def run_directories(args, default_out: Path):
+    """(seed, directory) of each requested run."""
+    out = Path(args.out or default_out)
+    if args.runs == 1:
+        return [(args.seed, out)]
+    return [(args.seed + r, out / f"seed_{args.seed + r}") for r in range(args.runs)]
+
+
+def calibrate(like, prior, args, out: Path, seed: int, n_samples: int, executor=None, **settings):
+    """One TMCMC run with checkpoint and progress log in ``out``; returns the Posterior on every rank."""
+    out = Path(out)
+    if is_root():
+        out.mkdir(parents=True, exist_ok=True)
+    if executor is None:
+        executor = inference.default_executor(args.dispatch, args.processes)
+    try:
+        return inference.tmcmc(like, prior, n_samples=n_samples, proposal=PROPOSALS[args.method], seed=seed,
+                               executor=executor, checkpoint=out / "run.ckpt", resume=args.resume,
+                               log=out / "progress.log", **settings)
+    finally:
+        executor.close()
+
+
+def write_summary(out: Path, case: str, args, seed: int, post, like, extra=None) -> dict:
+    """post.save(out) with the DESIGN.md summary fields; J_g (Eq. 5) at MAP costs one forward solve."""
+    t0 = time.perf_counter()
+    try:
+        jg = {t: float(v) for t, v in like.summary_goodness(post.map_theta).items()}
+    except Exception as exc:  # noqa: BLE001 - report, do not lose the posterior over a diagnostic
+        jg = {"error": f"{type(exc).__name__}: {exc}"}
+    fields = {"case": case, "method": method_name(args.method), "seed": int(seed), "quick": bool(args.quick),
+              "J_g_at_map": jg, "J_g_wall_s": time.perf_counter() - t0}
+    name = like.sigma if isinstance(like.sigma, str) else None
+    if name:
+        i = post.names.index(name)
+        fields["sigma_eps"] = {"map": float(post.map_theta[i]), "mean": float(post.samples[:, i].mean()),
+                               "std": float(post.samples[:, i].std(ddof=1))}
+    fields.update(extra or {})
+    post.save(out, extra=fields)
+    checkpoint = Path(out) / "run.ckpt"
+    if checkpoint.exists():  # the run finished: its answer is in posterior.npz / summary.json
+        checkpoint.unlink()
+    return json.loads((Path(out) / "summary.json").read_text())
+
+
+def _fmt(v):
+    if v is None or (isinstance(v, float) and not np.isfinite(v)):
+        return "-"
+    a = abs(v)
+    return f"{v:.4g}" if (a >= 1e-3 or a == 0) else f"{v:.3e}"
+
+
+def parameter_table(post, reference: dict | None = None, units: dict | None = None) -> str:
+    """Markdown table: MAP, mean, std, 95 % interval per parameter, then reference columns
+    ``{column label: {name: value}}`` (true values, the paper's table...)."""
+    reference = reference or {}
+    units = units or {}
+    q = post.quantiles()
+    head = ["parameter", "MAP", "mean", "std", "95 % interval"] + list(reference)
+    rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for n in post.names:
+        label = f"{n} ({units[n]})" if units.get(n) else n
+        cells = [label, _fmt(post.map[n]), _fmt(post.mean[n]), _fmt(post.std[n]),
+                 f"[{_fmt(q[n][0])}, {_fmt(q[n][2])}]"]
+        cells += [_fmt(col.get(n)) for col in reference.values()]
+        rows.append("| " + " | ".join(cells) + " |")
+    return "\n".join(rows)
+
+
+def runs_table(summaries: list, names, reference: dict | None = None) -> str:
+    """Markdown table over independent runs: average MAP and its spread (std over runs) per parameter."""
+    reference = reference or {}
+    head = ["parameter", "average MAP", "spread of MAP (std)", "average posterior std"] + list(reference)
+    rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for n in names:
+        maps = np.array([s["parameters"][n]["map"] for s in summaries])
+        stds = np.array([s["parameters"][n]["std"] for s in summaries])
+        cells = [n, _fmt(float(maps.mean())), _fmt(float(maps.std(ddof=1)) if maps.size > 1 else None),
+                 _fmt(float(stds.mean()))] + [_fmt(col.get(n)) for col in reference.values()]
+        rows.append("| " + " | ".join(cells) + " |")
+    ev = np.array([s["log_evidence"] for s in summaries])
+    rows.append(f"\nln Z over {ev.size} runs: mean {ev.mean():.3f}, spread {ev.std(ddof=1) if ev.size > 1 else 0:.3f}")
+    return "\n".join(rows)
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_marginals(post, path, marks: dict | None = None, bounds: dict | None = None):
+    """Histogram of each parameter's final-stage samples; ``marks`` {label: {name: value}} drawn as lines."""
+    plt = _pyplot()
+    d = len(post.names)
+    cols = min(d, 4)
+    rows = -(-d // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.6 * rows), squeeze=False)
+    styles = ["-", "--", ":", "-."]
+    for ax, (i, n) in zip(axes.flat, enumerate(post.names)):
+        ax.hist(post.samples[:, i], bins=30, density=True, color="0.75")
+        ax.axvline(post.map_theta[i], color="C3", lw=1.5, label="MAP")
+        for k, (label, values) in enumerate((marks or {}).items()):
+            if n in values:
+                ax.axvline(values[n], color=f"C{k}", ls=styles[k % 4], lw=1.2, label=label)
+        if bounds and n in bounds:
+            ax.set_xlim(bounds[n])
+        ax.set_xlabel(n)
+        ax.set_yticks([])
+    for ax in list(axes.flat)[d:]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_stages(post, path):
+    """Samples of each parameter against the stage index (how the population narrows)."""
+    plt = _pyplot()
+    d = len(post.names)
+    fig, axes = plt.subplots(1, d, figsize=(2.6 * d, 2.6), squeeze=False)
+    for i, (ax, n) in enumerate(zip(axes[0], post.names)):
+        for j, th in enumerate(post.stage_samples):
+            ax.plot(np.full(len(th), j) + np.linspace(-0.3, 0.3, len(th)), th[:, i], ".", ms=1, color="C0")
+        ax.set_xlabel("stage")
+        ax.set_title(n, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
