@@ -160,6 +160,7 @@ class ANICREEP(MaterialModel):
         self.tau = check_parameter("tau", tau, lower=0.0, model=name)
         self.anisotropy = bool(anisotropy)
         self.viscous = bool(viscous)
+        self.rate_dependent = self.viscous  # the rate-independent limit does not depend on dt
         if self.viscous:
             if C_alpha_e is None:
                 raise ParameterError(f"{name}: parameter C_alpha_e is required when viscous=True")

@@ -14,7 +14,8 @@ A model is a frozen, validated parameter record with two methods::
 
 ``update`` never modifies its inputs. ``tangent`` is (n, 6, 6), d(stress)/d(strain) for the increment; each model
 states in ``tangent_kind`` whether it is the consistent (algorithmic) tangent, the continuum tangent or the elastic
-one. A point whose local integration fails raises :class:`IntegrationError` naming the point.
+one; ``rate_dependent`` says whether the result depends on the time increment dt. A point whose local integration
+fails raises :class:`IntegrationError` naming the point.
 """
 from __future__ import annotations
 
@@ -76,6 +77,8 @@ class MaterialModel:
 
     name = "material"
     tangent_kind = "consistent"
+    #: True when ``update`` depends on the time increment dt (viscous models); False for rate-independent models
+    rate_dependent = False
 
     def initial_state(self, stress0, void_ratio0=None) -> dict:
         raise NotImplementedError

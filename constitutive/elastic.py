@@ -15,6 +15,7 @@ class LinearElastic(MaterialModel):
     """
 
     name = "linear elastic"
+    rate_dependent = False
     tangent_kind = "consistent"
     parameter_names = ("E", "nu")
 

@@ -64,6 +64,7 @@ class ModifiedCamClay(MaterialModel):
     """
 
     name = "Modified Cam Clay"
+    rate_dependent = False
     tangent_kind = "consistent"
     parameter_names = ("M", "lambda_", "kappa", "G", "nu", "pc0", "ocr")
     #: Newton tolerance on the scaled residuals (b r1, f/p'_cn^2), b = v/(lambda - kappa)

@@ -205,6 +205,7 @@ class SIMSAND(MaterialModel):
     """
 
     name = "SIMSAND"
+    rate_dependent = False
     tangent_kind = "continuum"
     parameter_names = ("nu", "K_0", "n", "e_ref", "lambda_c", "xi", "phi_mu", "k_p", "A_d", "n_p", "n_d")
 

@@ -34,6 +34,7 @@ class VonMises(MaterialModel):
     """
 
     name = "von Mises"
+    rate_dependent = False
     tangent_kind = "consistent"
     parameter_names = ("s_u", "G", "nu")
 

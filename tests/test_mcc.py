@@ -152,3 +152,14 @@ def test_integration_error_names_the_point():
     with pytest.raises(IntegrationError) as info:
         m.update(stress, m.initial_state(stress, 1.0), deps, 1.0)
     assert info.value.point == 2
+
+
+def test_rate_dependent_flags():
+    """The interface attribute rate_dependent: only viscous ANICREEP depends on dt."""
+    from constitutive import ANICREEP, SIMSAND, LinearElastic, VonMises
+    assert ModifiedCamClay.rate_dependent is False
+    assert LinearElastic.rate_dependent is False and VonMises.rate_dependent is False
+    assert SIMSAND.rate_dependent is False
+    prm = dict(M=1.2, lambda_=0.2, kappa=0.04, nu=0.3, e0=1.0, sigma_p0=100.0, C_alpha_e=0.01)
+    assert ANICREEP(**prm).rate_dependent is True
+    assert ANICREEP(**prm, viscous=False).rate_dependent is False
