@@ -23,6 +23,13 @@ Curves: ``axial_strain``, ``radial_strain``, ``volumetric_strain`` (dimensionles
 ``time`` (s), ``axial_stress``, ``radial_stress`` (effective, kPa), ``total_axial_stress``, ``total_radial_stress``,
 ``failed`` (n,) bool. Axial is Voigt component 11, radial the mean of 22 and 33.
 
+Routing of the triaxial drivers (``route``): a model with its own batched triaxial integrator
+``model.triaxial_test(e0, p0, axial_strain, drained=..., substeps=..., on_failure=...)`` (SIMSAND) is run through it
+(``route="auto"``, the default, when the request fits it: isotropic start k0 = 1 and one strain list for all
+points), so a study has one route and one failure rule for all particles; the curves get the same names (``time``
+and the total stresses are added here). ``route="generic"`` asks for :func:`mixed_control` explicitly (e.g. to
+verify the fast path), ``route="fast"`` insists on the model's own integrator (an error if it cannot serve).
+
 Batching: a model whose parameters are arrays of shape (n,), with e0 and p0 scalars or (n,), runs in one call.
 ``model`` is any object with ``initial_state(stress0, void_ratio0)`` and ``update(stress, state, dstrain, dt)``
 (constitutive.base); the state must contain ``void_ratio``.
@@ -290,8 +297,47 @@ def _drop_initial(curves):
     return {k: (v if k == "failed" else v[:, 1:]) for k, v in curves.items()}
 
 
-def _triaxial(model, e0, p0, axial_strain, undrained, k0, substeps, strain_rate, on_failure):
+ROUTES = ("auto", "fast", "generic")
+
+
+def _fast_route(model, axial_strain, k0, route) -> bool:
+    """Whether a triaxial request goes to ``model.triaxial_test`` (see the module docstring, "Routing")."""
+    if route not in ROUTES:
+        raise ValueError(f"route must be one of {ROUTES}, got {route!r}")
+    if route == "generic":
+        return False
+    reasons = []
+    if not callable(getattr(model, "triaxial_test", None)):
+        reasons.append(f"model {type(model).__name__} has no triaxial_test method")
+    if k0 != 1.0:
+        reasons.append(f"k0 = {k0:g} (the fast path starts from an isotropic state)")
+    if np.ndim(axial_strain) != 1:
+        reasons.append(f"axial_strain of shape {np.shape(axial_strain)} (the fast path takes one list for all points)")
+    if reasons and route == "fast":
+        raise ValueError("route='fast' is not possible: " + "; ".join(reasons))
+    return not reasons
+
+
+def _fast_triaxial(model, e0, p0, axial_strain, undrained, substeps, strain_rate, on_failure, n):
+    """The model's own triaxial integrator, with the curves of :func:`_curves` it does not return."""
+    e0 = np.broadcast_to(np.asarray(e0, dtype=float), (n,))
+    p0 = np.broadcast_to(np.asarray(p0, dtype=float), (n,))
+    c = dict(model.triaxial_test(e0, p0, axial_strain, drained=not undrained, substeps=substeps,
+                                 on_failure=on_failure))
+    targets = np.asarray(axial_strain, dtype=float)
+    time = np.cumsum(np.abs(np.diff(np.concatenate([[0.0], targets])))) / strain_rate
+    c["time"] = np.where(np.isnan(c["q"]), np.nan, time)
+    c["total_axial_stress"] = c["axial_stress"] + c["excess_pore_pressure"]
+    c["total_radial_stress"] = c["radial_stress"] + c["excess_pore_pressure"]
+    return c
+
+
+def _triaxial(model, e0, p0, axial_strain, undrained, k0, substeps, strain_rate, on_failure, route):
     n = batch_size(model, e0, p0, axial_strain if np.ndim(axial_strain) == 2 else None)
+    if on_failure not in ("raise", "nan"):
+        raise ValueError(f"on_failure must be 'raise' or 'nan', got {on_failure!r}")
+    if _fast_route(model, axial_strain, k0, route):
+        return _fast_triaxial(model, e0, p0, axial_strain, undrained, substeps, strain_rate, on_failure, n)
     stress0, state0 = _isotropic_start(model, e0, p0, k0, n)
     d, record = _path_steps(axial_strain, substeps)
     inc = np.zeros(d.shape[:1] + (n, 6))
@@ -302,18 +348,21 @@ def _triaxial(model, e0, p0, axial_strain, undrained, k0, substeps, strain_rate,
     return _drop_initial(_curves(hist))
 
 
-def drained_triaxial(model, e0, p0, axial_strain, *, k0=1.0, substeps=1, strain_rate=1e-5, on_failure="raise"):
+def drained_triaxial(model, e0, p0, axial_strain, *, k0=1.0, substeps=1, strain_rate=1e-5, on_failure="raise",
+                     route="auto"):
     """Drained triaxial compression (or extension for decreasing axial strain): constant radial effective stress,
     axial strain control. e0 void ratio, p0 initial p' (kPa), scalars or (n,); axial_strain (n_points,) or
     (n, n_points) the requested strains (dimensionless, from 0), each interval split in ``substeps`` steps;
-    k0 = sigma'_r0/sigma'_a0 of the initial stress; strain_rate (1/s) sets the time. Returns the named curves."""
-    return _triaxial(model, e0, p0, axial_strain, False, k0, substeps, strain_rate, on_failure)
+    k0 = sigma'_r0/sigma'_a0 of the initial stress; strain_rate (1/s) sets the time; route "auto" | "fast" |
+    "generic" (module docstring, "Routing"). Returns the named curves."""
+    return _triaxial(model, e0, p0, axial_strain, False, k0, substeps, strain_rate, on_failure, route)
 
 
-def undrained_triaxial(model, e0, p0, axial_strain, *, k0=1.0, substeps=1, strain_rate=1e-5, on_failure="raise"):
+def undrained_triaxial(model, e0, p0, axial_strain, *, k0=1.0, substeps=1, strain_rate=1e-5, on_failure="raise",
+                       route="auto"):
     """Undrained triaxial: constant total radial stress, no volume change, axial strain control; the curve
     ``excess_pore_pressure`` is u - u0 (kPa). Arguments as :func:`drained_triaxial`."""
-    return _triaxial(model, e0, p0, axial_strain, True, k0, substeps, strain_rate, on_failure)
+    return _triaxial(model, e0, p0, axial_strain, True, k0, substeps, strain_rate, on_failure, route)
 
 
 def isotropic_compression(model, e0, p0, p, *, substeps=1, rate=1e-2, on_failure="raise"):

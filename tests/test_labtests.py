@@ -91,3 +91,40 @@ def test_failure_raises_or_freezes_only_that_point():
     np.testing.assert_allclose(c["q"][[0, 2]], 1e4 * np.vstack([ea, ea]), rtol=1e-10)
     np.testing.assert_allclose(c["q"][1, :4], 1e4 * ea[:4], rtol=1e-10)
     assert np.all(np.isnan(c["q"][1, 4:]))
+
+
+# ------------------------------------------------------------------------------ routing to a model's fast path
+def _simsand_batch():
+    from constitutive import SIMSAND
+    return SIMSAND(nu=0.2, K_0=100.0, n=0.6, e_ref=0.75, lambda_c=0.03, xi=0.6, phi_mu=np.array([30.0, 34.0, 45.0]),
+                   k_p=0.003, A_d=1.0, n_p=np.array([2.0, 1.0, 10.0]), n_d=2.0)
+
+
+@pytest.mark.parametrize("driver, drained", [(lt.drained_triaxial, True), (lt.undrained_triaxial, False)])
+def test_route_auto_equals_the_models_own_triaxial_test(driver, drained):
+    """A model with triaxial_test (SIMSAND) is dispatched to it: the same curves, bit for bit, under the same names,
+    plus time and total stresses; failed points (on_failure='nan') stay NaN."""
+    model = _simsand_batch()
+    ea = np.linspace(0.005, 0.1, 20)
+    via = driver(model, 0.8, np.array([100.0, 200.0, 800.0]), ea, on_failure="nan", strain_rate=2e-5)
+    direct = model.triaxial_test(0.8, np.array([100.0, 200.0, 800.0]), ea, drained=drained, on_failure="nan")
+    for key, val in direct.items():
+        np.testing.assert_array_equal(via[key], val, err_msg=key)
+    generic = driver(model, 0.8, 100.0, ea[:2], route="generic")
+    assert set(generic) == set(via)
+    ok = ~via["failed"]
+    np.testing.assert_allclose(via["time"][ok], np.broadcast_to(ea / 2e-5, via["q"].shape)[ok], rtol=1e-12)
+    np.testing.assert_array_equal(via["total_radial_stress"] - via["radial_stress"], via["excess_pore_pressure"])
+
+
+def test_route_falls_back_to_the_generic_driver_or_refuses_when_asked_for_fast():
+    m = ModifiedCamClay(M=M, lambda_=LAM, kappa=KAP, nu=0.3, ocr=1.5)
+    ea = [0.01, 0.02]
+    np.testing.assert_array_equal(lt.drained_triaxial(m, 1.0, 100.0, ea)["q"],
+                                  lt.drained_triaxial(m, 1.0, 100.0, ea, route="generic")["q"])
+    with pytest.raises(ValueError, match="ModifiedCamClay has no triaxial_test"):
+        lt.drained_triaxial(m, 1.0, 100.0, ea, route="fast")
+    with pytest.raises(ValueError, match="k0 = 0.5"):
+        lt.drained_triaxial(_simsand_batch(), 0.8, 100.0, ea, k0=0.5, route="fast")
+    with pytest.raises(ValueError, match="route must be one of"):
+        lt.drained_triaxial(m, 1.0, 100.0, ea, route="quick")

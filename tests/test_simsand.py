@@ -256,7 +256,7 @@ def test_generic_driver_converges_to_the_fast_path_when_the_step_is_halved():
     ref = model.triaxial_test(0.7, 200.0, ea)
     errors = []
     for sub in (1, 2, 4):
-        c = labtests.drained_triaxial(model, 0.7, 200.0, ea, substeps=sub)
+        c = labtests.drained_triaxial(model, 0.7, 200.0, ea, substeps=sub, route="generic")
         errors.append(np.abs(c["q"][0] - ref["q"][0]).max() / ref["q"][0].max())
         np.testing.assert_allclose(c["e"][0], ref["e"][0], atol=2e-5)
     assert errors[0] < 1e-3
@@ -276,14 +276,14 @@ def test_batch_equals_separate_runs():
     params = sample_prior({k: SYNTHETIC_BOUNDS[k] for k in ("phi_mu", "k_p", "A_d", "n_p")}, 4, seed=3)
     ea = np.linspace(0.005, 0.1, 20)
     batch = SIMSAND(**params).triaxial_test(0.7, 200.0, ea)
-    generic = labtests.drained_triaxial(SIMSAND(**params), 0.7, 200.0, ea[:5])
+    generic = labtests.drained_triaxial(SIMSAND(**params), 0.7, 200.0, ea[:5], route="generic")
     for i in range(4):
         single = SIMSAND(**{k: (v[i] if np.ndim(v) else v) for k, v in params.items()})
         one = single.triaxial_test(0.7, 200.0, ea)
         # equal to round-off (vectorized kernels round differently with the batch size)
         np.testing.assert_allclose(batch["q"][i], one["q"][0], rtol=1e-9)
         np.testing.assert_allclose(batch["e"][i], one["e"][0], rtol=1e-9)
-        one = labtests.drained_triaxial(single, 0.7, 200.0, ea[:5])
+        one = labtests.drained_triaxial(single, 0.7, 200.0, ea[:5], route="generic")
         np.testing.assert_allclose(generic["q"][i], one["q"][0], rtol=1e-10)
 
 
