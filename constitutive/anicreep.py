@@ -31,7 +31,7 @@ Switches of the one implementation:
                         surfaces with an elastic domain (S-CLAY1-like); with anisotropy=False it is Modified Cam Clay
                         (with (1 + e0) in place of (1 + e)).
 
-Integration of one increment (backward Euler, all points at once):
+Integration of one increment (backward Euler, per point, compiled: :mod:`constitutive._anicreep_kernel`):
   unknowns X = (sigma'_{n+1} (6), alpha_d,{n+1} (6), z), the viscoplastic multiplier d lambda = d lambda_ref exp(z),
   d eps^vp = d lambda g(sigma'_{n+1}, alpha_{n+1}); d lambda_ref = mu dt (viscous) or 1 (rate independent);
   residuals  R_sigma = (sigma' - sigma'_E(d eps - d eps^vp))/p'_m,n^r   (E)
@@ -41,27 +41,30 @@ Integration of one increment (backward Euler, all points at once):
                        rate independent: R_z = ln(p'_m^d/p'_m^r) (1/beta = 0), and R_z = z with d lambda = 0 for
                        points whose elastic trial lies inside the reference surface.
   The log form stays well scaled for beta = 20-60 (and beyond: C_alpha_e -> 0) and for multipliers from 1e-300 to
-  O(1). The local Jacobian is obtained by complex-step differentiation of the residual (exact to round-off), Newton
-  steps are limited to dz <= 3 and backtracked on the residual norm; points that do not converge are sub-stepped
-  (halved recursively); IntegrationError names the point when that fails too.
+  O(1). The local Jacobian is analytic (chain rule written out in the kernel; tested against complex-step
+  differentiation of an independent residual), Newton steps are limited to dz <= 3 and backtracked on the residual
+  norm, starting from a linearized return (scalar Newton on the linearized (V)); points that do not converge are
+  sub-stepped (halved recursively); IntegrationError names the point when that fails too. Points are independent:
+  a batch gives bit-identical results to separate calls.
 
 The returned tangent is the consistent (algorithmic) tangent d sigma'_{n+1}/d(d eps) of this update (implicit
-function theorem on the converged residual, complex-step exact); for points that had to be sub-stepped it is the
-consistent tangent of the last sub-step (an approximation).
+function theorem on the converged residual, from the LU factors of the analytic Jacobian); for points that had to
+be sub-stepped it is the consistent tangent of the last sub-step (an approximation).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .base import IntegrationError, MaterialModel, ParameterError, as_points, check_parameter
-from .invariants import IDENTITY, STRESS_WEIGHTS, mean_stress
+from .invariants import IDENTITY, STRAIN_WEIGHTS, mean_stress
 
 __all__ = ["ANICREEP", "anisotropy_constants"]
 
-_NX = 13  # unknowns per point: stress (6), alpha_d (6), z
-_H = 1e-30  # complex-step size
-#: strain Voigt (engineering shear) deviator -> 2 x tensor deviator in stress Voigt layout
-_ENG_TO_2TENSOR = np.array([2.0, 2.0, 2.0, 1.0, 1.0, 1.0])
+
+def _kernel():
+    """The compiled integrator, imported on first use (keeps ``import constitutive`` free of numba)."""
+    from . import _anicreep_kernel
+    return _anicreep_kernel
 
 
 def anisotropy_constants(M):
@@ -77,36 +80,6 @@ def anisotropy_constants(M):
     alpha_k0 = (eta_k0**2 + 3.0 * eta_k0 - M**2) / 3.0
     omega_d = 3.0 * (4.0 * M**2 - 4.0 * eta_k0**2 - 3.0 * eta_k0) / (8.0 * (eta_k0**2 + 2.0 * eta_k0 - M**2))
     return k0_nc, eta_k0, alpha_k0, omega_d
-
-
-def _dot(a, b):
-    """a:b for stress-like Voigt vectors (tensor shear components), over the last axis."""
-    return np.sum(STRESS_WEIGHTS * a * b, axis=-1)
-
-
-def _expm1_over_x(x):
-    """(exp(x) - 1)/x, complex-step safe (series for |x| < 1e-3, truncation error < 1e-18)."""
-    small = np.abs(x.real) < 1e-3
-    xs = np.where(small, x, 0.0)
-    xb = np.where(small, 1.0, x)
-    series = 1.0 + xs * (0.5 + xs * (1.0 / 6.0 + xs * (1.0 / 24.0 + xs / 120.0)))
-    return np.where(small, series, np.expm1(xb) / xb)
-
-
-def _surface(sig, alp, M2):
-    """Mean stress p', deviator s, size p'_m^d of the surface (F) through sig and the normalized gradient g (V).
-
-    Works on arrays (..., 6) (real or complex for complex-step differentiation).
-    """
-    p = (sig[..., 0] + sig[..., 1] + sig[..., 2]) / 3.0
-    s = sig - p[..., None] * IDENTITY
-    xi = s - p[..., None] * alp
-    Ma = M2 - 1.5 * _dot(alp, alp)
-    pmd = p + 1.5 * _dot(xi, xi) / (Ma * p)
-    # df/dsigma' = 3 xi - [xi:alpha_d + (M^2 - alpha^2)(p'_m - 2p')/3] I; g = df/dsigma' / (p' (M^2 - alpha^2))
-    grad = 3.0 * xi - (_dot(xi, alp) + Ma * (pmd - 2.0 * p) / 3.0)[..., None] * IDENTITY
-    g = grad / (p * Ma)[..., None]
-    return p, s, Ma, pmd, g
 
 
 class ANICREEP(MaterialModel):
@@ -216,18 +189,22 @@ class ANICREEP(MaterialModel):
             raise ValueError(f"{self.name}: parameters are given for {self._shape[0]} points but {what} has {n}")
 
     def _point_parameters(self, n):
-        """Everything the local solver needs, as (n,) arrays."""
-        prm = {
-            "M2": self.M**2,
-            "c_e": (1.0 + self.e0) / self.kappa,                  # (E)
-            "c_p": (1.0 + self.e0) / (self.lambda_ - self.kappa),  # (H)
-            "r_G": 1.5 * (1.0 - 2.0 * self.nu) / (1.0 + self.nu),  # G/K
-            "omega": self.omega, "omega_d": self.omega_d,
-            "inv_beta": 1.0 / self.beta if self.viscous else 0.0,
-            "mu": self.mu if self.viscous else 1.0,
-            "e0": self.e0,
-        }
-        return {k: np.broadcast_to(np.asarray(v, dtype=float), (n,)) for k, v in prm.items()}
+        """Everything the local solver needs, as a C-contiguous (n, 8) array in the column order of
+        ``_anicreep_kernel.PARAMETER_COLUMNS`` (cached per n: the model is immutable)."""
+        cache = self.__dict__.setdefault("_prm_cache", {})
+        if n not in cache:
+            prm = {
+                "M2": self.M**2,
+                "c_e": (1.0 + self.e0) / self.kappa,                  # (E)
+                "c_p": (1.0 + self.e0) / (self.lambda_ - self.kappa),  # (H)
+                "r_G": 1.5 * (1.0 - 2.0 * self.nu) / (1.0 + self.nu),  # G/K
+                "omega": self.omega, "omega_d": self.omega_d,
+                "inv_beta": 1.0 / self.beta if self.viscous else 0.0,
+                "mu": self.mu if self.viscous else 1.0,
+            }
+            cache[n] = np.ascontiguousarray(np.column_stack(
+                [np.broadcast_to(np.asarray(prm[k], dtype=float), (n,)) for k in _kernel().PARAMETER_COLUMNS]))
+        return cache[n]
 
     def initial_fabric(self, n):
         """alpha_d = alpha_K0 (e_v e_v - I/3) for the vertical axis, (n, 6) stress-like Voigt."""
@@ -260,7 +237,7 @@ class ANICREEP(MaterialModel):
                             check_parameter("void_ratio0", void_ratio0, lower=0.0, model=self.name), (n,)).copy()
         alpha = self.initial_fabric(n)
         pm_ref = self.reference_size(n)
-        _, _, _, pmd, _ = _surface(stress0, alpha, np.broadcast_to(self.M**2, (n,)))
+        pmd = _kernel().surface_size_points(stress0, alpha, np.ascontiguousarray(self._point_parameters(n)[:, 0]))
         return {"alpha": alpha.copy(), "pm_ref": pm_ref.copy(), "void_ratio": e, "vp_strain": np.zeros((n, 6)),
                 "vp_shear": np.zeros(n), "overstress": pmd / pm_ref}
 
@@ -273,170 +250,24 @@ class ANICREEP(MaterialModel):
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]
         self._n_points(n, "stress")
-        dt = np.broadcast_to(np.asarray(dt, dtype=float), (n,))
+        dt = np.ascontiguousarray(np.broadcast_to(np.asarray(dt, dtype=float), (n,)))
         if np.any(~np.isfinite(dt) | (dt < 0.0)):
             raise ValueError(f"{self.name}: time increment dt = {dt[~np.isfinite(dt) | (dt < 0.0)][0]} must be >= 0")
-        prm = self._point_parameters(n)
-        new_stress, alpha, pm_ref, dvp, tangent, ratio = self._integrate(
-            stress, state["alpha"], state["pm_ref"], dstrain, dt, prm, np.arange(n), 0)
-        dvp_d = np.sqrt(2.0 / 3.0 * np.sum(np.array([1, 1, 1, 0.5, 0.5, 0.5])
-                                           * (dvp - dvp[:, :3].sum(1, keepdims=True) / 3.0 * IDENTITY) ** 2, axis=1))
+        new_stress, alpha, dvp, tangent = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6, 6))
+        pm_ref, ratio = np.empty(n), np.empty(n)
+        failed = _kernel().update_points(
+            np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
+            np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(dstrain), dt,
+            self._point_parameters(n), self.viscous, self.tolerance, self.max_iterations, self.max_dz,
+            self.max_substep_depth, new_stress, alpha, pm_ref, dvp, ratio, tangent)
+        if failed >= 0:
+            raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
+                                   f"sub-stepping (strain increment {dstrain[failed]}, dt {dt[failed]:g} s, "
+                                   f"stress {stress[failed]})")
+        dvp_dev = dvp - dvp[:, :3].sum(axis=1, keepdims=True) / 3.0 * IDENTITY
         new_state = {"alpha": alpha, "pm_ref": pm_ref,
-                     "void_ratio": state["void_ratio"] - (1.0 + prm["e0"]) * dstrain[:, :3].sum(axis=1),
+                     "void_ratio": state["void_ratio"] - (1.0 + self.e0) * dstrain[:, :3].sum(axis=1),
                      "vp_strain": state["vp_strain"] + dvp,
-                     "vp_shear": state["vp_shear"] + dvp_d, "overstress": ratio}
+                     "vp_shear": state["vp_shear"] + np.sqrt(2.0 / 3.0 * np.sum(STRAIN_WEIGHTS * dvp_dev**2, axis=1)),
+                     "overstress": ratio}
         return new_stress, new_state, tangent
-
-    def _integrate(self, stress, alpha, pm_ref, deps, dt, prm, points, depth):
-        """One increment for a set of points; failed points are halved recursively. ``points`` index the caller's
-        arrays (for the error message)."""
-        out = self._local_solve(stress, alpha, pm_ref, deps, dt, prm)
-        ok = out[-1]
-        out = list(out[:-1])
-        if np.all(ok):
-            return tuple(out)
-        bad = ~ok
-        if depth >= self.max_substep_depth:
-            i = int(np.argmax(bad))
-            raise IntegrationError(int(points[i]), f"local Newton did not converge after {depth} levels of "
-                                   f"sub-stepping (strain increment {deps[i]}, dt {dt[i]:g} s, stress {stress[i]})")
-        sub = {k: v[bad] for k, v in prm.items()}
-        half, hdt = 0.5 * deps[bad], 0.5 * dt[bad]
-        s1, a1, pm1, dvp1, _, _ = self._integrate(stress[bad], alpha[bad], pm_ref[bad], half, hdt, sub, points[bad],
-                                                  depth + 1)
-        s2, a2, pm2, dvp2, t2, r2 = self._integrate(s1, a1, pm1, half, hdt, sub, points[bad], depth + 1)
-        for k, v in enumerate((s2, a2, pm2, dvp1 + dvp2, t2, r2)):
-            out[k][bad] = v
-        return tuple(out)
-
-    @staticmethod
-    def _residual(X, deps, d):
-        """Residuals (..., 13) of the backward-Euler system (module docstring) at unknowns X (..., 13) and strain
-        increment deps (..., 6); ``d`` holds the start-of-increment data broadcastable against X[..., 0]."""
-        sig, alp, z = X[..., :6], X[..., 6:12], X[..., 12]
-        p, s, Ma, pmd, g = _surface(sig, alp, d["M2"])
-        dlam = d["dlam_ref"] * np.exp(z)
-        tr_g = g[..., 0] + g[..., 1] + g[..., 2]
-        g_dev = g - (tr_g / 3.0)[..., None] * IDENTITY
-        dv = dlam * tr_g                                                     # d eps_v^vp
-        dd = dlam * np.sqrt(2.0 / 3.0 * _dot(g_dev, g_dev) + 1e-30)          # d eps_d^vp (magnitude)
-        deps_e = deps - dlam[..., None] * STRESS_WEIGHTS * g                 # engineering strain Voigt
-        dve = deps_e[..., 0] + deps_e[..., 1] + deps_e[..., 2]
-        x = d["c_e"] * dve
-        p_e = d["p_n"] * np.exp(x)                                           # (E)
-        k_bar = d["p_n"] * d["c_e"] * _expm1_over_x(x)
-        dev_e = (deps_e - (dve / 3.0)[..., None] * IDENTITY) * _ENG_TO_2TENSOR
-        sig_e = d["s_n"] + (d["r_G"] * k_bar)[..., None] * dev_e + p_e[..., None] * IDENTITY
-        r_sig = (sig - sig_e) / d["pm_n"][..., None]
-        dv_plus = np.where(dv.real > 0.0, dv, 0.0)
-        r_alp = alp - d["alpha_n"] - d["omega"][..., None] * (                 # (R)
-            (0.75 * s / p[..., None] - alp) * dv_plus[..., None]
-            + d["omega_d"][..., None] * (s / (3.0 * p[..., None]) - alp) * dd[..., None])
-        ln_ratio = np.log(pmd) - d["ln_pm_n"] - d["c_p"] * dv                # (H): ln(p'_m^d / p'_m^r)
-        r_z = np.where(d["active"], ln_ratio - d["inv_beta"] * z, z)         # (V) in log form
-        shape = np.broadcast_shapes(r_sig.shape, r_alp.shape)
-        parts = [np.broadcast_to(r_sig, shape), np.broadcast_to(r_alp, shape),
-                 np.broadcast_to(r_z[..., None], shape[:-1] + (1,))]
-        return np.concatenate(parts, axis=-1), ln_ratio, dlam, g
-
-    def _local_solve(self, stress, alpha, pm_ref, deps, dt, prm):
-        n = stress.shape[0]
-        p_n = mean_stress(stress)
-        d = {"M2": prm["M2"], "c_e": prm["c_e"], "c_p": prm["c_p"], "r_G": prm["r_G"], "omega": prm["omega"],
-             "omega_d": prm["omega_d"], "inv_beta": prm["inv_beta"], "p_n": p_n,
-             "s_n": stress - p_n[:, None] * IDENTITY, "alpha_n": alpha, "pm_n": pm_ref, "ln_pm_n": np.log(pm_ref)}
-        viscous = self.viscous
-        with np.errstate(all="ignore"):
-            # elastic trial and starting point of z
-            d0 = dict(d, dlam_ref=np.zeros(n), active=np.ones(n, bool))
-            X = np.concatenate([stress, alpha, np.zeros((n, 1))], axis=1)
-            Xt = X.copy()
-            res, _, _, _ = self._residual(Xt, deps, d0)
-            Xt[:, :6] -= res[:, :6] * pm_ref[:, None]  # trial stress sigma'_E(d eps)
-            p_t, _, _, pmd_t, g_t = _surface(Xt[:, :6], alpha, prm["M2"])
-            L_t = np.log(pmd_t) - np.log(pm_ref)
-            tr_g = g_t[:, :3].sum(1)
-            g_dev = g_t - (tr_g / 3.0)[:, None] * IDENTITY
-            K_t = p_t * prm["c_e"]
-            A = (K_t * tr_g**2 + 2.0 * prm["r_G"] * K_t * _dot(g_dev, g_dev)) / pmd_t + prm["c_p"] * tr_g
-            A_el = (K_t * tr_g**2 + 2.0 * prm["r_G"] * K_t * _dot(g_dev, g_dev)) / pmd_t
-            dlam_c = L_t / np.where(A > 0.0, A, A_el)  # linearized return to the reference surface
-            if viscous:
-                dlam_ref = prm["mu"] * dt
-                active = np.ones(n, bool)
-                z0 = L_t / prm["inv_beta"]
-                use_c = (L_t > 0.0) & (dlam_c > 0.0) & (dlam_ref > 0.0)
-                z0 = np.where(use_c, np.minimum(z0, np.log(np.where(use_c, dlam_c / dlam_ref, 1.0))), z0)
-                # scalar Newton on the linearized (V): L_t - A dlam_ref e^z - z/beta = 0 (concave, decreasing in z,
-                # started right of its root), a cheap predictor for the full local Newton
-                lin = use_c & (A > 0.0)
-                for _ in range(8):
-                    dl = dlam_ref * np.exp(z0)
-                    phi = L_t - A * dl - prm["inv_beta"] * z0
-                    z0 = np.where(lin, z0 + phi / (A * dl + prm["inv_beta"]), z0)
-            else:
-                active = L_t > 1e-12
-                dlam_ref = active.astype(float)
-                z0 = np.where(active, np.log(np.where(active & (dlam_c > 0), dlam_c, 1e-300)), 0.0)
-            valid_trial = np.isfinite(L_t) & (p_t > 0.0)
-            z0 = np.where(valid_trial & np.isfinite(z0), z0, 0.0)
-            X = Xt.copy()
-            X[:, 12] = z0
-            # stress predictor: linearized return sigma'_E - d lambda D W g (tangent elastic D at the trial state)
-            dl0 = np.where(valid_trial & active, dlam_ref * np.exp(z0), 0.0)
-            pred = X[:, :6] - (dl0 * K_t)[:, None] * (tr_g[:, None] * IDENTITY + 2.0 * prm["r_G"][:, None] * g_dev)
-            ok_pred = valid_trial & (mean_stress(pred) > 0.0) & np.all(np.isfinite(pred), axis=1)
-            X[:, :6] = np.where(ok_pred[:, None], pred, X[:, :6])
-            d["dlam_ref"], d["active"] = dlam_ref, active
-
-            eye = np.eye(_NX)
-            dirs = np.concatenate([np.zeros((1, _NX)), eye], axis=0) * (1j * _H)  # real evaluation + 13 directions
-            jac = np.zeros((n, _NX, _NX))
-            res = np.full((n, _NX), np.inf)
-            todo = np.arange(n)
-            for _ in range(self.max_iterations):
-                dt_ = {k: (v[todo][:, None] if np.ndim(v) else v) for k, v in d.items()}
-                Rc, _, _, _ = self._residual(X[todo][:, None, :] + dirs, deps[todo][:, None, :], dt_)
-                R = Rc[:, 0].real
-                J = np.swapaxes(Rc[:, 1:].imag / _H, 1, 2)
-                res[todo], jac[todo] = R, J
-                finite = np.all(np.isfinite(R), axis=1) & np.all(np.isfinite(J), axis=(1, 2))
-                conv = finite & (np.max(np.abs(R), axis=1) <= self.tolerance)
-                keep = finite & ~conv
-                todo, R, J = todo[keep], R[keep], J[keep]
-                if todo.size == 0:
-                    break
-                try:
-                    dX = -np.linalg.solve(J, R[..., None])[..., 0]
-                except np.linalg.LinAlgError:
-                    dX = -np.stack([np.linalg.lstsq(Ji, Ri, rcond=None)[0] for Ji, Ri in zip(J, R)])
-                over = dX[:, 12] > self.max_dz
-                dX[over] *= (self.max_dz / dX[over, 12])[:, None]
-                # backtracking on ||R||^2
-                m0 = np.sum(R * R, axis=1)
-                step = np.ones(todo.size)
-                dsub = {k: (v[todo] if np.ndim(v) else v) for k, v in d.items()}
-                for _ls in range(10):
-                    Xn = X[todo] + step[:, None] * dX
-                    Rn, _, _, _ = self._residual(Xn, deps[todo], dsub)
-                    mn = np.sum(Rn * Rn, axis=1)
-                    bad = ~(np.isfinite(mn) & ((mn <= (1.0 - 1e-4 * step) * m0) | (mn <= self.tolerance**2)))
-                    if not np.any(bad):
-                        break
-                    step = np.where(bad, 0.5 * step, step)
-                X[todo] = Xn
-            converged = np.all(np.isfinite(res), axis=1) & (np.max(np.abs(res), axis=1) <= self.tolerance)
-            R, ln_ratio, dlam, g = self._residual(X, deps, d)
-            # consistent tangent: d X/d(d eps) = -J^{-1} dR/d(d eps), dR/d(d eps) by complex step
-            Rd, _, _, _ = self._residual(X[:, None, :], deps[:, None, :] + 1j * _H * np.eye(6),
-                                         {k: (v[:, None] if np.ndim(v) else v) for k, v in d.items()})
-            dR = np.swapaxes(Rd.imag / _H, 1, 2)  # (n, 13, 6)
-            safe_jac = np.where(converged[:, None, None], jac, np.eye(_NX))
-            dX = -np.linalg.solve(safe_jac, dR)
-            ratio = np.exp(ln_ratio)
-        tangent = dX[:, :6, :]
-        dvp = dlam[:, None] * STRESS_WEIGHTS * g
-        alpha_new = X[:, 6:12] - (X[:, 6:9].sum(1) / 3.0)[:, None] * IDENTITY
-        pm_new = pm_ref * np.exp(prm["c_p"] * dvp[:, :3].sum(1))
-        converged &= np.all(np.isfinite(tangent), axis=(1, 2)) & (mean_stress(X[:, :6]) > 0.0)
-        return X[:, :6].copy(), alpha_new, pm_new, dvp, tangent, ratio, converged

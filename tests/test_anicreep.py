@@ -362,3 +362,114 @@ def test_failed_point_raises_integration_error_naming_it():
     with pytest.raises(IntegrationError) as err:
         m.update(sig, st, de, 1.0)
     assert err.value.point == 1
+
+
+# --------------------------------------------------------------------------------------------- compiled kernel
+_W = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
+_I = np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])
+
+
+def _residual_oracle(X, deps, d):
+    """Independent numpy transcription of the backward-Euler residuals of constitutive.anicreep (module docstring),
+    complex-step safe: X (13,) sigma', alpha_d, z; d the start-of-increment data and parameters."""
+    sig, alp, z = X[:6], X[6:12], X[12]
+    p = sig[:3].sum() / 3.0
+    s = sig - p * _I
+    xi = s - p * alp
+    Ma = d["M2"] - 1.5 * np.sum(_W * alp * alp)
+    pmd = p + 1.5 * np.sum(_W * xi * xi) / (Ma * p)                                      # (F)
+    g = (3.0 * xi - (np.sum(_W * xi * alp) + Ma * (pmd - 2.0 * p) / 3.0) * _I) / (p * Ma)  # (V)
+    dlam = d["dlam_ref"] * np.exp(z)
+    g_dev = g - g[:3].sum() / 3.0 * _I
+    dv = dlam * g[:3].sum()
+    dd = dlam * np.sqrt(2.0 / 3.0 * np.sum(_W * g_dev * g_dev) + 1e-30)
+    deps_e = deps - dlam * _W * g
+    dve = deps_e[:3].sum()
+    x = d["c_e"] * dve
+    k_bar = d["p_n"] * d["c_e"] * (np.expm1(x) / x if abs(x.real) > 1e-3 else 1 + x / 2 + x * x / 6 + x**3 / 24)
+    sig_e = d["s_n"] + d["r_G"] * k_bar * (deps_e - dve / 3.0 * _I) * np.array([2, 2, 2, 1, 1, 1.0]) \
+        + d["p_n"] * np.exp(x) * _I                                                        # (E)
+    dv_plus = dv if dv.real > 0.0 else 0.0 * dv
+    r_alp = alp - d["alpha_n"] - d["omega"] * ((0.75 * s / p - alp) * dv_plus
+                                                + d["omega_d"] * (s / (3.0 * p) - alp) * dd)  # (R)
+    r_z = np.log(pmd) - np.log(d["pm_n"]) - d["c_p"] * dv - d["inv_beta"] * z             # (H), (V)
+    return np.concatenate([(sig - sig_e) / d["pm_n"], r_alp, [r_z]])
+
+
+@pytest.mark.parametrize("viscous", [True, False])
+def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous):
+    """The kernel's residual equals the numpy transcription to round-off and its analytic Jacobian equals the
+    complex-step derivative (exact to round-off) of that transcription, at perturbed loaded states."""
+    from constitutive import _anicreep_kernel as K
+    m, sig, st, rng = _loaded_states(viscous)
+    n = sig.shape[0]
+    prm = m._point_parameters(n)
+    R, J, S_e, ws = np.zeros(13), np.zeros((13, 13)), np.zeros((6, 6)), np.zeros((36, 13))
+    worst_r = worst_j = 0.0
+    for i in range(n):
+        col = dict(zip(K.PARAMETER_COLUMNS, prm[i]))
+        p_n = sig[i, :3].mean()
+        d = dict(col, p_n=p_n, s_n=sig[i] - p_n * _I, alpha_n=st["alpha"][i], pm_n=st["pm_ref"][i],
+                 dlam_ref=col["mu"] * 1.0 if viscous else 1.0)
+        deps = _cavity_increment(1, 2e-3)[0] + rng.normal(0, 3e-4, 6)
+        for dlam_scale in (1e-4, 3e-3):  # small and large viscoplastic multipliers
+            X = np.concatenate([sig[i] * (1 + rng.normal(0, 0.02, 6)), st["alpha"][i] + rng.normal(0, 0.02, 6),
+                                [np.log(dlam_scale / d["dlam_ref"])]])
+            K._evaluate(X, deps, d["s_n"], p_n, d["alpha_n"], d["pm_n"], np.log(d["pm_n"]), prm[i], d["dlam_ref"],
+                        True, True, R, J, S_e, ws)
+            R0 = _residual_oracle(X.astype(complex), deps, d).real
+            h = 1e-30
+            Jcs = np.stack([_residual_oracle(X + 1j * h * e, deps, d).imag / h for e in np.eye(13)], axis=1)
+            worst_r = max(worst_r, np.max(np.abs(R - R0)))
+            worst_j = max(worst_j, np.max(np.abs(J - Jcs)) / np.max(np.abs(Jcs)))
+    assert worst_r < 1e-12
+    assert worst_j < 1e-12
+
+
+def test_results_are_deterministic_and_independent_of_batch_size():
+    """Bit-identical: the same call twice, and a 6-point batch against one call per point."""
+    m, sig, st, rng = _loaded_states(True)
+    de = _cavity_increment(6) + rng.normal(0, 3e-4, (6, 6))
+    a = m.update(sig, st, de, 0.6)
+    b = m.update(sig, st, de, 0.6)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[2], b[2])
+    single = ANICREEP(M=m.M[2], sigma_p0=m.sigma_p0[2], C_alpha_e=0.02, vertical_axis=2, **BURSWOOD)
+    one = single.update(sig[2:3], {k: v[2:3] for k, v in st.items()}, de[2:3], 0.6)
+    assert np.array_equal(one[0][0], a[0][2]) and np.array_equal(one[2][0], a[2][2])
+    assert all(np.array_equal(one[1][k][0], a[1][k][2]) for k in a[1])
+
+
+def _update_in_worker(args):
+    m, sig, st, de = args
+    return m.update(sig, st, de, 0.6)[0]
+
+
+def test_kernel_runs_in_forked_worker_processes():
+    """A process pool (fork) gives the same bits as the parent process."""
+    import multiprocessing as mp
+    m, sig, st, rng = _loaded_states(True)
+    de = _cavity_increment(6) + rng.normal(0, 3e-4, (6, 6))
+    expected = m.update(sig, st, de, 0.6)[0]
+    with mp.get_context("fork").Pool(2) as pool:
+        got = pool.map(_update_in_worker, [(m, sig, st, de)] * 2)
+    assert all(np.array_equal(g, expected) for g in got)
+
+
+def test_jit_falls_back_to_uncached_compilation_without_cache_location(monkeypatch):
+    """With no usable cache location numba raises RuntimeError at decoration; jit then compiles without a cache."""
+    import numba
+
+    from constitutive import _jit
+    real = numba.njit
+
+    def njit(**kw):
+        if kw.get("cache"):
+            raise RuntimeError("cannot cache function: no locator available")
+        return real(**kw)
+
+    monkeypatch.setattr(numba, "njit", njit)
+
+    def twice(x):
+        return 2.0 * x
+
+    assert _jit.jit(twice)(1.5) == 3.0
