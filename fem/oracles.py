@@ -6,13 +6,16 @@ Small strain throughout, as the FE (the REFERENCE large-strain Gibson & Anderson
 from __future__ import annotations
 
 import numpy as np
+from scipy.integrate import solve_ivp
 from scipy.sparse import diags, lil_matrix
 from scipy.sparse.linalg import splu
+from scipy.special import j0, j1, y0, y1
 
 from .problem import GAMMA_W
 
 __all__ = ["lame_cavity_pressure", "thick_cylinder_drained", "gibson_anderson", "undrained_strain_path",
-           "terzaghi_degree", "terzaghi_pressure", "radial_coupled_elastic"]
+           "terzaghi_degree", "terzaghi_pressure", "radial_coupled_elastic", "consolidation_coefficient",
+           "randolph_wroth_eigenvalues", "randolph_wroth", "radial_diffusion"]
 
 
 def lame_cavity_pressure(G, eps_c):
@@ -160,3 +163,89 @@ def radial_coupled_elastic(E, nu, k, a0, R, eps_c_rate, t_end, n_cells=400, n_st
     # total radial stress rise at the wall: sigma'_r = Mod eps_v - 2G u/r (tension +), total = that - p
     # => cavity pressure rise = 2G eps_c - f (compression positive)
     return {"t": t, "eps_c": eps, "pressure_rise": 2 * G * eps - f, "excess_pore_pressure": np.array(out_p)}
+
+
+def consolidation_coefficient(k, G, nu, gamma_w=GAMMA_W):
+    """Radial (plane strain) coefficient of consolidation c_h = (k/gamma_w) 2G(1 - nu)/(1 - 2 nu) (m2/s; k in m/s,
+    G in kPa, drained nu), Randolph & Wroth (1979), REFERENCE.md section 6."""
+    return k / gamma_w * 2.0 * G * (1.0 - nu) / (1.0 - 2.0 * nu)
+
+
+def _z0(x, alpha):
+    """Z_0(x) = J_0(x) Y_1(alpha) - Y_0(x) J_1(alpha) (REFERENCE.md section 6); its derivative is -Z_1."""
+    return j0(x) * y1(alpha) - y0(x) * j1(alpha)
+
+
+def _z1(x, alpha):
+    """Z_1(x) = J_1(x) Y_1(alpha) - Y_1(x) J_1(alpha) = -dZ_0/dx; Z_1(alpha) = 0 (impermeable cavity)."""
+    return j1(x) * y1(alpha) - y1(x) * j1(alpha)
+
+
+def randolph_wroth_eigenvalues(outer_ratio, alpha_max):
+    """The roots alpha_n < alpha_max of Z_0(alpha R*/a; alpha) = 0 (drained at R*), R*/a = outer_ratio > 1.
+
+    Sign changes on a grid of 1/16 of the asymptotic root spacing pi/(R*/a - 1), refined by 60 vectorized
+    bisections (relative accuracy ~1e-16)."""
+    rho = float(outer_ratio)
+    if not rho > 1.0:
+        raise ValueError(f"outer_ratio R*/a = {outer_ratio} must exceed 1")
+    step = min(np.pi / (rho - 1.0), 1.0) / 16.0
+    x = np.arange(step, alpha_max + step, step)
+    f = _z0(rho * x, x)
+    i = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)
+    lo, hi, flo = x[i], x[i + 1], f[i]
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        fm = _z0(rho * mid, mid)
+        left = np.sign(fm) == np.sign(flo)
+        lo, flo = np.where(left, mid, lo), np.where(left, fm, flo)
+        hi = np.where(left, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+def randolph_wroth(r_over_a, T, plastic_ratio, outer_ratio, s_u=1.0, n_terms=2000):
+    """Excess pore pressure (kPa) during consolidation after an undrained cavity expansion, Randolph & Wroth (1979).
+
+    Uncoupled radial diffusion du/dt = c_h (u_rr + u_r/r) for a <= r <= R* (elastic soil, cavity held), impermeable
+    cavity du/dr(a) = 0, drained u(R*) = 0, initial u = 2 s_u ln(R_p/r) for r < R_p, 0 beyond (Gibson & Anderson),
+    T = c_h t/a^2 (see consolidation_coefficient). With x = alpha_n r/a:
+        u = sum_n A_n Z_0(alpha_n r/a) exp(-alpha_n^2 T),
+        A_n = int x u_0 Z_0 dx / int x Z_0^2 dx = 2 s_u [Z_0(alpha_n) - Z_0(alpha_n R_p/a)] /
+              ([beta^2 Z_1(beta)^2 - alpha_n^2 Z_0(alpha_n)^2]/2),  beta = alpha_n R*/a,
+    from int x ln(X/x) Z_0 dx = x ln(X/x) Z_1 - Z_0 and int x Z_0^2 dx = x^2 (Z_0^2 + Z_1^2)/2.
+    plastic_ratio R_p/a <= outer_ratio R*/a. Returns an array of shape (len(T), len(r_over_a)).
+    ``n_terms`` bounds the number of eigenvalues; T = 0 needs many (slow convergence at the kink at R_p).
+    """
+    rho, X = float(outer_ratio), float(plastic_ratio)
+    if not 1.0 <= X <= rho:
+        raise ValueError(f"plastic_ratio R_p/a = {plastic_ratio} must lie in [1, R*/a = {outer_ratio}]")
+    alpha = randolph_wroth_eigenvalues(rho, (n_terms + 1) * np.pi / (rho - 1.0))[:n_terms]
+    beta = alpha * rho
+    norm = 0.5 * (beta**2 * _z1(beta, alpha) ** 2 - alpha**2 * _z0(alpha, alpha) ** 2)
+    A = 2.0 * s_u * (_z0(alpha, alpha) - _z0(alpha * X, alpha)) / norm
+    x = np.atleast_1d(np.asarray(r_over_a, float))
+    T = np.atleast_1d(np.asarray(T, float))
+    modes = A[:, None] * _z0(alpha[:, None] * x[None, :], alpha[:, None])          # (n, len(r))
+    return np.exp(-np.outer(T, alpha**2)) @ modes
+
+
+def radial_diffusion(u0, a, R, c, times, n_nodes=801, rtol=1e-9):
+    """Independent numerical solution of du/dt = c (u_rr + u_r/r) on a <= r <= R, du/dr(a) = 0, u(R) = 0.
+
+    Vertex-centred finite volumes (nodes graded in ln r, node 0 on the cavity wall), method of lines integrated by
+    scipy's implicit Radau with tolerance rtol. u0: callable r -> initial u. Returns (r nodes, u (len(times), n))."""
+    r = a * np.geomspace(1.0, R / a, n_nodes)
+    face = np.concatenate([[a], 0.5 * (r[1:] + r[:-1])])
+    vol = 0.5 * (np.append(face[1:], R) ** 2 - face**2)[:-1]         # control volumes of the free nodes 0..n-2
+    cond = c * face[1:] / np.diff(r)                                  # c r_f / (r_i+1 - r_i) per face
+    n = n_nodes - 1
+    main = np.zeros(n)
+    main[:] -= cond
+    main[1:] -= cond[:-1]
+    Lmat = diags([main, cond[:-1], cond[:-1]], [0, 1, -1], shape=(n, n)).tocsc()
+    Lmat = diags(1.0 / vol) @ Lmat
+    sol = solve_ivp(lambda t, u: Lmat @ u, (0.0, float(np.max(times))), u0(r[:-1]), method="Radau",
+                    t_eval=np.asarray(times, float), jac=Lmat, rtol=rtol, atol=1e-12)
+    if not sol.success:
+        raise RuntimeError(f"radial_diffusion: {sol.message}")
+    return r, np.vstack([sol.y, np.zeros((1, sol.y.shape[1]))]).T

@@ -113,7 +113,8 @@ class Problem:
     pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls: rtol, max_iterations, refresh_ratio (modified Newton: the
     factorization is refreshed when an iteration reduces the residual by less than this factor; 0 = full Newton),
     max_cuts (step halvings before ConvergenceError). Convergence: at every free dof |R_i| <= rtol * (sum of the
-    absolute element contributions to dof i, floored at 1e-8 of the largest such sum of that field).
+    absolute element contributions to dof i, floored at 1e-6 of the largest such sum of that field: the
+    round-off level, fem.solver.SCALE_FLOOR).
     """
 
     mesh: Mesh
@@ -202,13 +203,15 @@ def edges_of_set(mesh, name):
 
 def pressuremeter(material, *, mesh=None, a0=0.0415, sigma_v0=31.0, K0=0.9, u0=38.8, permeability=3.3e-9,
                   void_ratio0=2.0, strain_rate=0.00167, max_strain=0.10, n_increments=100, hold_time=0.0,
-                  hold_increments=20, unload_strain=None, unload_increments=20, outer="fixed", monitor_radii=(),
+                  hold_increments=20, hold_growth=1.15, unload_strain=None, unload_increments=20, outer="fixed",
+                  monitor_radii=(),
                   stabilization=False, **options):
     """A self-boring pressuremeter test (REFERENCE.md section 5, Burswood defaults) as a Problem.
 
     Expansion at cavity strain rate ``strain_rate`` (1/s; 0.00167 = 0.167 %/s, 0.000185 = 0.0185 %/s) to
     ``max_strain`` in ``n_increments`` equal displacement increments; an optional holding phase (cavity wall held,
-    pore pressure dissipates, geometrically growing steps) of ``hold_time`` s and an unloading phase to
+    pore pressure dissipates, steps growing geometrically by ``hold_growth``) of ``hold_time`` s in
+    ``hold_increments`` increments and an unloading phase to
     ``unload_strain`` at the same rate. Top and bottom fixed vertically, cavity wall impermeable, outer boundary
     drained (u = u0) and either fixed radially (outer='fixed', the paper) or moved as the infinite-medium elastic
     field u_r(R) = u_a a0/R (outer='field'). Default mesh: 60 x 4 elements graded in ln r, R = 3200 a0 for 'fixed'
@@ -227,7 +230,7 @@ def pressuremeter(material, *, mesh=None, a0=0.0415, sigma_v0=31.0, K0=0.9, u0=3
     a = mesh.nodes[mesh.node_set("cavity"), 0].min()
     history = [Phase(max_strain / strain_rate, max_strain, n_increments, name="expansion")]
     if hold_time > 0:
-        history.append(Phase(hold_time, max_strain, hold_increments, growth=1.15, name="holding"))
+        history.append(Phase(hold_time, max_strain, hold_increments, growth=hold_growth, name="holding"))
     if unload_strain is not None:
         history.append(Phase(abs(max_strain - unload_strain) / strain_rate, unload_strain, unload_increments,
                              name="unloading"))
