@@ -1,0 +1,140 @@
+"""The SIMSAND studies (cases.simsand_synthetic, cases.toyoura) and their shared forward model."""
+import json
+
+import numpy as np
+import pytest
+
+import inference
+from cases import simsand_synthetic as syn
+from cases import toyoura
+from cases.simsand_triaxial import SimsandTriaxial, TriaxialTest, conditions_of
+from constitutive import SIMSAND
+
+
+def test_noise_free_data_is_the_forward_model_at_the_true_values():
+    """The shipped noise-free CSVs equal SIMSAND's triaxial_test at the true values, run directly (exact up to the
+    round-off of the batch size; the CSV keeps 17 digits)."""
+    obs = syn.load_data(0.0)
+    ea = np.array(syn.STRAIN_PCT) / 100.0
+    for name, e0, p0 in syn.TESTS:
+        direct = SIMSAND(**syn.TRUE).triaxial_test(e0, p0, ea)
+        t = obs[name]
+        np.testing.assert_array_equal(t.curves["q"].x, syn.STRAIN_PCT)
+        np.testing.assert_allclose(t.curves["q"].y, direct["q"][0], rtol=1e-9)
+        np.testing.assert_allclose(t.curves["e"].y, direct["e"][0], rtol=1e-9)
+        assert t.conditions["synthetic"].startswith("true")
+        assert float(t.conditions["e0"]) == e0 and float(t.conditions["p0_kPa"]) == p0
+
+
+def test_likelihood_of_noise_free_data_peaks_at_the_true_values():
+    _, _, like, prior = syn.build(0.0)
+    like.bind(prior.names)
+    theta = np.array([syn.TRUE[n] for n in prior.names[:-1]] + [0.05])
+    assert all(v < 1e-16 for v in like.summary_goodness(theta).values())
+    off = theta.copy()
+    off[prior.names.index("phi_mu")] = 30.5
+    assert like(off) < like(theta) - 10.0
+
+
+def test_noisy_data_relative_residual_std_is_the_stated_noise():
+    """Noisy data / noise-free data - 1 = c - 1 with c ~ N(1, 0.1^2): its std over the 300 points is 0.1 within
+    4 standard errors (0.1 / sqrt(2 N)), its mean 0 within 4 standard errors."""
+    clean, noisy = syn.load_data(0.0), syn.load_data(0.1)
+    r = np.concatenate([noisy[t].curves[c].y / clean[t].curves[c].y - 1.0 for t in clean.tests for c in ("q", "e")])
+    assert r.size == 300
+    assert abs(r.std(ddof=1) - 0.1) < 4 * 0.1 / np.sqrt(2 * r.size)
+    assert abs(r.mean()) < 4 * 0.1 / np.sqrt(r.size)
+    assert "seed: " in (syn.data_dir(0.1) / "T1_e0.6_p800kPa.csv").read_text()
+
+
+def test_generator_is_reproducible(tmp_path):
+    files = syn.generate_data(0.1, out=tmp_path)
+    for name, path in files.items():
+        shipped = syn.data_dir(0.1) / path.name
+        assert path.read_text() == shipped.read_text()
+
+
+def test_forward_model_batches_tests_and_reports_failures_per_particle():
+    """One batched call for all tests equals triaxial_test per test and particle; a particle that loses control is
+    an exception with the test named, its neighbours are unaffected."""
+    x = (0.5, 1.0, 5.0, 25.0)
+    specs = [TriaxialTest("a", 0.6, 800.0, True, x), TriaxialTest("b", 0.8, 25.0, True, x),
+             TriaxialTest("u", 0.8, 100.0, False, x)]
+    fw = SimsandTriaxial(specs, {k: v for k, v in syn.TRUE.items() if k not in ("phi_mu", "e_ref", "n_p")})
+    batch = [dict(phi_mu=30.0, e_ref=0.75, n_p=2.0), dict(phi_mu=45.0, e_ref=1.5, n_p=10.0),
+             dict(phi_mu=33.0, e_ref=0.8, n_p=1.0)]
+    res = fw(batch)
+    bad = SIMSAND(**{**fw.fixed, **batch[1]})
+    failing = [t.name for t in specs if bad.triaxial_test(t.e0, t.p0, np.array(x) / 100, drained=t.drained,
+                                                          on_failure="nan")["failed"][0]]
+    assert failing, "the test needs a parameter set that loses control"
+    assert isinstance(res[1], inference.ForwardModelError) and f"test(s) {failing}" in str(res[1])
+    for i in (0, 2):
+        model = SIMSAND(**{**fw.fixed, **batch[i]})
+        for t in specs:
+            direct = model.triaxial_test(t.e0, t.p0, np.array(x) / 100, drained=t.drained)
+            xs, q = res[i][t.name]["q"]
+            np.testing.assert_array_equal(xs, (0.0,) + x)
+            np.testing.assert_allclose(q[1:], direct["q"][0], rtol=1e-8)
+            np.testing.assert_allclose(res[i][t.name]["u"][1][1:], direct["excess_pore_pressure"][0], rtol=1e-8,
+                                       atol=1e-8)
+
+
+def test_toyoura_data_match_source_note():
+    """The shipped files give the e0 and p'0 of SOURCE.md; q and e follow its formulas at a spot value."""
+    expected = {"test1": (0.996, 100.0), "test2": (0.917, 100.0), "test3": (0.831, 100.0),
+                "test4": (0.960, 500.0), "test5": (0.886, 500.0), "test6": (0.810, 500.0)}
+    source = (toyoura.DATA / "SOURCE.md").read_text()
+    for name, (e0, p0) in expected.items():
+        t = toyoura.load_drained(name)
+        c = conditions_of(t)
+        assert (c.e0, c.p0, c.drained) == (e0, p0, True)
+        assert f"| {name[-1]} | {toyoura.FILES[name]} | {p0:g} | {e0:.3f} |" in source
+        assert t.curves["q"].y[0] == 0.0 and t.curves["q"].x.max() > 25.0
+    # TMD1 (test6) first row: eps_a 0, sr 1, eps_v 0.0617 % -> e = 0.81 - 1.81 * 0.000617
+    assert toyoura.load_drained("test6").curves["e"].y[0] == pytest.approx(0.81 - 1.81 * 0.000617, rel=1e-12)
+
+
+def test_user_undrained_csv_is_calibrated_with_the_undrained_route(tmp_path):
+    f = tmp_path / "u7.csv"
+    f.write_text("# e0: 0.735\n# p0_kPa: 100\neps_a_pct,q_kPa,u_kPa\n0.5,100,20\n1.0,150,30\n2.0,200,20\n")
+    cal, all_obs, fw, _, like, prior = toyoura.build([str(f)])
+    assert list(cal.tests) == ["test2", "undrained1_u7"]
+    spec = {t.name: t for t in fw.tests}["undrained1_u7"]
+    assert (spec.e0, spec.p0, spec.drained) == (0.735, 100.0, False)
+    assert set(cal["undrained1_u7"].curves) == {"q", "u"}
+    g = tmp_path / "u12.csv"
+    g.write_text("eps_a_pct,q_kPa,u_kPa\n0.5,100,20\n")
+    with pytest.raises(inference.DataError, match="u12.csv: missing condition 'e0'"):
+        toyoura.build([str(g)])
+    cal, *_ = toyoura.build([f"{g}:0.833:1000"])
+    assert conditions_of(cal["undrained1_u12"]).p0 == 1000.0
+
+
+def _contract(out, case):
+    s = json.loads((out / "summary.json").read_text())
+    for key in ("case", "method", "seed", "n_samples", "n_stages", "n_forward_solves", "wall_s", "ranks",
+                "parameters", "sigma_eps", "log_evidence", "J_g_at_map"):
+        assert key in s, key
+    assert s["case"] == case and s["stages"][-1]["q"] == 1.0
+    for f in ("posterior.npz", "report.md", "curves.png", "marginals.png", "stages.png", "csl.png"):
+        assert (out / f).is_file(), f
+    return s
+
+
+def test_tiny_synthetic_run_writes_the_contract(tmp_path):
+    out = tmp_path / "syn"
+    syn.main(["--noise", "0.1", "--free", "phi_mu", "--samples", "8", "--sweeps", "1", "--processes", "1",
+              "--out", str(out)])
+    s = _contract(out, "simsand_synthetic")
+    assert s["synthetic"] is True and set(s["parameters"]) == {"phi_mu", "sigma_eps"}
+    assert "synthetic" in (out / "report.md").read_text().lower()
+
+
+def test_tiny_toyoura_run_writes_the_contract(tmp_path):
+    out = tmp_path / "toy"
+    toyoura.main(["--free", "phi_mu", "--samples", "8", "--sweeps", "1", "--processes", "1", "--out", str(out)])
+    s = _contract(out, "toyoura")
+    assert s["calibration_tests"] == ["test2", "test6"] and "substitutes" in s["substitution"]
+    assert set(s["J_g_all_tests"]) == {f"test{i}" for i in range(1, 7)}
+    assert "UNDRAINED tests 7 and 12" in (out / "report.md").read_text()
