@@ -46,7 +46,7 @@ import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from scipy import special, stats
+from scipy import special
 
 from .covariates import Attribution, attribute, holm
 
@@ -221,20 +221,21 @@ def runs_test(r):
     runs = 1 + int(np.count_nonzero(s[1:] != s[:-1]))
     expected = 1.0 + 2.0 * n1 * n2 / n
     # P(R = 2k) = 2 C(n1-1,k-1) C(n2-1,k-1) / C(n,n1); P(R = 2k+1) = [C(n1-1,k-1) C(n2-1,k) + C(n1-1,k) C(n2-1,k-1)] / C
-    k = np.arange(1, runs // 2 + 2)
+    k = np.arange(1, runs // 2 + 2, dtype=float)
+    c1, c2 = _log_comb(n1 - 1, k - 1), _log_comb(n2 - 1, k - 1)       # C(n1-1, k-1), C(n2-1, k-1)
+    d1, d2 = _log_comb(n1 - 1, k), _log_comb(n2 - 1, k)               # C(n1-1, k),   C(n2-1, k)
+    log_total = _log_comb(n, np.array([float(n1)]))[0]
+    even = 2.0 * np.exp(c1 + c2 - log_total)
+    odd = np.exp(c1 + d2 - log_total) + np.exp(d1 + c2 - log_total)
+    p = even[2 * k <= runs].sum() + odd[2 * k + 1 <= runs].sum()
+    return runs, float(expected), float(min(1.0, p))
 
-    def log_comb(a, b):
-        b = np.asarray(b, dtype=float)
-        ok = (b >= 0) & (b <= a)
-        out = special.gammaln(a + 1) - special.gammaln(np.where(ok, b, 0) + 1) - special.gammaln(np.where(ok, a - b, 0) + 1)
-        return np.where(ok, out, -np.inf)
 
-    log_total = log_comb(n, n1)
-    even = np.log(2.0) + log_comb(n1 - 1, k - 1) + log_comb(n2 - 1, k - 1) - log_total
-    odd = np.logaddexp(log_comb(n1 - 1, k - 1) + log_comb(n2 - 1, k),
-                       log_comb(n1 - 1, k) + log_comb(n2 - 1, k - 1)) - log_total
-    terms = np.concatenate([even[2 * k <= runs], odd[2 * k + 1 <= runs]])
-    return runs, float(expected), float(min(1.0, np.exp(special.logsumexp(terms)))) if terms.size else 0.0
+def _log_comb(a, b):
+    """ln C(a, b) for an array b (-inf where b < 0 or b > a)."""
+    ok = (b >= 0) & (b <= a)
+    bb = np.where(ok, b, 0.0)
+    return np.where(ok, special.gammaln(a + 1.0) - special.gammaln(bb + 1.0) - special.gammaln(a - bb + 1.0), -np.inf)
 
 
 def lag1_test(r):
@@ -252,7 +253,7 @@ def lag1_test(r):
     rho = float(x[1:] @ x[:-1]) / ss
     a = math.cos(math.pi / (n + 1))
     shape = 0.5 * (a * a * n * (n + 2) / (n - 1) - 1.0)
-    return rho, float(stats.beta.sf((rho + a) / (2 * a), shape, shape))
+    return rho, float(special.betainc(shape, shape, (a - rho) / (2 * a)))  # beta survival, by symmetry
 
 
 def scale_test(r, sigma_eps):
@@ -261,7 +262,7 @@ def scale_test(r, sigma_eps):
     if not sigma_eps > 0:
         raise ValueError(f"sigma_eps = {sigma_eps} must be > 0")
     s = float(x @ x) / sigma_eps**2
-    return s, int(x.size), float(stats.chi2.sf(s, x.size)) if x.size else 1.0
+    return s, int(x.size), float(special.chdtrc(x.size, s)) if x.size else 1.0
 
 
 def _scan_lengths(n, min_points):
@@ -274,13 +275,15 @@ def _scan_lengths(n, min_points):
 
 
 def _scan_null(n, min_points):
-    """Null draws (SCAN_DRAWS,) of the scan statistic for iid N(0, 1) sequences of length n (cached).
+    """Sorted null draws (SCAN_DRAWS,) of the scan statistic for iid N(0, 1) sequences of length n (cached).
 
     One simulation at length n_max gives every n <= n_max: the maximum over intervals inside the first n points is the
     running maximum over end points of the best interval ending there.
     """
-    key = min_points
-    table = _SCAN_NULL.get(key)
+    cached = _SCAN_NULL.get((n, min_points))
+    if cached is not None:
+        return cached
+    table = _SCAN_NULL.get(min_points)
     if table is None or table.shape[1] < n + 1:
         n_max = max(n, 2 * (table.shape[1] - 1) if table is not None else 200)
         z = np.random.default_rng(np.random.SeedSequence([20240601, min_points])).standard_normal((SCAN_DRAWS, n_max))
@@ -290,8 +293,9 @@ def _scan_null(n, min_points):
             stat = np.abs(csum[:, length:] - csum[:, :-length]) / math.sqrt(length)
             np.maximum(best_ending[:, length:], stat, out=best_ending[:, length:])
         table = np.maximum.accumulate(best_ending, axis=1)  # column n: maximum over intervals within the first n
-        _SCAN_NULL[key] = table
-    return table[:, n]
+        _SCAN_NULL[min_points] = table
+    _SCAN_NULL[n, min_points] = np.sort(table[:, n])
+    return _SCAN_NULL[n, min_points]
 
 
 def scan_test(r, sigma_eps, min_points=3):
@@ -308,14 +312,16 @@ def scan_test(r, sigma_eps, min_points=3):
     if n < min_points:
         return 0.0, (0, n), 1.0
     csum = np.concatenate([[0.0], np.cumsum(x / sigma_eps)])
-    best, where = -1.0, (0, n)
-    for length in _scan_lengths(n, min_points):
-        stat = np.abs(csum[length:] - csum[:-length]) / math.sqrt(length)
-        i = int(np.argmax(stat))
-        if stat[i] > best:
-            best, where = float(stat[i]), (i, i + int(length))
+    lengths = _scan_lengths(n, min_points)
+    start = np.arange(n)
+    stop = np.minimum(start[None, :] + lengths[:, None], n)            # (lengths, starts); past the end -> empty
+    stat = np.where(start[None, :] + lengths[:, None] <= n, np.abs(csum[stop] - csum[start]), -1.0) \
+        / np.sqrt(lengths)[:, None]
+    li, i = np.unravel_index(int(np.argmax(stat)), stat.shape)
+    best = float(stat[li, i])
     null = _scan_null(n, min_points)
-    return best, where, float((1 + np.count_nonzero(null >= best)) / (1 + null.size))
+    exceed = null.size - np.searchsorted(null, best, side="left")
+    return best, (int(i), int(i + lengths[li])), float((1 + exceed) / (1 + null.size))
 
 
 # ================================================================ regions
