@@ -13,7 +13,7 @@ from scipy import stats
 
 from inference import Curve, Likelihood, Observations, Test
 from inference.covariates import attribute, holm
-from inference.mismatch import (lag1_test, predictive_bands, relative_residuals, runs_test, scale_test, scan_test,
+from inference.mismatch import (SCAN_DRAWS, lag1_test, predictive_bands, relative_residuals, runs_test, scale_test, scan_test,
                                 screen, segment)
 
 ALPHA = 0.05
@@ -109,7 +109,7 @@ TESTS = {
 def test_false_alarm_rate_is_nominal(name, n):
     reps = 1500
     rate = _false_alarm(TESTS[name], n, reps, seed=7 + n)
-    assert abs(rate - ALPHA) <= _tol(ALPHA, reps), rate
+    assert abs(rate - ALPHA) <= _size_tol(name, reps), rate
 
 
 @pytest.mark.slow
@@ -118,7 +118,14 @@ def test_false_alarm_rate_is_nominal(name, n):
 def test_false_alarm_rate_is_nominal_many(name, n):
     reps = 20000
     rate = _false_alarm(TESTS[name], n, reps, seed=1000 + n)
-    assert abs(rate - ALPHA) <= _tol(ALPHA, reps), rate
+    assert abs(rate - ALPHA) <= _size_tol(name, reps), rate
+
+
+def _size_tol(name, reps):
+    """4 standard errors of the realized rate; the scan test's fixed Monte Carlo null table (SCAN_DRAWS draws) adds its
+    own error to the size it attains: variance alpha(1-alpha)/SCAN_DRAWS."""
+    extra = 1.0 / SCAN_DRAWS if name == "scan" else 0.0
+    return 4.0 * math.sqrt(ALPHA * (1 - ALPHA) * (1.0 / reps + extra))
 
 
 def _structured(kind, n, rng):
