@@ -163,6 +163,17 @@ def bounding_box_sets(nodes, rtol=1e-9):
             "bottom": np.flatnonzero(z <= z.min() + tol), "top": np.flatnonzero(z >= z.max() - tol)}
 
 
+def two_sided_radii(a0, R, n_inner, n_outer, h_outer):
+    """Radii from a0 to R: n_inner elements equally spaced in ln r up to R/2, then n_outer elements to R with sizes
+    shrinking geometrically to h_outer (m) at R, to resolve the drainage boundary layer at a drained, fixed outer
+    boundary (thickness ~ sqrt(c t); notes/fem.md)."""
+    left = a0 * (R / 2 / a0) ** np.linspace(0.0, 1.0, n_inner + 1)
+    s = np.geomspace(h_outer, 3 * (R / 2) / n_outer, n_outer)
+    s *= (R / 2) / s.sum()
+    right = R - np.concatenate([[0.0], np.cumsum(s)])[::-1]
+    return np.concatenate([left[:-1], right])
+
+
 def graded_radii(a0, R, n, ratio):
     """n + 1 radii from a0 to R with element sizes in geometric progression, last/first size = ``ratio``."""
     if ratio <= 0:

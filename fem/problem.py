@@ -110,8 +110,9 @@ class Problem:
     (phases), stabilization (polynomial pressure projection, tau = 1/(2 G_hg)), hourglass_scale c_hg (fixed input,
     default 0.05) and hourglass_modulus G_hg (kPa; None: the elastic shear modulus of the initial material tangent,
     per cell, computed once), monitor_radii (m; pore pressure histories at these radii at mid-height, like SBP
-    pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls: rtol, max_iterations, refresh_ratio (modified Newton: the
-    factorization is refreshed when an iteration reduces the residual by less than this factor; 0 = full Newton),
+    pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls: rtol,
+    max_iterations, refresh_ratio (0, the default: full Newton with the material tangent; > 0: modified Newton, the
+    factorization refreshed when an iteration reduces the residual by less than this factor; fem.Solver._newton),
     max_cuts (step halvings before ConvergenceError). Convergence: at every free dof |R_i| <= rtol * (sum of the
     absolute element contributions to dof i, floored at 1e-6 of the largest such sum of that field: the
     round-off level, fem.solver.SCALE_FLOOR).
@@ -133,7 +134,7 @@ class Problem:
     save_fields: str = "phases"
     rtol: float = 1e-6
     max_iterations: int = 25
-    refresh_ratio: float = 0.1
+    refresh_ratio: float = 0.0
     max_cuts: int = 10
 
     def __post_init__(self):
@@ -170,6 +171,8 @@ class Problem:
             raise ProblemError(f"hourglass_scale = {self.hourglass_scale} must be >= 0")
         if self.hourglass_modulus is not None and not self.hourglass_modulus > 0:
             raise ProblemError(f"hourglass_modulus = {self.hourglass_modulus} kPa must be positive")
+        if not 0.0 <= self.refresh_ratio < 1.0:
+            raise ProblemError(f"refresh_ratio = {self.refresh_ratio} must lie in [0, 1) (0: full Newton)")
         if self.save_fields not in ("phases", "all", "none"):
             raise ProblemError(f"save_fields = {self.save_fields!r} must be 'phases', 'all' or 'none'")
         rmin, rmax = self.mesh.nodes[:, 0].min(), self.mesh.nodes[:, 0].max()

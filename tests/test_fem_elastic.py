@@ -16,13 +16,7 @@ def strip(R_over_a, n_radial=60, n_vertical=4):
 
 
 def two_sided_radii(R, n1, n2, h_outer):
-    """Radii graded toward the cavity (n1 elements to R/2) and toward R (n2 elements, last size h_outer) to resolve
-    the drainage boundary layer at a drained, fixed outer boundary."""
-    left = A0 * (R / 2 / A0) ** np.linspace(0.0, 1.0, n1 + 1)
-    s = np.geomspace(h_outer, 3 * (R / 2) / n2, n2)
-    s *= (R / 2) / s.sum()
-    right = R - np.concatenate([[0.0], np.cumsum(s)])[::-1]
-    return np.concatenate([left[:-1], right])
+    return fem.mesh.two_sided_radii(A0, R, n1, n2, h_outer)
 
 
 def test_lame_field_boundary_is_exact():
