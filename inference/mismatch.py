@@ -137,25 +137,21 @@ def _mixture_cdf_pdf(u, mean, sd):
 
 def _mixture_quantile(q, mean, sd, tol=1e-9, max_iter=50):
     """Quantile q of the normal mixture per column: Newton steps from the moment-matched normal's quantile, kept
-    inside a shrinking bracket (bisection when a step leaves it), iterating only on unconverged columns."""
+    inside a shrinking bracket (bisection when a step leaves it); typically three iterations."""
     zq = special.ndtri(q)
-    lo, hi = (mean + zq * sd).min(axis=0), (mean + zq * sd).max(axis=0)  # the mixture quantile lies between these
+    component = mean + zq * sd
+    lo, hi = component.min(axis=0), component.max(axis=0)  # the mixture quantile lies between these
     m = mean.mean(axis=0)
-    u = np.clip(m + zq * np.sqrt((sd**2 + mean**2).mean(axis=0) - m**2), lo, hi)
-    active = np.arange(u.size)
+    u = np.clip(m + zq * np.sqrt(np.mean(sd * sd, axis=0) + mean.var(axis=0)), lo, hi)
     for _ in range(max_iter):
-        cdf, pdf = _mixture_cdf_pdf(u[active], mean[:, active], sd[:, active])
+        cdf, pdf = _mixture_cdf_pdf(u, mean, sd)
         err = cdf - q
-        hi[active] = np.where(err > 0, u[active], hi[active])
-        lo[active] = np.where(err <= 0, u[active], lo[active])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step = u[active] - err / pdf
-        inside = np.isfinite(step) & (step > lo[active]) & (step < hi[active])
-        u[active] = np.where(np.abs(err) < tol, u[active],
-                             np.where(inside, step, 0.5 * (lo[active] + hi[active])))
-        active = active[np.abs(err) >= tol]
-        if active.size == 0:
+        if np.all(np.abs(err) < tol):
             break
+        hi, lo = np.where(err > 0, u, hi), np.where(err <= 0, u, lo)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = u - err / pdf
+        u = np.where(np.isfinite(step) & (step > lo) & (step < hi), step, 0.5 * (lo + hi))
     return u
 
 
