@@ -51,7 +51,8 @@ from scipy import special
 from .covariates import Attribution, attribute, holm
 
 __all__ = ["PredictiveBand", "CurveStatistics", "Region", "ScreenReport", "relative_residuals", "simulate_samples",
-           "predictive_bands", "runs_test", "lag1_test", "scale_test", "scan_test", "holm", "segment", "screen"]
+           "predictive_bands", "runs_test", "lag1_test", "scale_test", "scan_test", "holm", "segment", "curve_statistics",
+           "screen", "benchmark"]
 
 #: the tests run on every curve, in the order of the Holm family
 TESTS = ("runs", "lag1", "scale", "scan")
