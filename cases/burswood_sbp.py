@@ -384,20 +384,20 @@ def main(argv=None):
     prior = inference.UniformPrior(BOUNDS)
     n_samples = args.samples or preset.n_samples
     summaries = []
-    for seed, out in study.run_directories(args, Path("results") / CASE):
+    for run_args, seed, out in study.run_directories(args, Path("results") / CASE):
         t0 = time.perf_counter()
-        post = study.calibrate(like, prior, args, out, seed, n_samples, max_steps=preset.max_steps,
+        post = study.calibrate(like, prior, run_args, out, seed, n_samples, max_steps=preset.max_steps,
                                max_stages=args.max_stages, timeout=args.timeout)
         if study.is_root():
-            summary = write_outputs(out, args, post, like, forward, preset, synthetic, seed)
+            summary = write_outputs(out, run_args, post, like, forward, preset, synthetic, seed)
             summaries.append(summary)
-            print(json.dumps({"case": CASE, "out": str(out), "seed": seed, "wall_s": round(time.perf_counter() - t0, 1),
+            print(json.dumps({"case": CASE, "method": run_args.method, "out": str(out), "seed": seed, "wall_s": round(time.perf_counter() - t0, 1),
                               "n_stages": summary["n_stages"], "n_forward_solves": summary["n_forward_solves"],
                               "log_evidence": round(post.log_evidence, 3),
                               "map": {k: round(v, 4) for k, v in post.map.items()}}), flush=True)
     if study.is_root() and len(summaries) > 1:
         base = Path(args.out or Path("results") / CASE)
-        (base / "runs.md").write_text(study.runs_table(summaries, prior.names,
+        (base / "runs.md").write_text("# Burswood SBP: independent runs\n\n" + study.runs_table(summaries, prior.names,
                                                        {"generating": GENERATING, **PAPER} if synthetic else PAPER))
     return 0
 

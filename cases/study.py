@@ -1,10 +1,11 @@
 """What every runnable study shares: the command line of DESIGN.md, the calibration call, and the outputs.
 
 Command line (DESIGN.md "Runnable contracts"), the same for every case:
-    python -m cases.<name> [--quick] [--method de|o] [--samples N] [--seed S] [--runs R] [--out DIR] [--resume]
+    python -m cases.<name> [--quick] [--method de|o|both] [--samples N] [--seed S] [--runs R] [--out DIR] [--resume]
                            [--dispatch dynamic|spmd] [--processes P]
 It runs unchanged under ``mpirun -n K``: every rank calls :func:`calibrate`, rank 0 samples and writes, the other
-ranks run forward solves. Without mpirun the local process pool is used (``--processes``, default one per core).
+ranks run forward solves. ``--method both`` runs DE-TMCMC and O-TMCMC for each seed (side by side in DIR/de and
+DIR/o). Without mpirun the local process pool is used (``--processes``, default one per core).
 
 Outputs of one run in DIR (``--runs R`` puts run r in DIR/seed_<S+r>):
 - ``summary.json``: case, method, seed, n_samples, n_stages, n_forward_solves, wall_s, ranks, parameters
@@ -36,7 +37,8 @@ def arguments(description, argv=None, quick_help="small preset", add=None):
     ap = argparse.ArgumentParser(description=description,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help=quick_help)
-    ap.add_argument("--method", choices=sorted(PROPOSALS), default="de", help="de: DE-TMCMC, o: O-TMCMC")
+    ap.add_argument("--method", choices=(*sorted(PROPOSALS), "both"), default="de",
+                    help="de: DE-TMCMC, o: O-TMCMC, both: one run of each per seed")
     ap.add_argument("--samples", type=int, help="particles per stage N_s (default: the preset's)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--runs", type=int, default=1, help="independent runs with seeds S, S+1, ...")
@@ -65,11 +67,17 @@ def method_name(method: str) -> str:
 
 
 def run_directories(args, default_out: Path):
-    """(seed, directory) of each requested run."""
+    """(run arguments, seed, directory) of each requested run: every method of ``--method`` x every seed."""
     out = Path(args.out or default_out)
-    if args.runs == 1:
-        return [(args.seed, out)]
-    return [(args.seed + r, out / f"seed_{args.seed + r}") for r in range(args.runs)]
+    methods = sorted(PROPOSALS) if args.method == "both" else [args.method]
+    runs = []
+    for method in methods:
+        base = out / method if len(methods) > 1 else out
+        for r in range(args.runs):
+            seed = args.seed + r
+            runs.append((argparse.Namespace(**{**vars(args), "method": method}), seed,
+                         base if args.runs == 1 else base / f"seed_{seed}"))
+    return runs
 
 
 def calibrate(like, prior, args, out: Path, seed: int, n_samples: int, executor=None, **settings):
@@ -134,18 +142,27 @@ def parameter_table(post, reference: dict | None = None, units: dict | None = No
 
 
 def runs_table(summaries: list, names, reference: dict | None = None) -> str:
-    """Markdown table over independent runs: average MAP and its spread (std over runs) per parameter."""
+    """Markdown table over independent runs, one column pair per method (side by side): average MAP and its
+    spread (std over runs) per parameter, then reference columns; then ln Z and forward solves per method."""
     reference = reference or {}
-    head = ["parameter", "average MAP", "spread of MAP (std)", "average posterior std"] + list(reference)
+    methods = sorted({s["method"] for s in summaries})
+    by = {m: [s for s in summaries if s["method"] == m] for m in methods}
+    head = ["parameter"] + [f"{m}: {h}" for m in methods for h in ("average MAP", "spread of MAP")] + list(reference)
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for n in names:
-        maps = np.array([s["parameters"][n]["map"] for s in summaries])
-        stds = np.array([s["parameters"][n]["std"] for s in summaries])
-        cells = [n, _fmt(float(maps.mean())), _fmt(float(maps.std(ddof=1)) if maps.size > 1 else None),
-                 _fmt(float(stds.mean()))] + [_fmt(col.get(n)) for col in reference.values()]
-        rows.append("| " + " | ".join(cells) + " |")
-    ev = np.array([s["log_evidence"] for s in summaries])
-    rows.append(f"\nln Z over {ev.size} runs: mean {ev.mean():.3f}, spread {ev.std(ddof=1) if ev.size > 1 else 0:.3f}")
+        cells = [n]
+        for m in methods:
+            maps = np.array([s["parameters"][n]["map"] for s in by[m]])
+            cells += [_fmt(float(maps.mean())), _fmt(float(maps.std(ddof=1)) if maps.size > 1 else None)]
+        rows.append("| " + " | ".join(cells + [_fmt(col.get(n)) for col in reference.values()]) + " |")
+    rows.append("")
+    for m in methods:
+        ev = np.array([s["log_evidence"] for s in by[m]])
+        solves = np.array([s["n_forward_solves"] for s in by[m]])
+        wall = np.array([s["wall_s"] for s in by[m]])
+        rows.append(f"- {m}: {ev.size} run(s); ln Z mean {ev.mean():.3f}, spread "
+                    f"{ev.std(ddof=1) if ev.size > 1 else 0:.3f}; forward evaluations {solves.mean():.0f} per run; "
+                    f"wall {wall.mean():.0f} s per run")
     return "\n".join(rows)
 
 

@@ -107,3 +107,34 @@ def test_small_calibration_serial_and_two_ranks_agree_and_move_toward_the_genera
     truth = np.array(list(sbp.GENERATING.values()))
     dist = lambda th: np.mean(np.abs((th[:, :3] - truth) / (hi - lo)))  # noqa: E731
     assert dist(a["samples"]) < 0.6 * dist(a["stage_samples"][0])
+
+
+@pytest.mark.slow
+@pytest.mark.mpi
+def test_killed_mpi_run_resumes_to_the_uninterrupted_answer(tmp_path, tiny_records):
+    """The checkpoint/resume demonstration: SIGUSR1 to mpirun mid-run (what the Slurm job forwards before its
+    time limit) -> checkpoint and exit 75; rerun with --resume -> the answer of an uninterrupted serial run."""
+    import signal
+    import time
+
+    reference = _run(tmp_path, tiny_records, "reference", "--processes", "1")
+    out = tmp_path / "killed"
+    rec = [f"{k}={v}" for k, v in tiny_records.items()]
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "cases.burswood_sbp", *TINY_ARGS, "--samples", "12",
+           "--seed", "3", "--out", str(out), "--recordings", *rec]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 300
+    while time.time() < deadline:  # wait until stage 1 is under way
+        log = out / "progress.log"
+        if log.exists() and "stage   1" in log.read_text():
+            break
+        time.sleep(0.5)
+    proc.send_signal(signal.SIGUSR1)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 75, err[-2000:]
+    assert (out / "run.ckpt").exists() and not (out / "posterior.npz").exists()
+    _run(tmp_path, tiny_records, "killed", "--resume", mpi=2)
+    a, b = np.load(reference / "posterior.npz"), np.load(out / "posterior.npz")
+    np.testing.assert_array_equal(a["stage_samples"], b["stage_samples"])
+    assert json.loads((reference / "summary.json").read_text())["log_evidence"] == \
+        json.loads((out / "summary.json").read_text())["log_evidence"]
