@@ -36,7 +36,7 @@ import numpy as np
 import inference
 from cases import study
 from cases.simsand_triaxial import CURVES, SimsandTriaxial, TriaxialTest, conditions_of, plot_csl, plot_curves, \
-    plot_map_spread
+    run_all, write_runs
 
 CASE = "simsand_synthetic"
 DATA = Path(__file__).parent / "data" / "simsand_synthetic"
@@ -174,32 +174,22 @@ def main(argv=None):
     obs, forward, like, prior = build(args.noise, args.free)
     preset = PRESETS["quick" if args.quick else "full"]
     n_samples = args.samples or preset["n_samples"]
-    summaries = []
-    for seed, out in study.run_directories(args, DEFAULT_OUT):
-        post = study.calibrate(like, prior, args, out, seed, n_samples, max_steps=preset["max_steps"],
-                               n_steps=args.sweeps or "adaptive", min_steps=min(2, args.sweeps or 2),
-                               max_failure_fraction=MAX_FAILURE_FRACTION)
-        if not study.is_root():
-            continue
-        summary = study.write_summary(out, CASE, args, seed, post, like, extra={
+    settings = dict(max_steps=preset["max_steps"], n_steps=args.sweeps or "adaptive",
+                    min_steps=min(2, args.sweeps or 2), max_failure_fraction=MAX_FAILURE_FRACTION)
+
+    def finish(run_args, seed, out, post):
+        summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
             "synthetic": True, "noise": args.noise, "true_values": TRUE, "fixed": list(forward.fixed),
             "max_failure_fraction": MAX_FAILURE_FRACTION, "sigma_eps_bounds": SIGMA_BOUNDS})
-        report_run(out, args, post, obs, forward, summary)
-        summaries.append(summary)
-        print(f"{out}: MAP " + ", ".join(f"{k} {v:.4g}" for k, v in post.map.items()))
-    if study.is_root() and len(summaries) > 1:
-        top = Path(args.out or DEFAULT_OUT)
-        names = list(prior.names)
-        method = study.method_name(args.method)
-        label = f"SYNTHETIC data, noise {args.noise:g}"
-        (top / "runs.md").write_text(
-            f"# {CASE}: {len(summaries)} independent {method} runs — {label}\n\n"
-            + study.runs_table(summaries, names, references(args.noise)) + "\n")
-        shown = [n for n in names if n != "sigma_eps" or args.noise]  # noise-free: sigma_eps has no true value
-        plot_map_spread(top / "map_spread.png", summaries, shown, {**TRUE, "sigma_eps": args.noise},
-                        f"{method}: MAP of {len(summaries)} runs / true value ({label})")
-    return summaries
+        report_run(out, run_args, post, obs, forward, summary)
+        return summary
 
+    summaries = run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
+    if study.is_root():
+        truth = {**TRUE, "sigma_eps": args.noise} if args.noise else TRUE  # noise-free: sigma_eps has no true value
+        write_runs(args.out or DEFAULT_OUT, f"{CASE}, SYNTHETIC data, noise {args.noise:g}", summaries,
+                   list(prior.names), references(args.noise), truth)
+    return summaries
 
 if __name__ == "__main__":
     main()

@@ -17,15 +17,17 @@ and the last strain reached: a zero-likelihood particle with a reason, never a c
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 import inference
+from cases import study
 from constitutive import SIMSAND, labtests
 from inference import DataError, ForwardModelError
 
 __all__ = ["TriaxialTest", "conditions_of", "SimsandTriaxial", "predictive", "plot_curves", "plot_csl",
-           "plot_map_spread", "CURVES"]
+           "plot_map_spread", "run_all", "write_runs", "CURVES"]
 
 #: observed curves per drainage type (test curve name -> CSV quantity)
 CURVES = {True: {"q": "q", "e": "e"}, False: {"q": "q", "u": "u"}}
@@ -240,17 +242,47 @@ def plot_csl(path, lines: dict, end_states=None, title=""):
 
 
 def plot_map_spread(path, summaries, names, reference: dict, title):
-    """MAP of each run divided by the reference value, per parameter (the paper's Fig. 5 style)."""
+    """MAP of each run divided by the reference value, per parameter and method (the paper's Fig. 5 style)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(names), 3.6))
-    for j, n in enumerate(names):
-        maps = np.array([s["parameters"][n]["map"] for s in summaries])
-        ax.plot(np.full(maps.size, j) + np.linspace(-0.15, 0.15, maps.size), maps / reference[n], "o", mfc="none")
+    methods = sorted({s["method"] for s in summaries})
+    for k, m in enumerate(methods):
+        runs = [s for s in summaries if s["method"] == m]
+        for j, n in enumerate(names):
+            maps = np.array([s["parameters"][n]["map"] for s in runs])
+            shift = 0.25 * (k - (len(methods) - 1) / 2)
+            ax.plot(np.full(maps.size, j + shift) + np.linspace(-0.08, 0.08, maps.size), maps / reference[n],
+                    "os"[k % 2], color=f"C{k}", mfc="none", label=m if j == 0 else None)
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_xticks(range(len(names)))
     ax.set_xticklabels(names, rotation=45)
     ax.set_ylabel("MAP / reference value")
+    ax.legend(fontsize=7)
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def run_all(args, default_out, like, prior, n_samples, settings, finish):
+    """Every run of the command line (methods x seeds, cases.study.run_directories): calibrate, then on rank 0
+    ``finish(run_args, seed, out, post) -> summary``. Returns the summaries (rank 0) or []."""
+    summaries = []
+    for run_args, seed, out in study.run_directories(args, default_out):
+        post = study.calibrate(like, prior, run_args, out, seed, n_samples, **settings)
+        if study.is_root():
+            summaries.append(finish(run_args, seed, out, post))
+            print(f"{out}: MAP " + ", ".join(f"{k} {v:.4g}" for k, v in post.map.items()))
+    return summaries
+
+
+def write_runs(top, title, summaries, names, references, spread_reference, note=""):
+    """With several runs: runs.md (average MAP and spread per method beside the references) and map_spread.png."""
+    if len(summaries) < 2:
+        return
+    top = Path(top)
+    text = f"# {title}\n\n" + (f"**{note}**\n\n" if note else "")
+    (top / "runs.md").write_text(text + study.runs_table(summaries, names, references) + "\n")
+    shown = [n for n in names if n in spread_reference]
+    plot_map_spread(top / "map_spread.png", summaries, shown, spread_reference,
+                    f"MAP of {len(summaries)} runs / reference: {title}")

@@ -42,7 +42,7 @@ import numpy as np
 import inference
 from cases import study
 from cases.simsand_synthetic import MAX_FAILURE_FRACTION
-from cases.simsand_triaxial import CURVES, SimsandTriaxial, conditions_of, plot_csl, plot_curves, plot_map_spread
+from cases.simsand_triaxial import CURVES, SimsandTriaxial, conditions_of, plot_csl, plot_curves, run_all, write_runs
 from inference.observations import read_csv_table
 
 CASE = "toyoura"
@@ -209,34 +209,24 @@ def main(argv=None):
     like_all = inference.Likelihood(all_obs, forward_all, batch=True, sigma="sigma_eps")
     preset = PRESETS["quick" if args.quick else "full"]
     n_samples = args.samples or preset["n_samples"]
-    summaries = []
-    for seed, out in study.run_directories(args, DEFAULT_OUT):
-        post = study.calibrate(like, prior, args, out, seed, n_samples, max_steps=preset["max_steps"],
-                               n_steps=args.sweeps or "adaptive", min_steps=min(2, args.sweeps or 2),
-                               max_failure_fraction=MAX_FAILURE_FRACTION)
-        if not study.is_root():
-            continue
-        summary = study.write_summary(out, CASE, args, seed, post, like, extra={
+    settings = dict(max_steps=preset["max_steps"], n_steps=args.sweeps or "adaptive",
+                    min_steps=min(2, args.sweeps or 2), max_failure_fraction=MAX_FAILURE_FRACTION)
+
+    def finish(run_args, seed, out, post):
+        summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
             "synthetic": False, "calibration_tests": list(cal_obs.tests),
             "predicted_tests": [t for t in all_obs.tests if t not in cal_obs.tests],
             "substitution": "" if args.undrained else SUBSTITUTION_NOTE, "undrained_files": list(args.undrained),
             "fixed": forward.fixed, "J_g_all_tests": jg_all(like_all, post),
             "max_failure_fraction": MAX_FAILURE_FRACTION})
-        report_run(out, args, post, cal_obs, all_obs, forward_all, summary)
-        summaries.append(summary)
-        print(f"{out}: MAP " + ", ".join(f"{k} {v:.4g}" for k, v in post.map.items()))
-    if study.is_root() and len(summaries) > 1:
-        top = Path(args.out or DEFAULT_OUT)
-        names = list(prior.names)
-        method = study.method_name(args.method)
-        (top / "runs.md").write_text(
-            f"# {CASE}: {len(summaries)} independent {method} runs (measured data)\n\n"
-            + ("" if args.undrained else f"**{SUBSTITUTION_NOTE}**\n\n")
-            + study.runs_table(summaries, names, REFERENCES) + "\n")
-        plot_map_spread(top / "map_spread.png", summaries, names, PAPER_DE_MEAN,
-                        f"{method}: MAP of {len(summaries)} runs / paper's DE-TMCMC mean (Toyoura)")
-    return summaries
+        report_run(out, run_args, post, cal_obs, all_obs, forward_all, summary)
+        return summary
 
+    summaries = run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
+    if study.is_root():
+        write_runs(args.out or DEFAULT_OUT, f"{CASE} (measured data, Verdugo & Ishihara 1996)", summaries,
+                   list(prior.names), REFERENCES, PAPER_DE_MEAN, note="" if args.undrained else SUBSTITUTION_NOTE)
+    return summaries
 
 if __name__ == "__main__":
     main()
