@@ -30,7 +30,7 @@ import constitutive as C
 
 from . import Solver, pressuremeter
 from .mesh import Mesh, two_sided_radii
-from .problem import GAMMA_W, edges_of_set
+from .problem import edges_of_set
 
 A0, E, NU, K = 0.0415, 5000.0, 0.3, 3.3e-9
 R = 50 * A0
@@ -52,7 +52,8 @@ def run_ours(mesh):
     r = solver.solve()
     return {"pressure_rise_kPa": float(r.cavity_pressure[-1]),
             "excess_pore_pressure_kPa": float(r.cavity_excess_pore_pressure[-1]),
-            "wall_s": time.perf_counter() - t0, "build_s": build, "n_cells": mesh.n_cells}
+            "wall_s": time.perf_counter() - t0, "build_s": build, "n_cells": mesh.n_cells, "n_nodes": mesh.n_nodes,
+            "newton_iterations": solver.stats["residuals"] - STEPS}
 
 
 # ---------------------------------------------------------------------------------------------- OpenGeoSys input
@@ -200,7 +201,8 @@ def run_ogs(ogs, mesh, taylor_hood):
     pressure = out.point_data["NodalForces"][on_wall, 0].sum() / (2 * np.pi * A0 * H) / 1e3
     return {"pressure_rise_kPa": float(pressure),
             "excess_pore_pressure_kPa": float(out.point_data["pressure"][wall_nodes].mean() / 1e3),
-            "wall_s": wall, "n_cells": mesh.n_cells, "ogs_output": last}
+            "wall_s": wall, "n_cells": mesh.n_cells, "n_nodes": len(out.points),
+            "newton_iterations": proc.stdout.count("] Iteration #")}
 
 
 def find_ogs(given=None):
