@@ -24,9 +24,9 @@ import numpy as np
 
 from ._jit import jit
 
-_I = np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])   # identity, Voigt
-_W = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])   # a:b = sum W a b for stress-like Voigt vectors
-_T = np.array([2.0, 2.0, 2.0, 1.0, 1.0, 1.0])   # engineering-strain deviator -> 2 x tensor deviator
+_I = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)   # identity, Voigt
+_W = (1.0, 1.0, 1.0, 2.0, 2.0, 2.0)   # a:b = sum W a b for stress-like Voigt vectors
+_T = (2.0, 2.0, 2.0, 1.0, 1.0, 1.0)   # engineering-strain deviator -> 2 x tensor deviator
 _NX = 13                                        # unknowns per point
 #: columns of the per-point parameter array ``prm``
 PARAMETER_COLUMNS = ("M2", "c_e", "c_p", "r_G", "omega", "omega_d", "inv_beta", "mu")
@@ -65,36 +65,41 @@ def _surface(sig, alp, M2, s, xi, g):
 
 
 @jit
-def _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, S_e, want_tangent):
-    """(E) integrated exactly along the elastic strain increment deps_e (engineering Voigt): fills sig_e and, when
-    ``want_tangent``, S_e = d sig_e/d deps_e (6 x 6). p' = p'_n exp(x), x = c_e d eps_v^e; s = s_n + 2 G_bar de^e,
-    G_bar = r_G K_bar, K_bar = p'_n c_e phi(x)."""
+def _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, c):
+    """(E) integrated exactly along the elastic strain increment deps_e (engineering Voigt): p' = p'_n exp(x),
+    x = c_e d eps_v^e; s = s_n + 2 G_bar de^e, G_bar = r_G K_bar, K_bar = p'_n c_e phi(x). Fills sig_e and the
+    vector c; returns G_bar. The stiffness d sig_e/d deps_e is S_e v = G_bar T o (v - I tr(v)/3) + c tr(v)
+    (``_apply_stiffness``)."""
     dve = deps_e[0] + deps_e[1] + deps_e[2]
     x = c_e * dve
     p_e = p_n * math.exp(x)
     phi, dphi = _expm1_over_x(x)
     gk = r_G * p_n * c_e * phi
-    gk_x = r_G * p_n * c_e * c_e * dphi  # d(G_bar-like factor)/d(d eps_v^e)
+    gk_x = r_G * p_n * c_e * c_e * dphi  # d(r_G K_bar)/d(d eps_v^e)
     for k in range(6):
         dev = (deps_e[k] - dve / 3.0 * _I[k]) * _T[k]
         sig_e[k] = s_n[k] + gk * dev + p_e * _I[k]
-        if want_tangent:
-            for m in range(6):
-                v = gk * _T[k] * ((1.0 if k == m else 0.0) - _I[k] * _I[m] / 3.0)
-                if m < 3:
-                    v += gk_x * dev + p_e * c_e * _I[k]
-                S_e[k, m] = v
+        c[k] = gk_x * dev + p_e * c_e * _I[k]
+    return gk
 
 
 @jit
-def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, want_jac, R, J, S_e, ws):
-    """Residuals R (13) at X and, when ``want_jac``, the analytic Jacobian J = dR/dX (13 x 13) and S_e = d sig_E/d
-    deps_e. ``ws`` is scratch (>= 35 x 13); on return ws[2, :6] holds g. Returns (ln(p'_m^d/p'_m^r), d lambda)."""
+def _apply_stiffness(gk, c, v, k):
+    """Component k of S_e v (``_elastic_stress``)."""
+    tr = v[0] + v[1] + v[2]
+    return gk * _T[k] * (v[k] - _I[k] * tr / 3.0) + c[k] * tr
+
+
+@jit
+def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, want_jac, R, J, ws):
+    """Residuals R (13) at X and, when ``want_jac``, the analytic Jacobian J = dR/dX (13 x 13). ``ws`` is scratch
+    (rows 0-31 used here, 32 x 13 at least); on return ws[2, :6] holds g and, with ``want_jac``, ws[6, :6] the vector c of the elastic
+    stiffness (``_elastic_stress``). Returns (ln(p'_m^d/p'_m^r), d lambda, G_bar)."""
     M2, c_e, c_p, r_G, omega, omega_d, inv_beta = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6]
     sig = X[0:6]
     alp = X[6:12]
     z = X[12]
-    s, xi, g, gdev, deps_e, sig_e = ws[0, :6], ws[1, :6], ws[2, :6], ws[3, :6], ws[4, :6], ws[5, :6]
+    s, xi, g, gdev, deps_e, sig_e, c = ws[0, :6], ws[1, :6], ws[2, :6], ws[3, :6], ws[4, :6], ws[5, :6], ws[6, :6]
     p, Ma, pmd, E = _surface(sig, alp, M2, s, xi, g)
     dlam = dlam_ref * math.exp(z)
     trg = g[0] + g[1] + g[2]
@@ -105,7 +110,7 @@ def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, wa
     dd = dlam * sq                                   # d eps_d^vp (magnitude)
     for k in range(6):
         deps_e[k] = deps[k] - dlam * _W[k] * g[k]
-    _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, S_e, want_jac)
+    gk = _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, c)
     for k in range(6):
         R[k] = (sig[k] - sig_e[k]) / pm_n
     dv_plus = dv if dv > 0.0 else 0.0
@@ -116,76 +121,91 @@ def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, wa
     ln_ratio = math.log(pmd) - ln_pm_n - c_p * dv
     R[12] = ln_ratio - inv_beta * z if active else z
     if not want_jac:
-        return ln_ratio, dlam
+        return ln_ratio, dlam, gk
 
-    # ---- analytic Jacobian: derivatives of every intermediate with respect to the 13 unknowns (columns j)
-    dxi, dg, dde = ws[8:14], ws[14:20], ws[20:26]
-    dp, dMa, dpmd, ddv, ddd = ws[26], ws[27], ws[28], ws[29], ws[30]
+    # ---- analytic Jacobian: chain rule through (F), (V), (E), (R), (H). Per column j (13 unknowns) the
+    # derivatives of p', M^2 - alpha^2, xi:xi and xi:alpha_d (dxi_k/dsigma'_j = delta_kj - (I_k + alpha_k) I_j/3,
+    # dxi_k/dalpha_j = -p' delta_kj), then 6 x 13 blocks for g, d eps^e and the residual rows.
+    third = 1.0 / 3.0
+    ip, iMa, ipMa, ipm = 1.0 / p, 1.0 / Ma, 1.0 / (p * Ma), 1.0 / pm_n
+    dp, dMa, dB, dD1 = ws[20], ws[21], ws[22], ws[23]
+    dpmd, dE, dpM, dtrg = ws[24], ws[25], ws[26], ws[27]
+    ddv, ddd, dl, tr_dde = ws[28], ws[29], ws[30], ws[31]
+    dg, dde = ws[8:14], ws[14:20]
+    tr_xi = xi[0] + xi[1] + xi[2]
+    tr_alp = alp[0] + alp[1] + alp[2]
+    D1 = _dot(xi, alp)
+    A2 = _dot(alp, alp)
+    for j in range(6):      # sigma'_j columns and alpha_j columns
+        dp[j] = _I[j] * third
+        dMa[j] = 0.0
+        dB[j] = 2.0 * (_W[j] * xi[j] - dp[j] * (tr_xi + D1))
+        dD1[j] = _W[j] * alp[j] - dp[j] * (tr_alp + A2)
+        dp[6 + j] = 0.0
+        dMa[6 + j] = -3.0 * _W[j] * alp[j]
+        dB[6 + j] = -2.0 * p * _W[j] * xi[j]
+        dD1[6 + j] = _W[j] * (xi[j] - p * alp[j])
+    dp[12] = dMa[12] = dB[12] = dD1[12] = 0.0  # z column
     C = pmd - p
-    pMa = p * Ma
-    for k in range(6):
-        for j in range(_NX):
-            dxi[k, j] = 0.0
-        for j in range(3):      # dxi_k/dsigma_j = delta_kj - (I_k + alp_k) I_j/3
-            dxi[k, j] = -(_I[k] + alp[k]) / 3.0
-        dxi[k, k] += 1.0
-        dxi[k, 6 + k] = -p      # dxi_k/dalp_j = -p' delta_kj
     for j in range(_NX):
-        dp[j] = 1.0 / 3.0 if j < 3 else 0.0
-        dMa[j] = -3.0 * _W[j - 6] * alp[j - 6] if 6 <= j < 12 else 0.0
-        dB = 0.0   # d(xi:xi)
-        dD1 = 0.0  # d(xi:alp)
-        for k in range(6):
-            dB += _W[k] * xi[k] * dxi[k, j]
-            dD1 += _W[k] * alp[k] * dxi[k, j]
-        dB *= 2.0
-        if 6 <= j < 12:
-            dD1 += _W[j - 6] * xi[j - 6]
-        dpmd[j] = dp[j] + 1.5 * dB / pMa - C * (dMa[j] / Ma + dp[j] / p)
-        dE = dD1 + dMa[j] * (pmd - 2.0 * p) / 3.0 + Ma * (dpmd[j] - 2.0 * dp[j]) / 3.0
-        dpM = dp[j] * Ma + p * dMa[j]
-        dtrg = 0.0
-        for k in range(6):
-            dg[k, j] = (3.0 * dxi[k, j] - dE * _I[k] - g[k] * dpM) / pMa
-            if k < 3:
-                dtrg += dg[k, j]
-        dl = dlam if j == 12 else 0.0
-        dG = 0.0
-        for k in range(6):
-            dG += _W[k] * gdev[k] * (dg[k, j] - dtrg / 3.0 * _I[k])
-        ddv[j] = dlam * dtrg + trg * dl
-        ddd[j] = dlam * (2.0 / 3.0) * dG / sq + sq * dl
-        for k in range(6):
-            dde[k, j] = -_W[k] * (dlam * dg[k, j] + g[k] * dl)
-    for k in range(6):          # R_sigma
+        dpmd[j] = dp[j] + 1.5 * dB[j] * ipMa - C * (dMa[j] * iMa + dp[j] * ip)
+        dE[j] = dD1[j] + (dMa[j] * (pmd - 2.0 * p) + Ma * (dpmd[j] - 2.0 * dp[j])) * third
+        dpM[j] = dp[j] * Ma + p * dMa[j]
+        dl[j] = 0.0
+    dl[12] = dlam
+    for k in range(6):      # g = (3 xi - E I)/(p' Ma)
         for j in range(_NX):
-            acc = 0.0
-            for m in range(6):
-                acc += S_e[k, m] * dde[m, j]
-            J[k, j] = ((1.0 if j == k else 0.0) - acc) / pm_n
-    for k in range(6):          # R_alpha
-        sp = s[k] / p
-        a1 = 0.75 * sp - alp[k]
-        a2 = sp / 3.0 - alp[k]
+            dg[k, j] = -(dE[j] * _I[k] + g[k] * dpM[j]) * ipMa
+        for j in range(3):
+            dg[k, j] -= (_I[k] + alp[k]) * ipMa
+        dg[k, k] += 3.0 * ipMa
+        dg[k, 6 + k] -= 3.0 * p * ipMa
+    tr_gdev = gdev[0] + gdev[1] + gdev[2]
+    for j in range(_NX):
+        dtrg[j] = dg[0, j] + dg[1, j] + dg[2, j]
+        ddv[j] = dlam * dtrg[j] + trg * dl[j]                 # d(d eps_v^vp)
+        ddd[j] = sq * dl[j] - dlam * (2.0 / 3.0) * tr_gdev * dtrg[j] * third / sq
+    for k in range(6):
+        f = dlam * (2.0 / 3.0) * _W[k] * gdev[k] / sq
         for j in range(_NX):
-            ds = ((1.0 if j == k else 0.0) - _I[k] * _I[j] / 3.0) if j < 6 else 0.0
-            dsp = (ds - sp * dp[j]) / p
-            e_j = 1.0 if j == 6 + k else 0.0
-            ddv_plus = ddv[j] if dv > 0.0 else 0.0
-            J[6 + k, j] = e_j - omega * ((0.75 * dsp - e_j) * dv_plus + a1 * ddv_plus
-                                         + omega_d * ((dsp / 3.0 - e_j) * dd + a2 * ddd[j]))
-    for j in range(_NX):        # R_z
-        if active:
-            J[12, j] = dpmd[j] / pmd - c_p * ddv[j] - (inv_beta if j == 12 else 0.0)
-        else:
-            J[12, j] = 1.0 if j == 12 else 0.0
-    return ln_ratio, dlam
+            ddd[j] += f * dg[k, j]                           # d(d eps_d^vp)
+            dde[k, j] = -_W[k] * (dlam * dg[k, j] + g[k] * dl[j])  # d(d eps^e)
+    for j in range(_NX):
+        tr_dde[j] = dde[0, j] + dde[1, j] + dde[2, j]
+    for k in range(6):      # R_sigma = (sigma' - sigma'_E)/p'_m,n^r, d sigma'_E = S_e d eps^e (_apply_stiffness)
+        gT, gTI, ck = gk * _T[k], gk * _T[k] * _I[k] * third, c[k]
+        for j in range(_NX):
+            J[k, j] = -(gT * dde[k, j] - gTI * tr_dde[j] + ck * tr_dde[j]) * ipm
+        J[k, k] += ipm
+    dv_plus = dv if dv > 0.0 else 0.0
+    h_pos = 1.0 if dv > 0.0 else 0.0
+    f_s = -omega * (0.75 * dv_plus + omega_d * dd * third) * ip  # coefficient of d(s_k)/p' - s_k dp'/p'^2 terms
+    diag = 1.0 + omega * (dv_plus + omega_d * dd)
+    for k in range(6):      # R_alpha
+        sp = s[k] * ip
+        a1 = -omega * (0.75 * sp - alp[k]) * h_pos
+        a2 = -omega * omega_d * (sp * third - alp[k])
+        for j in range(_NX):
+            J[6 + k, j] = a1 * ddv[j] + a2 * ddd[j] - f_s * sp * dp[j]
+        for j in range(3):
+            J[6 + k, j] -= f_s * _I[k] * third
+        J[6 + k, k] += f_s
+        J[6 + k, 6 + k] += diag
+    if active:              # R_z
+        for j in range(_NX):
+            J[12, j] = dpmd[j] / pmd - c_p * ddv[j]
+        J[12, 12] -= inv_beta
+    else:
+        for j in range(_NX):
+            J[12, j] = 0.0
+        J[12, 12] = 1.0
+    return ln_ratio, dlam, gk
 
 
 @jit
 def _lu_factor(A, piv):
-    """In-place LU with partial pivoting of the square A; False if a pivot is zero or not finite."""
-    n = A.shape[0]
+    """In-place LU with partial pivoting of A (13 x 13); False if a pivot is zero or not finite."""
+    n = _NX
     for k in range(n):
         imax = k
         amax = abs(A[k, k])
@@ -209,7 +229,7 @@ def _lu_factor(A, piv):
 @jit
 def _lu_solve(A, piv, b):
     """Solve in place A x = b with the factors of ``_lu_factor``."""
-    n = A.shape[0]
+    n = _NX
     for k in range(n):
         if piv[k] != k:
             b[k], b[piv[k]] = b[piv[k]], b[k]
@@ -232,19 +252,19 @@ def _all_finite(a):
 
 @jit
 def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz,
-                 sig_o, alp_o, dvp_o, tan_o, ws, X, Xn, dX, R, J, LU, piv, S_e, rhs):
+                 sig_o, alp_o, dvp_o, tan_o, ws, X, Xn, dX, R, J, LU, piv, rhs):
     """One backward-Euler increment of one point. Fills sig_o, alp_o (deviatoric), dvp_o, tan_o (6 x 6); returns
     (converged, p'_m^r at the end, p'_m^d/p'_m^r at the end)."""
     M2, c_e, c_p, r_G, inv_beta, mu = prm[0], prm[1], prm[2], prm[3], prm[6], prm[7]
     p_n = (sig_n[0] + sig_n[1] + sig_n[2]) / 3.0
-    s_n = ws[6, :6]
+    s_n = ws[7, :6]
     for k in range(6):
         s_n[k] = sig_n[k] - p_n * _I[k]
     ln_pm_n = math.log(pm_n)
 
     # elastic trial sigma'_E(d eps) and the surface through it with the old fabric
-    sig_t, s_t, xi_t, g_t = ws[31, :6], ws[32, :6], ws[33, :6], ws[34, :6]
-    _elastic_stress(s_n, p_n, c_e, r_G, deps, sig_t, S_e, False)
+    sig_t, s_t, xi_t, g_t, c_t = ws[32, :6], ws[33, :6], ws[34, :6], ws[35, :6], ws[36, :6]
+    _elastic_stress(s_n, p_n, c_e, r_G, deps, sig_t, c_t)
     p_t, _, pmd_t, _ = _surface(sig_t, alp_n, M2, s_t, xi_t, g_t)
     L_t = math.log(pmd_t) - ln_pm_n
     trg = g_t[0] + g_t[1] + g_t[2]
@@ -289,53 +309,62 @@ def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz
         X[6 + k] = alp_n[k]
     X[12] = z0
 
+    # Newton with backtracking on |R|^2; one evaluation site: with the Jacobian at accepted iterates X, without it
+    # at line-search trials Xn = X + step dX (keeps the compiled code small)
     converged = False
-    ln_ratio, dlam = 0.0, 0.0
-    for _ in range(max_it):
-        ln_ratio, dlam = _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, True, R, J,
-                                   S_e, ws)
-        if not (_all_finite(R) and _all_finite(J)):
-            break
+    want_jac = True
+    n_jac = n_ls = 0
+    step = m0 = 0.0
+    ln_ratio, dlam, gk = 0.0, 0.0, 0.0
+    Xn[:] = X
+    while True:
+        ln_ratio, dlam, gk = _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, want_jac, R,
+                                       J, ws)
+        m = 0.0
         rmax = 0.0
-        m0 = 0.0
         for i in range(_NX):
+            m += R[i] * R[i]
             rmax = max(rmax, abs(R[i]))
-            m0 += R[i] * R[i]
-        if rmax <= tol:
-            converged = True
-            break
-        LU[:, :] = J
-        if not _lu_factor(LU, piv):
-            break
-        for i in range(_NX):
-            dX[i] = -R[i]
-        _lu_solve(LU, piv, dX)
-        if dX[12] > max_dz:
-            f = max_dz / dX[12]
-            for i in range(_NX):
-                dX[i] *= f
-        step = 1.0
-        for _ls in range(10):  # backtracking on |R|^2
-            for i in range(_NX):
-                Xn[i] = X[i] + step * dX[i]
-            _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, False, R, J, S_e, ws)
-            mn = 0.0
-            for i in range(_NX):
-                mn += R[i] * R[i]
-            if np.isfinite(mn) and (mn <= (1.0 - 1e-4 * step) * m0 or mn <= tol * tol):
+        if want_jac:  # at the accepted iterate X = Xn
+            if not np.isfinite(m):
                 break
+            if rmax <= tol:
+                converged = True
+                break
+            n_jac += 1
+            LU[:, :] = J
+            if n_jac >= max_it or not _lu_factor(LU, piv):
+                break
+            for i in range(_NX):
+                dX[i] = -R[i]
+            _lu_solve(LU, piv, dX)
+            if dX[12] > max_dz:
+                f = max_dz / dX[12]
+                for i in range(_NX):
+                    dX[i] *= f
+            m0, step, n_ls, want_jac = m, 1.0, 0, False
+        else:         # line-search trial: accept on sufficient decrease, or after 10 halvings
+            n_ls += 1
+            if (np.isfinite(m) and (m <= (1.0 - 1e-4 * step) * m0 or m <= tol * tol)) or n_ls == 10:
+                X[:] = Xn
+                want_jac = True
+                continue
             step *= 0.5
-        X[:] = Xn
+        for i in range(_NX):
+            Xn[i] = X[i] + step * dX[i]
     if not converged:
         return False, pm_n, 0.0
 
-    # converged: R, J, S_e and g (ws[2]) belong to X; consistent tangent dX/d(d eps) = J^-1 [S_e/p'_m,n^r; 0]
+    # converged: R, J, g (ws[2]) and c (ws[6]) belong to X; consistent tangent dX/d(d eps) = J^-1 [S_e/p'_m,n^r; 0]
     LU[:, :] = J
     if not _lu_factor(LU, piv):
         return False, pm_n, 0.0
+    unit = ws[37, :6]
     for j in range(6):
+        unit[:] = 0.0
+        unit[j] = 1.0
         for i in range(_NX):
-            rhs[i] = S_e[i, j] / pm_n if i < 6 else 0.0
+            rhs[i] = _apply_stiffness(gk, ws[6, :6], unit, i) / pm_n if i < 6 else 0.0
         _lu_solve(LU, piv, rhs)
         for i in range(6):
             tan_o[i, j] = rhs[i]
@@ -360,11 +389,10 @@ def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, ma
     (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays; returns the index of the first point that
     failed at the deepest level, or -1."""
     n = stress.shape[0]
-    ws = np.zeros((36, _NX))
+    ws = np.zeros((38, _NX))  # scratch rows: 0-31 _evaluate, 7 and 32-37 _local_solve
     X, Xn, dX, R, rhs = np.zeros(_NX), np.zeros(_NX), np.zeros(_NX), np.zeros(_NX), np.zeros(_NX)
     J, LU = np.zeros((_NX, _NX)), np.zeros((_NX, _NX))
     piv = np.zeros(_NX, dtype=np.int64)
-    S_e = np.zeros((6, 6))
     sig_c, alp_c, dvp_c, sub_deps = np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6)
     units = 1 << max_depth
     for i in range(n):
@@ -380,7 +408,7 @@ def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, ma
                 sub_deps[k] = deps[i, k] * frac
             ok, pm_new, ratio = _local_solve(sig_c, alp_c, pm_c, sub_deps, dt[i] * frac, prm[i], viscous, tol,
                                              max_it, max_dz, stress_out[i], alpha_out[i], dvp_c, tangent_out[i],
-                                             ws, X, Xn, dX, R, J, LU, piv, S_e, rhs)
+                                             ws, X, Xn, dX, R, J, LU, piv, rhs)
             if not ok:
                 if level >= max_depth:
                     return i

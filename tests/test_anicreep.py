@@ -404,7 +404,7 @@ def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous)
     m, sig, st, rng = _loaded_states(viscous)
     n = sig.shape[0]
     prm = m._point_parameters(n)
-    R, J, S_e, ws = np.zeros(13), np.zeros((13, 13)), np.zeros((6, 6)), np.zeros((36, 13))
+    R, J, ws = np.zeros(13), np.zeros((13, 13)), np.zeros((38, 13))
     worst_r = worst_j = 0.0
     for i in range(n):
         col = dict(zip(K.PARAMETER_COLUMNS, prm[i]))
@@ -416,7 +416,7 @@ def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous)
             X = np.concatenate([sig[i] * (1 + rng.normal(0, 0.02, 6)), st["alpha"][i] + rng.normal(0, 0.02, 6),
                                 [np.log(dlam_scale / d["dlam_ref"])]])
             K._evaluate(X, deps, d["s_n"], p_n, d["alpha_n"], d["pm_n"], np.log(d["pm_n"]), prm[i], d["dlam_ref"],
-                        True, True, R, J, S_e, ws)
+                        True, True, R, J, ws)
             R0 = _residual_oracle(X.astype(complex), deps, d).real
             h = 1e-30
             Jcs = np.stack([_residual_oracle(X + 1j * h * e, deps, d).imag / h for e in np.eye(13)], axis=1)
