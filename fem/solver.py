@@ -14,7 +14,7 @@ with B, Q, H, S, K_hg from fem.element:
 
 Jacobian [[V B^T D B + K_hg, -Q], [-Q^T, -(dt k/gamma_w H + tau S)]] with the material tangent D; Dirichlet dofs are
 eliminated (unit rows/columns). Nodes are numbered so that the band is narrow (the pressuremeter strip: 3 (n_z + 2)
-dofs), and the system is solved with LAPACK dgbtrf/dgbtrs (modified Newton, see Solver._newton).
+dofs), and the system is solved with LAPACK dgbtrf/dgbtrs (full or modified Newton, see Solver._newton).
 """
 from __future__ import annotations
 
