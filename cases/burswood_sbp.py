@@ -117,6 +117,14 @@ class SBPForward:
                                      sigma_p0=params["sigma_p0"], C_alpha_e=params["C_alpha_e"], tau=f["tau"],
                                      vertical_axis=2)
 
+    def compile_material(self):
+        """Run one material update so the compiled ANICREEP kernel exists in this process before the process pool
+        forks (workers inherit it instead of each compiling it again)."""
+        model = self.material(GENERATING)
+        s = self.site
+        stress = np.array([[s["K0"] * s["sigma_v0"], s["sigma_v0"], s["K0"] * s["sigma_v0"], 0.0, 0.0, 0.0]])
+        model.update(stress, model.initial_state(stress), np.zeros((1, 6)), 1.0)
+
     def solvers(self, save_fields="none"):
         if save_fields != "none":
             return {name: fem.Solver(pressuremeter_problem(rate, self.preset, self.site, save_fields))
@@ -380,6 +388,7 @@ def main(argv=None):
     synthetic = any("synthetic" in t.conditions for t in observations)
     forward = SBPForward(preset, fixed, rates=rates,
                          curves=("cavity_pressure", "pore_pressure") if args.pore_pressure else ("cavity_pressure",))
+    forward.compile_material()
     like = inference.Likelihood(observations, forward)
     prior = inference.UniformPrior(BOUNDS)
     n_samples = args.samples or preset.n_samples
