@@ -309,49 +309,56 @@ def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz
         X[6 + k] = alp_n[k]
     X[12] = z0
 
-    # Newton with backtracking on |R|^2; one evaluation site: with the Jacobian at accepted iterates X, without it
-    # at line-search trials Xn = X + step dX (keeps the compiled code small)
+    # Newton with backtracking on |R|^2. One evaluation site (keeps the compiled code small): the full Newton step
+    # is evaluated with the Jacobian (usually accepted: it becomes the next iterate), shorter line-search trials
+    # without it (the accepted one is then re-evaluated with it).
     converged = False
-    want_jac = True
+    at_iterate = True  # Xn is the accepted iterate X
     n_jac = n_ls = 0
-    step = m0 = 0.0
+    step = 1.0
+    m0 = 0.0
     ln_ratio, dlam, gk = 0.0, 0.0, 0.0
     Xn[:] = X
     while True:
-        ln_ratio, dlam, gk = _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, want_jac, R,
+        with_jac = at_iterate or step == 1.0
+        ln_ratio, dlam, gk = _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, with_jac, R,
                                        J, ws)
         m = 0.0
         rmax = 0.0
         for i in range(_NX):
             m += R[i] * R[i]
             rmax = max(rmax, abs(R[i]))
-        if want_jac:  # at the accepted iterate X = Xn
-            if not np.isfinite(m):
-                break
-            if rmax <= tol:
-                converged = True
-                break
-            n_jac += 1
-            LU[:, :] = J
-            if n_jac >= max_it or not _lu_factor(LU, piv):
-                break
-            for i in range(_NX):
-                dX[i] = -R[i]
-            _lu_solve(LU, piv, dX)
-            if dX[12] > max_dz:
-                f = max_dz / dX[12]
-                for i in range(_NX):
-                    dX[i] *= f
-            m0, step, n_ls, want_jac = m, 1.0, 0, False
-        else:         # line-search trial: accept on sufficient decrease, or after 10 halvings
+        if not at_iterate:  # line-search trial: accept on sufficient decrease, or after 10 halvings
             n_ls += 1
-            if (np.isfinite(m) and (m <= (1.0 - 1e-4 * step) * m0 or m <= tol * tol)) or n_ls == 10:
-                X[:] = Xn
-                want_jac = True
+            if not ((np.isfinite(m) and (m <= (1.0 - 1e-4 * step) * m0 or m <= tol * tol)) or n_ls == 10):
+                step *= 0.5
+                for i in range(_NX):
+                    Xn[i] = X[i] + step * dX[i]
                 continue
-            step *= 0.5
+            X[:] = Xn
+            at_iterate = True
+            if not with_jac:
+                continue
+        # at the accepted iterate X = Xn, with R and J
+        if not np.isfinite(m):
+            break
+        if rmax <= tol:
+            converged = True
+            break
+        n_jac += 1
+        LU[:, :] = J
+        if n_jac >= max_it or not _lu_factor(LU, piv):
+            break
         for i in range(_NX):
-            Xn[i] = X[i] + step * dX[i]
+            dX[i] = -R[i]
+        _lu_solve(LU, piv, dX)
+        if dX[12] > max_dz:
+            f = max_dz / dX[12]
+            for i in range(_NX):
+                dX[i] *= f
+        m0, step, n_ls, at_iterate = m, 1.0, 0, False
+        for i in range(_NX):
+            Xn[i] = X[i] + dX[i]
     if not converged:
         return False, pm_n, 0.0
 

@@ -1,4 +1,5 @@
-"""Modified Cam Clay (REFERENCE.md section 4, "Modified Cam Clay"), implicit return mapping, vectorized over points.
+"""Modified Cam Clay (REFERENCE.md section 4, "Modified Cam Clay"), implicit return mapping per point, compiled
+(:mod:`constitutive._mcc_kernel`, numba; points are independent: a batch gives the bits of separate calls).
 
 Compression positive, effective stresses in kPa, Voigt order (11, 22, 33, 12, 23, 31), engineering shear strain.
 
@@ -20,7 +21,7 @@ Integration of one strain increment (backward Euler, closest-point projection in
       the tangent one as the increment vanishes;
     - unknowns (d eps_v^p, dlambda) per point, residuals r1 = d eps_v^p - dlambda df/dp',  r2 = f/p'_cn^2,
       Newton with backtracking line search; points whose Newton fails are sub-stepped (halved recursively, up to
-      ``max_substep_depth`` levels) and only then raise IntegrationError.
+      ``max_substep_depth`` levels, v frozen within each sub-step) and only then raise IntegrationError.
 The returned tangent is the consistent (algorithmic) tangent of this update, obtained from the implicit-function
 theorem on the local system; for points that had to be sub-stepped it is the tangent of the last sub-step.
 """
@@ -29,22 +30,13 @@ from __future__ import annotations
 import numpy as np
 
 from .base import IntegrationError, MaterialModel, ParameterError, as_points, check_parameter
-from .invariants import IDENTITY, STRESS_WEIGHTS, deviator, deviatoric_stress, mean_stress
-from .von_mises import DEVIATORIC_UNIT
+from .invariants import deviatoric_stress, mean_stress
 
 
-def _expm1_over_x(z):
-    """phi(z) = (exp(z) - 1)/z and its derivative phi'(z), accurate near z = 0 (series for |z| < 1e-2)."""
-    small = np.abs(z) < 1e-2
-    zs = np.where(small, z, 0.0)
-    zb = np.where(small, 1.0, z)
-    ez = np.exp(zb)
-    phi_big = np.expm1(zb) / zb
-    dphi_big = (ez * (zb - 1.0) + 1.0) / (zb * zb)
-    # phi = sum z^k/(k+1)!, phi' = sum k z^(k-1)/(k+1)!, k <= 6: truncation below 1e-16 for |z| < 1e-2
-    phi_small = 1 + zs * (1 / 2 + zs * (1 / 6 + zs * (1 / 24 + zs * (1 / 120 + zs * (1 / 720 + zs / 5040)))))
-    dphi_small = 1 / 2 + zs * (2 / 6 + zs * (3 / 24 + zs * (4 / 120 + zs * (5 / 720 + zs * 6 / 5040))))
-    return np.where(small, phi_small, phi_big), np.where(small, dphi_small, dphi_big)
+def _kernel():
+    """The compiled return mapping, imported on first use (keeps ``import constitutive`` free of numba)."""
+    from . import _mcc_kernel
+    return _mcc_kernel
 
 
 class ModifiedCamClay(MaterialModel):
@@ -118,146 +110,31 @@ class ModifiedCamClay(MaterialModel):
         return {"pc": pc, "void_ratio": e0, "plastic_strain": np.zeros((n, 6))}
 
     # ----------------------------------------------------------------- update
+    def _point_parameters(self, n):
+        """(n, 4) C-contiguous array in the column order of ``_mcc_kernel.PARAMETER_COLUMNS`` (cached per n)."""
+        cache = self.__dict__.setdefault("_prm_cache", {})
+        if n not in cache:
+            shear = self.G if self.G is not None else self.nu
+            cache[n] = np.ascontiguousarray(np.column_stack(
+                [np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in (self.M**2, self.lambda_, self.kappa,
+                                                                              shear)]))
+        return cache[n]
+
     def update(self, stress, state, dstrain, dt):
+        """One increment of strain ``dstrain`` (n, 6); ``dt`` is not used (rate independent). Returns the new
+        effective stress (n, 6), the new state and the consistent tangent (n, 6, 6)."""
         stress = as_points(stress, "stress")
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]
-        prm = {"M": self.M, "lam": self.lambda_, "kap": self.kappa}
-        prm["G" if self.G is not None else "nu"] = self.G if self.G is not None else self.nu
-        prm = {k: np.broadcast_to(v, (n,)) for k, v in prm.items()}
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # failed trials are sub-stepped
-            new_stress, pc, deps_p, tangent = self._integrate(stress, state["pc"], state["void_ratio"], dstrain,
-                                                              prm, np.arange(n), 0)
-        e = state["void_ratio"]
+        e = np.ascontiguousarray(np.broadcast_to(np.asarray(state["void_ratio"], dtype=float), (n,)))
+        new_stress, pc, deps_p, tangent = np.empty((n, 6)), np.empty(n), np.empty((n, 6)), np.empty((n, 6, 6))
+        failed = _kernel().update_points(
+            np.ascontiguousarray(stress), np.ascontiguousarray(state["pc"], dtype=float), e,
+            np.ascontiguousarray(dstrain), self._point_parameters(n), self.G is not None, self.tolerance,
+            self.max_iterations, self.max_substep_depth, new_stress, pc, deps_p, tangent)
+        if failed >= 0:
+            raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
+                                   f"sub-stepping (strain increment {dstrain[failed]})")
         new_state = {"pc": pc, "void_ratio": e - (1.0 + e) * dstrain[:, :3].sum(axis=1),
                      "plastic_strain": state["plastic_strain"] + deps_p}
         return new_stress, new_state, tangent
-
-    def _integrate(self, stress, pc, e, deps, prm, points, depth):
-        """One increment for a set of points; failed points are sub-stepped recursively. ``points`` are the
-        indices of these points in the caller's arrays (for error messages)."""
-        new_stress, pc_new, deps_p, tangent, ok = self._local_solve(stress, pc, 1.0 + e, deps, prm)
-        if np.all(ok):
-            return new_stress, pc_new, deps_p, tangent
-        bad = ~ok
-        if depth >= self.max_substep_depth:
-            raise IntegrationError(int(points[bad][0]), f"local Newton did not converge after {depth} levels of "
-                                   f"sub-stepping (strain increment {deps[bad][0]})")
-        sub = {k: v[bad] for k, v in prm.items()}
-        half = 0.5 * deps[bad]
-        s1, pc1, dp1, _ = self._integrate(stress[bad], pc[bad], e[bad], half, sub, points[bad], depth + 1)
-        e1 = e[bad] - (1.0 + e[bad]) * half[:, :3].sum(axis=1)
-        s2, pc2, dp2, t2 = self._integrate(s1, pc1, e1, half, sub, points[bad], depth + 1)
-        new_stress[bad], pc_new[bad], deps_p[bad], tangent[bad] = s2, pc2, dp1 + dp2, t2
-        return new_stress, pc_new, deps_p, tangent
-
-    def _local_solve(self, stress, pcn, v, deps, prm):
-        """Backward-Euler return mapping for all points (one Newton for the plastic ones). Returns stress, p'_c,
-        plastic strain increment, consistent tangent and a converged mask."""
-        n = stress.shape[0]
-        M2 = prm["M"] ** 2
-        a = v / prm["kap"]
-        b = v / (prm["lam"] - prm["kap"])
-        p_n = mean_stress(stress)
-        s_n = deviator(stress)
-        deps_v = deps[:, :3].sum(axis=1)
-        Pde = deps @ DEVIATORIC_UNIT  # P symmetric: 2 x the strain-increment deviator (stress Voigt)
-        const_G = "G" in prm
-        c_nu = None if const_G else 3.0 * (1.0 - 2.0 * prm["nu"]) / (2.0 * (1.0 + prm["nu"]))
-        pc_ref2 = pcn * pcn
-
-        def evaluate(y, dl):
-            """Residuals and the quantities needed for the Jacobian at d eps_v^p = y, dlambda = dl."""
-            z = a * (deps_v - y)
-            p = p_n * np.exp(z)
-            p_x = a * p
-            if const_G:
-                Gb, Gb_x = prm["G"], np.zeros(n)
-            else:
-                phi, dphi = _expm1_over_x(z)
-                Gb, Gb_x = c_nu * p_n * a * phi, c_nu * p_n * a * a * dphi
-            s_tr = s_n + Gb[:, None] * Pde
-            q_tr = np.sqrt(1.5 * np.sum(STRESS_WEIGHTS * s_tr * s_tr, axis=1))
-            q_tr_safe = np.where(q_tr > 0.0, q_tr, 1.0)
-            n_tr = 1.5 * STRESS_WEIGHTS * s_tr / q_tr_safe[:, None]  # dq_tr/ds_tr
-            den = 1.0 + 6.0 * Gb * dl
-            q = q_tr / den
-            pc = pcn * np.exp(b * y)
-            r1 = y - dl * M2 * (2.0 * p - pc)
-            r2 = (q * q + M2 * p * (p - pc)) / pc_ref2
-            return dict(p=p, p_x=p_x, Gb=Gb, Gb_x=Gb_x, s_tr=s_tr, n_tr=n_tr, den=den, q=q, pc=pc, r1=r1, r2=r2)
-
-        def jacobian(y, dl, ev):
-            p, p_x, Gb, Gb_x, den, q, pc = (ev[k] for k in ("p", "p_x", "Gb", "Gb_x", "den", "q", "pc"))
-            dqtr_dG = np.sum(ev["n_tr"] * Pde, axis=1)
-            q_x = (dqtr_dG - 6.0 * dl * q) / den * Gb_x
-            q_l = -6.0 * Gb * q / den
-            pc_y = b * pc
-            r1_x = -2.0 * dl * M2 * p_x
-            r2_x = (2.0 * q * q_x + M2 * (2.0 * p - pc) * p_x) / pc_ref2
-            J11 = 1.0 + dl * M2 * pc_y - r1_x
-            J12 = -M2 * (2.0 * p - pc)
-            J21 = -M2 * p * pc_y / pc_ref2 - r2_x
-            J22 = 2.0 * q * q_l / pc_ref2
-            return J11, J12, J21, J22, r1_x, r2_x
-
-        def merit(ev):
-            return (b * ev["r1"]) ** 2 + ev["r2"] ** 2
-
-        y = np.zeros(n)
-        dl = np.zeros(n)
-        ev = evaluate(y, dl)
-        plastic = ev["r2"] > self.tolerance
-        ok = np.ones(n, dtype=bool)
-        if np.any(plastic):
-            active = plastic.copy()
-            for _ in range(self.max_iterations):
-                J11, J12, J21, J22, _, _ = jacobian(y, dl, ev)
-                det = J11 * J22 - J12 * J21
-                det = np.where(det != 0.0, det, np.finfo(float).tiny)
-                dy = -(J22 * ev["r1"] - J12 * ev["r2"]) / det
-                dd = -(-J21 * ev["r1"] + J11 * ev["r2"]) / det
-                dy, dd = np.where(active, dy, 0.0), np.where(active, dd, 0.0)
-                m0 = merit(ev)
-                step = np.ones(n)
-                for _ls in range(12):  # backtracking on the merit function, dlambda kept >= 0
-                    y_t = y + step * dy
-                    dl_t = np.where(dl + step * dd < 0.0, 0.5 * dl, dl + step * dd)
-                    ev_t = evaluate(y_t, dl_t)
-                    m_t = merit(ev_t)
-                    worse = active & ~(np.isfinite(m_t) & ((m_t < m0) | (m_t <= self.tolerance ** 2)))
-                    if not np.any(worse):
-                        break
-                    step = np.where(worse, 0.5 * step, step)
-                y, dl, ev = y_t, dl_t, ev_t  # inactive points had a zero step: ev_t is their ev
-                done = (np.abs(b * ev["r1"]) <= self.tolerance) & (np.abs(ev["r2"]) <= self.tolerance)
-                active &= ~done
-                if not np.any(active):
-                    break
-            ok = ~active & np.isfinite(ev["p"]) & np.isfinite(ev["q"])
-            if not np.all(ok):  # failed points (sub-stepped by the caller) get a finite elastic trial
-                y, dl = np.where(ok, y, 0.0), np.where(ok, dl, 0.0)
-                ev = evaluate(y, dl)
-
-        # stress, plastic strain increment
-        s = ev["s_tr"] / ev["den"][:, None]
-        new_stress = s + ev["p"][:, None] * IDENTITY
-        deps_p = (y / 3.0)[:, None] * IDENTITY + (3.0 * dl)[:, None] * STRESS_WEIGHTS * s
-
-        # consistent tangent: sigma = p' 1 + s_tr/den; (y, dl) from the implicit-function theorem on (r1, r2)
-        J11, J12, J21, J22, r1_x, r2_x = jacobian(y, dl, ev)
-        Gb, Gb_x, den, q = ev["Gb"], ev["Gb_x"], ev["den"], ev["q"]
-        q_eps = (Gb / den)[:, None] * (ev["n_tr"] @ DEVIATORIC_UNIT)
-        R1_e = r1_x[:, None] * IDENTITY
-        R2_e = r2_x[:, None] * IDENTITY + (2.0 * q / pc_ref2)[:, None] * q_eps
-        det = J11 * J22 - J12 * J21
-        pl = (y != 0.0) | (dl != 0.0)
-        det = np.where(pl & (det != 0.0), det, 1.0)
-        Y = np.where(pl[:, None], -(J22[:, None] * R1_e - J12[:, None] * R2_e) / det[:, None], 0.0)
-        L = np.where(pl[:, None], -(-J21[:, None] * R1_e + J11[:, None] * R2_e) / det[:, None], 0.0)
-        dx = IDENTITY - Y  # d(d eps_v^e)/d(d eps)
-        tangent = (np.einsum("i,nj->nij", IDENTITY, ev["p_x"][:, None] * dx)
-                   + (Gb / den)[:, None, None] * DEVIATORIC_UNIT
-                   + np.einsum("ni,nj->nij", (Pde - (6.0 * dl)[:, None] * s) / den[:, None], Gb_x[:, None] * dx)
-                   - np.einsum("ni,nj->nij", (6.0 * Gb / den)[:, None] * s, L))
-        return new_stress, ev["pc"], deps_p, tangent, ok

@@ -163,3 +163,23 @@ def test_rate_dependent_flags():
     prm = dict(M=1.2, lambda_=0.2, kappa=0.04, nu=0.3, e0=1.0, sigma_p0=100.0, C_alpha_e=0.01)
     assert ANICREEP(**prm).rate_dependent is True
     assert ANICREEP(**prm, viscous=False).rate_dependent is False
+
+
+def test_batch_equals_separate_calls_bitwise_and_inputs_untouched():
+    """Compiled per-point kernel: a batch gives the bits of one call per point; inputs are not modified."""
+    rng = np.random.default_rng(8)
+    n = 5
+    lam = rng.uniform(0.1, 0.4, n)
+    prm = dict(M=rng.uniform(0.8, 1.6, n), lambda_=lam, kappa=lam * 0.2, nu=0.3)
+    m = ModifiedCamClay(**prm, ocr=1.5)
+    stress = np.tile([100.0, 80.0, 90.0, 10.0, -5.0, 3.0], (n, 1))
+    state = m.initial_state(stress, 1.0)
+    deps = rng.normal(scale=5e-3, size=(n, 6))
+    keep = stress.copy(), {k: v.copy() for k, v in state.items()}, deps.copy()
+    s, st, C = m.update(stress, state, deps, 1.0)
+    assert np.array_equal(stress, keep[0]) and np.array_equal(deps, keep[2])
+    assert all(np.array_equal(state[k], keep[1][k]) for k in state)
+    for i in range(n):
+        one = ModifiedCamClay(**{k: v[i] for k, v in prm.items()}, ocr=1.5)
+        si, sti, Ci = one.update(stress[i:i + 1], {k: v[i:i + 1] for k, v in state.items()}, deps[i:i + 1], 1.0)
+        assert np.array_equal(si[0], s[i]) and np.array_equal(Ci[0], C[i]) and sti["pc"][0] == st["pc"][i]

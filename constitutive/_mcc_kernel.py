@@ -1,0 +1,197 @@
+"""Compiled (numba) per-point return mapping of Modified Cam Clay: the equations and the integration scheme of
+:mod:`constitutive.mcc` (module docstring, REFERENCE.md section 4).
+
+Compression positive, kPa. Voigt order (11, 22, 33, 12, 23, 31); stresses with tensor shear, strains with
+engineering shear. Per point: elastic trial; if f > 0, Newton with backtracking on the two unknowns
+(y = d eps_v^p, d lambda), residuals r1 = y - d lambda M^2 (2p' - p'_c), r2 = f/p'_cn^2 with p' = p'_n exp(a(d eps_v - y)),
+a = v_n/kappa, p'_c = p'_cn exp(b y), b = v_n/(lambda - kappa), q = q_tr/(1 + 6 G_bar d lambda); the consistent
+tangent from the implicit-function theorem on (r1, r2). A point that fails is sub-stepped (depth-first bisection,
+``max_depth`` levels, the void ratio frozen within each sub-step).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import jit
+
+_I = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)   # identity, Voigt
+_W = (1.0, 1.0, 1.0, 2.0, 2.0, 2.0)   # a:b = sum W a b for stress-like Voigt vectors
+_T = (2.0, 2.0, 2.0, 1.0, 1.0, 1.0)   # engineering-strain deviator -> 2 x tensor deviator
+#: columns of the per-point parameter array ``prm``: M^2, lambda, kappa and G (constant_G) or nu
+PARAMETER_COLUMNS = ("M2", "lambda_", "kappa", "G_or_nu")
+
+
+@jit
+def _expm1_over_x(z):
+    """phi(z) = (exp(z) - 1)/z and phi'(z); series sum_k z^k/(k+1)! (k <= 6) for |z| < 1e-2."""
+    if abs(z) < 1e-2:
+        phi = 1.0 + z * (1 / 2 + z * (1 / 6 + z * (1 / 24 + z * (1 / 120 + z * (1 / 720 + z / 5040)))))
+        dphi = 1 / 2 + z * (2 / 6 + z * (3 / 24 + z * (4 / 120 + z * (5 / 720 + z * 6 / 5040))))
+        return phi, dphi
+    return math.expm1(z) / z, (math.exp(z) * (z - 1.0) + 1.0) / (z * z)
+
+
+@jit
+def _evaluate(y, dl, p_n, s_n, Pde, deps_v, pcn, a, b, M2, shear, constant_G, s_tr, n_tr):
+    """State and residuals at (y, d lambda). Fills s_tr (trial deviator with the secant G_bar) and n_tr = dq_tr/ds_tr;
+    returns p', dp'/d(d eps_v^e), G_bar, dG_bar/d(d eps_v^e), 1 + 6 G_bar d lambda, q, p'_c, r1, r2."""
+    z = a * (deps_v - y)
+    p = p_n * math.exp(z)
+    if constant_G:
+        Gb, Gb_x = shear, 0.0
+    else:
+        c_nu = 3.0 * (1.0 - 2.0 * shear) / (2.0 * (1.0 + shear))
+        phi, dphi = _expm1_over_x(z)
+        Gb, Gb_x = c_nu * p_n * a * phi, c_nu * p_n * a * a * dphi
+    q2 = 0.0
+    for k in range(6):
+        s_tr[k] = s_n[k] + Gb * Pde[k]
+        q2 += _W[k] * s_tr[k] * s_tr[k]
+    q_tr = math.sqrt(1.5 * q2)
+    q_safe = q_tr if q_tr > 0.0 else 1.0
+    for k in range(6):
+        n_tr[k] = 1.5 * _W[k] * s_tr[k] / q_safe
+    den = 1.0 + 6.0 * Gb * dl
+    q = q_tr / den
+    pc = pcn * math.exp(b * y)
+    r1 = y - dl * M2 * (2.0 * p - pc)
+    r2 = (q * q + M2 * p * (p - pc)) / (pcn * pcn)
+    return p, a * p, Gb, Gb_x, den, q, pc, r1, r2
+
+
+@jit
+def _jacobian(dl, p, p_x, Gb, Gb_x, den, q, pc, Pde, n_tr, M2, b, pcn):
+    """d(r1, r2)/d(y, d lambda) and the partial derivatives r1_x, r2_x with respect to d eps_v^e."""
+    pc_ref2 = pcn * pcn
+    dqtr_dG = 0.0
+    for k in range(6):
+        dqtr_dG += n_tr[k] * Pde[k]
+    q_x = (dqtr_dG - 6.0 * dl * q) / den * Gb_x
+    q_l = -6.0 * Gb * q / den
+    pc_y = b * pc
+    r1_x = -2.0 * dl * M2 * p_x
+    r2_x = (2.0 * q * q_x + M2 * (2.0 * p - pc) * p_x) / pc_ref2
+    J11 = 1.0 + dl * M2 * pc_y - r1_x
+    J12 = -M2 * (2.0 * p - pc)
+    J21 = -M2 * p * pc_y / pc_ref2 - r2_x
+    J22 = 2.0 * q * q_l / pc_ref2
+    return J11, J12, J21, J22, r1_x, r2_x
+
+
+@jit
+def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o, tan_o, s_n, Pde, s_tr, n_tr,
+                 q_eps):
+    """Backward-Euler return mapping of one point over one (sub-)increment. Fills sig_o, dep_o (plastic strain
+    increment), tan_o (6 x 6); returns (converged, p'_c)."""
+    M2, lam, kap, shear = prm[0], prm[1], prm[2], prm[3]
+    a = v / kap
+    b = v / (lam - kap)
+    p_n = (sig_n[0] + sig_n[1] + sig_n[2]) / 3.0
+    deps_v = deps[0] + deps[1] + deps[2]
+    for k in range(6):
+        s_n[k] = sig_n[k] - p_n * _I[k]
+        Pde[k] = _T[k] * (deps[k] - deps_v / 3.0 * _I[k])  # 2 x the strain-increment deviator (stress Voigt)
+    y = dl = 0.0
+    p, p_x, Gb, Gb_x, den, q, pc, r1, r2 = _evaluate(y, dl, p_n, s_n, Pde, deps_v, pcn, a, b, M2, shear,
+                                                     constant_G, s_tr, n_tr)
+    if r2 > tol:
+        done = False
+        for _ in range(max_it):
+            J11, J12, J21, J22, _, _ = _jacobian(dl, p, p_x, Gb, Gb_x, den, q, pc, Pde, n_tr, M2, b, pcn)
+            det = J11 * J22 - J12 * J21
+            if det == 0.0:
+                det = 2.2250738585072014e-308
+            dy = -(J22 * r1 - J12 * r2) / det
+            dd = -(-J21 * r1 + J11 * r2) / det
+            m0 = (b * r1) ** 2 + r2 ** 2
+            step = 1.0
+            y_t = dl_t = 0.0
+            for _ls in range(12):  # backtracking on the merit function, d lambda kept >= 0
+                y_t = y + step * dy
+                dl_t = dl + step * dd
+                if dl_t < 0.0:
+                    dl_t = 0.5 * dl
+                p, p_x, Gb, Gb_x, den, q, pc, r1, r2 = _evaluate(y_t, dl_t, p_n, s_n, Pde, deps_v, pcn, a, b, M2,
+                                                                 shear, constant_G, s_tr, n_tr)
+                m_t = (b * r1) ** 2 + r2 ** 2
+                if math.isfinite(m_t) and (m_t < m0 or m_t <= tol * tol):
+                    break
+                step *= 0.5
+            y, dl = y_t, dl_t
+            if abs(b * r1) <= tol and abs(r2) <= tol:
+                done = True
+                break
+        if not (done and math.isfinite(p) and math.isfinite(q)):
+            return False, pcn
+    # stress and plastic strain increment
+    for k in range(6):
+        s = s_tr[k] / den
+        sig_o[k] = s + p * _I[k]
+        dep_o[k] = y / 3.0 * _I[k] + 3.0 * dl * _W[k] * s
+    # consistent tangent: sigma' = p' I + s_tr/den; (y, d lambda) from the implicit-function theorem on (r1, r2)
+    J11, J12, J21, J22, r1_x, r2_x = _jacobian(dl, p, p_x, Gb, Gb_x, den, q, pc, Pde, n_tr, M2, b, pcn)
+    c_q = 2.0 * q / (pcn * pcn) * Gb / den
+    for j in range(6):  # q_eps = d q/d(d eps) at fixed G_bar, d lambda: (G_bar/den) n_tr P
+        q_eps[j] = c_q * _T[j] * (n_tr[j] - _I[j] * (n_tr[0] + n_tr[1] + n_tr[2]) / 3.0)
+    plastic = y != 0.0 or dl != 0.0
+    det = J11 * J22 - J12 * J21
+    if not plastic or det == 0.0:
+        det = 1.0
+    ok = True
+    for i in range(6):
+        s_i = s_tr[i] / den
+        for j in range(6):
+            R1 = r1_x * _I[j]
+            R2 = r2_x * _I[j] + q_eps[j]
+            Y = -(J22 * R1 - J12 * R2) / det if plastic else 0.0
+            L = -(-J21 * R1 + J11 * R2) / det if plastic else 0.0
+            dx = _I[j] - Y  # d(d eps_v^e)/d(d eps_j)
+            dev = Gb / den * _T[i] * ((1.0 if i == j else 0.0) - _I[i] * _I[j] / 3.0)  # (G_bar/den) P
+            t = (_I[i] * p_x * dx + dev + (Pde[i] - 6.0 * dl * s_i) / den * Gb_x * dx
+                 - 6.0 * Gb / den * s_i * L)
+            tan_o[i, j] = t
+            ok = ok and math.isfinite(t)
+    return ok, pc
+
+
+@jit
+def update_points(stress, pc, void_ratio, deps, prm, constant_G, tol, max_it, max_depth,
+                  stress_out, pc_out, dep_out, tangent_out):
+    """One increment at every point (stress, deps (n, 6); pc, void_ratio (n,); prm (n, 4) in the order
+    PARAMETER_COLUMNS). A point that fails is split into halves (depth-first bisection, ``max_depth`` levels; the
+    void ratio is updated between sub-steps, e <- e - (1 + e) d eps_v). Returns the index of the first point that
+    failed at the deepest level, or -1."""
+    n = stress.shape[0]
+    sig_c, sub, dep_c = np.empty(6), np.empty(6), np.empty(6)
+    s_n, Pde, s_tr, n_tr, q_eps = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    units = 1 << max_depth
+    for i in range(n):
+        sig_c[:] = stress[i]
+        pc_c = pc[i]
+        e_c = void_ratio[i]
+        dep_out[i, :] = 0.0
+        pos = 0
+        level = 0
+        while pos < units:
+            frac = 1.0 / (1 << level)
+            for k in range(6):
+                sub[k] = deps[i, k] * frac
+            ok, pc_new = _local_solve(sig_c, pc_c, 1.0 + e_c, sub, prm[i], constant_G, tol, max_it, stress_out[i],
+                                      dep_c, tangent_out[i], s_n, Pde, s_tr, n_tr, q_eps)
+            if not ok:
+                if level >= max_depth:
+                    return i
+                level += 1
+                continue
+            sig_c[:] = stress_out[i]
+            pc_c = pc_new
+            e_c -= (1.0 + e_c) * (sub[0] + sub[1] + sub[2])
+            for k in range(6):
+                dep_out[i, k] += dep_c[k]
+            pos += units >> level
+            while level > 0 and pos % (units >> (level - 1)) == 0:  # both halves of this level done: go up
+                level -= 1
+        pc_out[i] = pc_c
+    return -1
