@@ -170,7 +170,7 @@ def test_batch_equals_separate_calls_bitwise_and_inputs_untouched():
     rng = np.random.default_rng(8)
     n = 5
     lam = rng.uniform(0.1, 0.4, n)
-    prm = dict(M=rng.uniform(0.8, 1.6, n), lambda_=lam, kappa=lam * 0.2, nu=0.3)
+    prm = dict(M=rng.uniform(0.8, 1.6, n), lambda_=lam, kappa=lam * 0.2, nu=np.full(n, 0.3))
     m = ModifiedCamClay(**prm, ocr=1.5)
     stress = np.tile([100.0, 80.0, 90.0, 10.0, -5.0, 3.0], (n, 1))
     state = m.initial_state(stress, 1.0)
