@@ -1,0 +1,193 @@
+"""Catalog of candidate missing physics for the diagnosis of issue 6 ("explain"), kept beside the models.
+
+Each entry states the physics in words, its residual signature as plain data that the generic scoring in
+``inference.diagnose`` can use without knowing any soil mechanics, and the enrichment (model class, switches and
+extra parameters with prior bounds) that adds the physics to a base model, or ``None`` with the reason when that
+enriched class is not implemented.
+
+Signature items (dicts, see :data:`SIGNATURE_KEYS`):
+- ``covariate``: a name from :data:`COVARIATES` (the vocabulary forward models use when they report per-point
+  covariates alongside their curves);
+- ``role``: "primary" (the physics is named only if a primary item is supported) or "supporting";
+- ``weight``: its weight in the signature score (primary 1, supporting 0.5);
+- ``direction``: expected sign of the rank correlation between the covariate and the relative residual
+  r = U_obs/U_sim - 1 on the curves named in ``curves`` (+1, -1, or 0 when only the strength of the link matters;
+  categorical covariates always 0);
+- ``curves``: the curve names on which the direction is measured (None: every curve);
+- ``meaning``: the expected pattern in words.
+
+Residual sign convention: r > 0 where the recorded value exceeds the simulated one (compression positive, so for the
+stress curves of :data:`STRESS_CURVES` r > 0 means the soil was recorded stronger or stiffer than simulated).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+__all__ = ["COVARIATES", "STRESS_CURVES", "SIGNATURE_KEYS", "Enrichment", "Candidate", "CATALOG", "candidate",
+           "signatures", "enriched_settings"]
+
+#: covariate vocabulary: name -> what a forward model reports under that name
+COVARIATES = {
+    "strain rate": "applied strain rate of the test (1/s); a test condition, constant along a curve",
+    "time": "time since the start of the test (s)",
+    "strain level": "axial (or cavity) strain at the point",
+    "stress ratio": "q/p' at the point (simulated at the MAP)",
+    "mean effective stress": "p' at the point (kPa, simulated at the MAP)",
+    "overconsolidation": "overconsolidation ratio or sand state parameter at the point",
+    "drainage time factor": "T = c t / L^2 (consolidation coefficient c, drainage length L)",
+    "loading phase": "'load', 'hold' or 'unload' (categorical)",
+    "stress path direction": "'compression' or 'extension' (categorical test condition)",
+    "consolidation": "'K0' or 'isotropic' consolidation before shearing (categorical test condition)",
+}
+
+#: curves whose values are effective or total stresses, compression positive
+STRESS_CURVES = ("q", "p", "axial_stress", "radial_stress", "cavity_pressure")
+
+SIGNATURE_KEYS = ("covariate", "role", "weight", "direction", "curves", "meaning")
+
+
+def _item(covariate, role, direction, meaning, curves=STRESS_CURVES):
+    return {"covariate": covariate, "role": role, "weight": 1.0 if role == "primary" else 0.5,
+            "direction": direction, "curves": None if curves is None else list(curves), "meaning": meaning}
+
+
+@dataclass(frozen=True)
+class Enrichment:
+    """How to add the physics: construct ``model_class`` with the base model's arguments plus ``switches``, and free
+    ``parameters`` {name: (lower, upper)} (log-uniform prior for the names in ``log_uniform``)."""
+
+    model_class: str
+    switches: dict
+    parameters: dict
+    log_uniform: tuple = ()
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate missing physics.
+
+    present_when: model switches under which the base model already has the physics (then it is not a candidate
+    for that base); enrichment: None when not implemented, with ``unavailable`` saying why."""
+
+    name: str
+    physics: str
+    signature: tuple
+    present_when: dict
+    enrichment: Enrichment | None
+    unavailable: str = ""
+    references: tuple = field(default_factory=tuple)
+
+    def as_data(self) -> dict:
+        """The entry as plain data for ``inference.diagnose`` (no classes, JSON-serializable)."""
+        e = self.enrichment
+        return {"name": self.name, "physics": self.physics, "signature": [dict(s) for s in self.signature],
+                "present_when": dict(self.present_when),
+                "enrichment": None if e is None else {"model_class": e.model_class, "switches": dict(e.switches),
+                                                      "parameters": {k: list(v) for k, v in e.parameters.items()},
+                                                      "log_uniform": list(e.log_uniform)},
+                "unavailable": self.unavailable}
+
+
+CATALOG = (
+    Candidate(
+        "viscosity",
+        "Rate dependence, creep and relaxation of the soil skeleton (viscoplasticity): the faster a test is run the "
+        "stronger and stiffer the soil; under constant stress it keeps straining (secondary compression).",
+        (_item("strain rate", "primary", +1, "recorded stresses exceed the simulation more in faster tests"),
+         _item("time", "supporting", -1, "the longer a record has run, the more the soil has crept: recorded "
+               "stresses fall below the simulation late and in slow tests"),
+         _item("loading phase", "supporting", 0, "holds (creep, relaxation) misfit differently from loading", None)),
+        {"viscous": True},
+        Enrichment("ANICREEP", {"viscous": True}, {"C_alpha_e": (0.001, 0.1)}, ("C_alpha_e",)),
+        references=("REFERENCE.md section 4: beta = (lambda - kappa)/C_alpha_e, CRS ratio (rate2/rate1)^(C_alpha_e/"
+                    "lambda)",)),
+    Candidate(
+        "partial drainage",
+        "Pore water flows during the test: neither the drained nor the undrained idealization holds; in contractive "
+        "soil the slower test drains more and is stronger, with lower excess pore pressure.",
+        (_item("drainage time factor", "primary", +1, "recorded stresses exceed the undrained idealization more "
+               "where more drainage time has passed"),
+         _item("strain rate", "supporting", -1, "slower tests (more drainage) are stronger than simulated: the "
+               "opposite rate trend to viscosity")),
+        {"coupled": True},
+        None,
+        "the lab-test drivers (constitutive.labtests) treat a specimen as one material point, drained or undrained; "
+        "a consolidating-specimen model with permeability k is not implemented (the SBP FE in fem/ is already "
+        "coupled)"),
+    Candidate(
+        "anisotropy",
+        "Initial (K0) and induced fabric anisotropy: a rotated yield surface with rotational hardening; compression "
+        "and extension, K0 and isotropic consolidation respond differently from an isotropic model.",
+        (_item("stress path direction", "primary", 0, "compression and extension tests misfit with opposite "
+               "signs", None),
+         _item("consolidation", "primary", 0, "K0- and isotropically consolidated tests misfit differently", None),
+         _item("stress ratio", "supporting", 0, "misfit grows with the stress ratio as the stress path turns "
+               "towards the rotated surface")),
+        {"anisotropy": True},
+        Enrichment("ANICREEP", {"anisotropy": True}, {}),
+        references=("REFERENCE.md section 4: alpha_K0, omega, omega_d from M",)),
+    Candidate(
+        "destructuration",
+        "Bonding and structure of natural clay destroyed by plastic straining: a peak followed by softening that a "
+        "reconstituted-soil model cannot follow.",
+        (_item("strain level", "primary", -1, "past the peak the recorded stresses fall below the simulation as "
+               "strain accumulates"),
+         _item("overconsolidation", "supporting", 0, "structured (apparently overconsolidated) states misfit more")),
+        {"bonding": True},
+        None,
+        "S-CLAY1S / EVP-SCLAY1S bonding (chi, a, b) is not implemented in constitutive/ (notes/anicreep.md, "
+        "stretch goal)"),
+    Candidate(
+        "state-dependent dilatancy",
+        "Sand dilatancy and peak strength depending on the state (density and pressure, e_c(p')): dense states "
+        "dilate and peak, loose states contract.",
+        (_item("overconsolidation", "primary", +1, "denser-than-critical states (state parameter < 0) are recorded "
+               "stronger than simulated", None),
+         _item("mean effective stress", "supporting", -1, "the misfit fades at higher confining pressure")),
+        {"state_dependent": True},
+        None,
+        "SIMSAND always has state-dependent dilatancy; no sand base class without it is offered to enrich"),
+    Candidate(
+        "Lode dependence",
+        "Strength depending on the Lode angle: triaxial extension (and plane strain) fail at a lower stress ratio "
+        "than compression.",
+        (_item("stress path direction", "primary", 0, "extension tests misfit, compression tests fit", None),),
+        {"lode": True},
+        None,
+        "ANICREEP has no Lode-angle switch (SIMSAND applies the Sheng et al. rule always)"),
+)
+
+
+def candidate(name: str) -> Candidate:
+    """The catalog entry called ``name`` (ValueError naming the known ones otherwise)."""
+    for c in CATALOG:
+        if c.name == name:
+            return c
+    raise ValueError(f"candidate physics {name!r} is not in the catalog; known: {[c.name for c in CATALOG]}")
+
+
+def signatures(base_switches: dict) -> list:
+    """The catalog as plain data for a base model with ``base_switches`` (e.g. {"viscous": False,
+    "anisotropy": True}); each entry gains ``in_base`` (True when the base model already has the physics)."""
+    out = []
+    for c in CATALOG:
+        d = c.as_data()
+        d["in_base"] = bool(c.present_when) and all(base_switches.get(k) == v for k, v in c.present_when.items())
+        out.append(d)
+    return out
+
+
+def enriched_settings(name: str, base_switches: dict, base_bounds: dict) -> tuple:
+    """(switches, prior bounds, log-uniform names) of the enriched class of candidate ``name`` for a base model with
+    ``base_switches`` and free-parameter ``base_bounds``. Raises ValueError when the enrichment is not implemented
+    (message: the catalog's reason) or the base model already has the physics."""
+    c = candidate(name)
+    if c.enrichment is None:
+        raise ValueError(f"candidate {name!r}: enrichment not available: {c.unavailable}")
+    if c.present_when and all(base_switches.get(k) == v for k, v in c.present_when.items()):
+        raise ValueError(f"candidate {name!r}: the base model already has it (switches {base_switches})")
+    overlap = set(c.enrichment.parameters) & set(base_bounds)
+    if overlap:
+        raise ValueError(f"candidate {name!r}: parameters {sorted(overlap)} are already free in the base model")
+    return ({**base_switches, **c.enrichment.switches}, {**base_bounds, **c.enrichment.parameters},
+            tuple(c.enrichment.log_uniform))
