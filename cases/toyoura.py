@@ -176,7 +176,7 @@ def report_run(out, args, post, cal_obs, all_obs, forward_all, summary):
                 f"Toyoura sand (Verdugo & Ishihara 1996, measured): {method}, calibrated on "
                 f"{', '.join(cal_obs.tests)}; predicted {', '.join(predicted)}", predict=predicted)
     study.plot_marginals(post, out / "marginals.png", marks={"paper ref.": PAPER_REFERENCE,
-                                                             "paper DE mean": PAPER_DE_MEAN}, bounds=BOUNDS)
+                                                             "paper DE mean": PAPER_DE_MEAN})
     study.plot_stages(post, out / "stages.png")
     end = {}
     for t in all_obs:
