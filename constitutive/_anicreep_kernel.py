@@ -250,7 +250,7 @@ def _all_finite(a):
     return True
 
 
-@jit
+@jit(inline="always")  # one call site (update_points): compiled once, inside it
 def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz,
                  sig_o, alp_o, dvp_o, tan_o, ws, X, Xn, dX, R, J, LU, piv, rhs):
     """One backward-Euler increment of one point. Fills sig_o, alp_o (deviatoric), dvp_o, tan_o (6 x 6); returns

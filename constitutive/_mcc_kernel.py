@@ -80,7 +80,7 @@ def _jacobian(dl, p, p_x, Gb, Gb_x, den, q, pc, Pde, n_tr, M2, b, pcn):
     return J11, J12, J21, J22, r1_x, r2_x
 
 
-@jit
+@jit(inline="always")  # one call site (update_points): compiled once, inside it
 def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o, tan_o, s_n, Pde, s_tr, n_tr,
                  q_eps):
     """Backward-Euler return mapping of one point over one (sub-)increment. Fills sig_o, dep_o (plastic strain
