@@ -327,7 +327,7 @@ def plot_loop(path, like, classes, diag, label):
             c, color = t.curves[cname], f"C{i}"
             rate = float(t.conditions["strain_rate_per_s"]) / PER_HOUR
             top.plot(c.x, c.y, "o", ms=3, mfc="none", color=color, label=f"{t.name} ({rate:g} %/h): data")
-            top.plot(c.x, base["map_simulated"][t.name, cname], "--", color=color, lw=1)
+            top.plot(c.x, base["map_simulated"][t.name, cname], "--", color="k", lw=1)
             if enriched is not None:
                 top.plot(c.x, enriched["map_simulated"][t.name, cname], "-", color=color, lw=1.3)
             r = c.y / base["map_simulated"][t.name, cname] - 1.0
@@ -337,7 +337,8 @@ def plot_loop(path, like, classes, diag, label):
                     bottom.axvspan(reg["x_start"], reg["x_end"], color=color, alpha=0.15)
         top.set_ylabel(ylabels[cname])
         top.set_xscale("log")
-        top.legend(fontsize=7, title="dashed: base MAP; solid: enriched MAP" if enriched else "dashed: base MAP",
+        top.legend(fontsize=7, title=("dashed: base MAP (rate independent: one curve for all rates); solid: enriched MAP" if enriched
+                          else "dashed: base MAP"),
                    title_fontsize=7)
         bottom.axhline(0, color="k", lw=0.6)
         bottom.set_xlabel("axial strain (%)")
