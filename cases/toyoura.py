@@ -1,7 +1,7 @@
 """Toyoura sand: SIMSAND identified from Verdugo & Ishihara's (1996) drained triaxial tests (the paper's section 3.2,
 REFERENCE.md section 5). The curves are measurements (digitised, CC-BY-4.0; cases/data/toyoura/SOURCE.md).
 
-    python -m cases.toyoura [--quick] [--method de|o] [--samples N] [--seed S] [--runs R] [--out DIR] [--resume]
+    python -m cases.toyoura [--quick] [--method de|o|both] [--samples N] [--seed S] [--runs R] [--out DIR] [--resume]
                             [--undrained FILE[:E0:P0_KPA] ...] [--free NAMES] [--sweeps K]
 
 The paper calibrated on drained test 2 (e0 0.916, p'0 100 kPa) and undrained tests 7 (e0 0.735, 100 kPa) and 12
