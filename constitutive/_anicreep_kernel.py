@@ -218,8 +218,9 @@ def _lu_factor(A, piv):
         if imax != k:
             for j in range(n):
                 A[k, j], A[imax, j] = A[imax, j], A[k, j]
+        inv = 1.0 / A[k, k]
         for i in range(k + 1, n):
-            f = A[i, k] / A[k, k]
+            f = A[i, k] * inv
             A[i, k] = f
             for j in range(k + 1, n):
                 A[i, j] -= f * A[k, j]
@@ -390,10 +391,11 @@ def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz
 
 @jit
 def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth,
-                  stress_out, alpha_out, pm_out, dvp_out, ratio_out, tangent_out):
+                  stress_out, alpha_out, pm_out, dvp_out, vp_shear_out, ratio_out, tangent_out):
     """Integrate one increment at every point (arrays over n points: stress, alpha (n, 6), pm_ref (n,), deps
     (n, 6), dt (n,), prm (n, 8) in the order PARAMETER_COLUMNS). A point that fails is split into halves
-    (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays; returns the index of the first point that
+    (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays (dvp_out the viscoplastic strain increment,
+    vp_shear_out its eps_d^vp = sqrt(2/3 e^vp:e^vp)); returns the index of the first point that
     failed at the deepest level, or -1."""
     n = stress.shape[0]
     ws = np.zeros((38, _NX))  # scratch rows: 0-31 _evaluate, 7 and 32-37 _local_solve
@@ -431,6 +433,12 @@ def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, ma
             while level > 0 and pos % (units >> (level - 1)) == 0:  # both halves of this level done: go up
                 level -= 1
         pm_out[i] = pm_c
+        dv = (dvp_out[i, 0] + dvp_out[i, 1] + dvp_out[i, 2]) / 3.0
+        e2 = 0.0
+        for k in range(6):  # eps_d^vp increment sqrt(2/3 e:e) of the whole increment (engineering shear: weight 1/2)
+            e = dvp_out[i, k] - dv * _I[k]
+            e2 += e * e / _W[k]
+        vp_shear_out[i] = math.sqrt(2.0 / 3.0 * e2)
     return -1
 
 

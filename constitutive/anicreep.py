@@ -56,7 +56,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import IntegrationError, MaterialModel, ParameterError, as_points, check_parameter
-from .invariants import IDENTITY, STRAIN_WEIGHTS, mean_stress
+from .invariants import IDENTITY, mean_stress
 
 __all__ = ["ANICREEP", "anisotropy_constants"]
 
@@ -254,20 +254,19 @@ class ANICREEP(MaterialModel):
         if np.any(~np.isfinite(dt) | (dt < 0.0)):
             raise ValueError(f"{self.name}: time increment dt = {dt[~np.isfinite(dt) | (dt < 0.0)][0]} must be >= 0")
         new_stress, alpha, dvp, tangent = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6, 6))
-        pm_ref, ratio = np.empty(n), np.empty(n)
+        pm_ref, vp_shear, ratio = np.empty(n), np.empty(n), np.empty(n)
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
             np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(dstrain), dt,
             self._point_parameters(n), self.viscous, self.tolerance, self.max_iterations, self.max_dz,
-            self.max_substep_depth, new_stress, alpha, pm_ref, dvp, ratio, tangent)
+            self.max_substep_depth, new_stress, alpha, pm_ref, dvp, vp_shear, ratio, tangent)
         if failed >= 0:
             raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
                                    f"sub-stepping (strain increment {dstrain[failed]}, dt {dt[failed]:g} s, "
                                    f"stress {stress[failed]})")
-        dvp_dev = dvp - dvp[:, :3].sum(axis=1, keepdims=True) / 3.0 * IDENTITY
         new_state = {"alpha": alpha, "pm_ref": pm_ref,
                      "void_ratio": state["void_ratio"] - (1.0 + self.e0) * dstrain[:, :3].sum(axis=1),
                      "vp_strain": state["vp_strain"] + dvp,
-                     "vp_shear": state["vp_shear"] + np.sqrt(2.0 / 3.0 * np.sum(STRAIN_WEIGHTS * dvp_dev**2, axis=1)),
+                     "vp_shear": state["vp_shear"] + vp_shear,
                      "overstress": ratio}
         return new_stress, new_state, tangent

@@ -473,3 +473,14 @@ def test_jit_falls_back_to_uncached_compilation_without_cache_location(monkeypat
         return 2.0 * x
 
     assert _jit.jit(twice)(1.5) == 3.0
+
+
+def test_vp_shear_increment_is_the_deviatoric_measure_of_the_vp_strain_increment():
+    """State bookkeeping: d eps_d^vp = sqrt(2/3 e:e) of the increment of vp_strain (invariants.deviatoric_strain)."""
+    from constitutive.invariants import deviatoric_strain
+    m, sig, st, rng = _loaded_states(True)
+    for _ in range(5):
+        sig2, st2, _ = m.update(sig, st, _cavity_increment(6) + rng.normal(0, 3e-4, (6, 6)), 0.6)
+        expected = deviatoric_strain(st2["vp_strain"] - st["vp_strain"])
+        np.testing.assert_allclose(st2["vp_shear"] - st["vp_shear"], expected, rtol=1e-9, atol=1e-15)
+        sig, st = sig2, st2
