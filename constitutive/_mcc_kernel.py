@@ -139,20 +139,21 @@ def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o
     det = J11 * J22 - J12 * J21
     if not plastic or det == 0.0:
         det = 1.0
+    g_den, g_s = Gb / den, 6.0 * Gb / den
+    for j in range(6):  # column j: d(y, d lambda)/d(d eps_j) = (Y, L), d(d eps_v^e)/d(d eps_j) = I_j - Y
+        R1 = r1_x * _I[j]
+        R2 = r2_x * _I[j] + q_eps[j]
+        Y = -(J22 * R1 - J12 * R2) / det if plastic else 0.0
+        L = -(-J21 * R1 + J11 * R2) / det if plastic else 0.0
+        dx = _I[j] - Y
+        for i in range(6):
+            s_i = s_tr[i] / den
+            tan_o[i, j] = (_I[i] * p_x * dx + g_den * _T[i] * ((1.0 if i == j else 0.0) - _I[i] * _I[j] / 3.0)
+                           + (Pde[i] - 6.0 * dl * s_i) / den * Gb_x * dx - g_s * s_i * L)
     ok = True
     for i in range(6):
-        s_i = s_tr[i] / den
         for j in range(6):
-            R1 = r1_x * _I[j]
-            R2 = r2_x * _I[j] + q_eps[j]
-            Y = -(J22 * R1 - J12 * R2) / det if plastic else 0.0
-            L = -(-J21 * R1 + J11 * R2) / det if plastic else 0.0
-            dx = _I[j] - Y  # d(d eps_v^e)/d(d eps_j)
-            dev = Gb / den * _T[i] * ((1.0 if i == j else 0.0) - _I[i] * _I[j] / 3.0)  # (G_bar/den) P
-            t = (_I[i] * p_x * dx + dev + (Pde[i] - 6.0 * dl * s_i) / den * Gb_x * dx
-                 - 6.0 * Gb / den * s_i * L)
-            tan_o[i, j] = t
-            ok = ok and math.isfinite(t)
+            ok = ok and math.isfinite(tan_o[i, j])
     return ok, pc
 
 
