@@ -337,14 +337,14 @@ def plot_loop(path, like, classes, diag, label):
                     bottom.axvspan(reg["x_start"], reg["x_end"], color=color, alpha=0.15)
         top.set_ylabel(ylabels[cname])
         top.set_xscale("log")
-        top.legend(fontsize=7, title=("dashed: base MAP (rate independent: one curve for all rates); solid: enriched MAP" if enriched
-                          else "dashed: base MAP"),
-                   title_fontsize=7)
+        top.legend(fontsize=7, loc="upper left" if cname == "axial_stress" else "lower right", ncol=2)
         bottom.axhline(0, color="k", lw=0.6)
         bottom.set_xlabel("axial strain (%)")
         bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")
-    fig.suptitle(f"SYNTHETIC data ({label}): {diag['verdict']}; omitted physics: {diag['omitted_physics']} "
-                 f"(shaded: mismatch regions of the base class)", fontsize=10)
+    fig.suptitle(f"SYNTHETIC data ({label}): {diag['verdict']}; omitted physics: {diag['omitted_physics']}\n"
+                 "dashed black: base MAP (rate independent: one curve for all rates)"
+                 + ("; solid: enriched MAP" if enriched else "") + "; shaded: mismatch regions of the base class",
+                 fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
