@@ -237,7 +237,8 @@ class ANICREEP(MaterialModel):
                             check_parameter("void_ratio0", void_ratio0, lower=0.0, model=self.name), (n,)).copy()
         alpha = self.initial_fabric(n)
         pm_ref = self.reference_size(n)
-        pmd = _kernel().surface_size_points(stress0, alpha, np.ascontiguousarray(self._point_parameters(n)[:, 0]))
+        pmd = _kernel().surface_size_points(np.ascontiguousarray(stress0), alpha,
+                                            np.ascontiguousarray(self._point_parameters(n)[:, 0]))
         return {"alpha": alpha.copy(), "pm_ref": pm_ref.copy(), "void_ratio": e, "vp_strain": np.zeros((n, 6)),
                 "vp_shear": np.zeros(n), "overstress": pmd / pm_ref}
 
