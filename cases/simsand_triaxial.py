@@ -212,7 +212,7 @@ def plot_curves(path, observations, forward, post, title, reference=None, predic
             ax.axis("off")
     axes[0, 0].legend(fontsize=7)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
