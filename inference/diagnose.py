@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from .covariates import _per_curve
 from .likelihood import Likelihood
 from .mismatch import POSITION, relative_residuals, screen
 from .observations import Curve, Observations, Test
@@ -87,17 +88,6 @@ def _rank_correlation(residuals, covariate, curves):
     return float(stats.spearmanr(x, r)[0])
 
 
-def _expand(spec, residuals):
-    """Covariate spec {(test, curve) or test: array or scalar} -> {(test, curve): array} (as covariates.attribute)."""
-    out = {}
-    for key, value in spec.items():
-        keys = [key] if isinstance(key, tuple) else [k for k in residuals if k[0] == key]
-        for k in keys:
-            arr = np.asarray(value)
-            out[k] = np.full(residuals[k].size, arr.item(), dtype=arr.dtype) if arr.ndim == 0 else arr.ravel()
-    return out
-
-
 def rank_candidates(report, residuals: dict, covariates: dict, candidates: list, alpha=None) -> list:
     """Score and rank candidate physics against a screening (module docstring: the score and when a candidate is
     named). report: ScreenReport or its dict; residuals: {(test, curve): r} of the screened class; covariates: the
@@ -107,7 +97,7 @@ def rank_candidates(report, residuals: dict, covariates: dict, candidates: list,
     alpha = rep["alpha"] if alpha is None else float(alpha)
     structured = rep["verdict"] == "structured mismatch"
     attribution = {a["name"]: a for a in rep["attribution"]}
-    expanded = {name: _expand(spec, residuals) for name, spec in covariates.items()}
+    expanded = {name: _per_curve(name, spec, residuals) for name, spec in covariates.items()}
     ranked = []
     for c in candidates:
         _check_candidate(c)
@@ -200,7 +190,7 @@ def write_input(directory, likelihood, classes: list, covariates: dict, candidat
                              if k not in ("map_simulated", "sample_simulated", "sample_sigma")})
     cov_names = list(covariates)
     for n, name in enumerate(cov_names):
-        full = _expand(covariates[name], {k: likelihood.observations[k[0]].curves[k[1]].y for k in keys})
+        full = _per_curve(name, covariates[name], {k: likelihood.observations[k[0]].curves[k[1]].y for k in keys})
         for i, k in enumerate(keys):
             if k in full:
                 arrays[_key(i, f"cov{n}")] = full[k]
@@ -278,7 +268,8 @@ def diagnose_directory(directory, threshold=STRONG_LOG_BAYES, n_shifts=1000) -> 
     out = {"description": meta["description"], "alpha": alpha, "verdict": screens[base["name"]].verdict,
            "omitted_physics": verdict["omitted_physics"],
            "recommendation": _recommendation(verdict, ranked, screens[base["name"]]),
-           "mismatch_regions": [r.to_dict() for r in screens[base["name"]].regions],
+           "mismatch_regions": [{**r.to_dict(), "x_unit": like.observations[r.test].curves[r.curve].x_unit}
+                                for r in screens[base["name"]].regions],
            "attribution": [a.to_dict() for a in screens[base["name"]].attribution],
            "candidates": [{**r, "decision": d["decision"]} for r, d in zip(ranked, verdict["candidates"])],
            "classes": [{k: cl.get(k) for k in ("name", "role", "candidate", "log_evidence", "J_g", "parameters",
@@ -330,7 +321,8 @@ def _engineer_summary(d) -> list:
         by_test.setdefault(r["test"], []).append(r)
     def region_words(r):
         where = "above" if r["sign"] == "+" else "below"
-        return (f"{r['curve']} at {r['x_start']:.3g}-{r['x_end']:.3g}: recorded {where} simulated by "
+        unit = "" if r.get("x_unit", "-") == "-" else f" {r['x_unit']}"
+        return (f"{r['curve']} at {r['x_start']:.3g}-{r['x_end']:.3g}{unit}: recorded {where} simulated by "
                 f"{abs(100 * r['mean_relative']):.1f} %")
 
     parts = [f"{t} ({', '.join(region_words(r) for r in rs)})" for t, rs in by_test.items()]
