@@ -78,7 +78,7 @@ class Preset:
 FE_FIELDS = ("radial_cells", "layers", "increments", "outer", "outer_radius_a0")
 PRESETS = {
     "paper": Preset(),
-    "quick": Preset(radial_cells=40, layers=1, increments=40, n_samples=64, max_steps=6),
+    "quick": Preset(radial_cells=40, layers=1, increments=40, n_samples=64, max_steps=4),
 }
 
 
