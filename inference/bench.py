@@ -1,6 +1,7 @@
 """Sampler benchmarks with known evidence (REFERENCE.md section 8) and dispatch overheads, as JSON lines.
 
     python -m inference.bench [--quick] [--seeds 10] [--samples 1000] [--problems B1,B2] [--methods ...]
+        [--set max_steps=12 --set corr_threshold=0.3 ...]   # tmcmc keyword overrides
     python -m inference.bench --overhead        # sampler overhead per stage (N = 2000, d = 10)
     mpirun -n 2 python -m inference.bench --dispatch   # MPI dispatch overhead and parallel efficiency
 
@@ -137,6 +138,16 @@ def dispatch_benchmark(model_seconds=0.05, n_eval=200):
     return lines
 
 
+def _parse_override(text):
+    key, sep, value = text.partition("=")
+    if not sep:
+        raise SystemExit(f"--set {text!r}: use KEY=VALUE")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m inference.bench", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -145,6 +156,8 @@ def main(argv=None):
     ap.add_argument("--samples", type=int, default=2000)
     ap.add_argument("--problems", default="B1,B2,B3,B4,B5,B6")
     ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="tmcmc keyword override for every method, VALUE read as JSON (else a string)")
     ap.add_argument("--overhead", action="store_true", help="only the sampler overhead per stage")
     ap.add_argument("--dispatch", action="store_true", help="only the MPI dispatch benchmark (under mpirun)")
     args = ap.parse_args(argv)
@@ -164,11 +177,12 @@ def main(argv=None):
     unknown = [m for m in methods if m not in METHODS] + [p for p in problems if p not in PROBLEMS]
     if unknown:
         ap.error(f"unknown methods/problems {unknown}; methods: {list(METHODS)}; problems: {list(PROBLEMS)}")
+    overrides = dict(_parse_override(kv) for kv in args.set)
     print(json.dumps({"benchmark": "info", "note": "DE-TMCMC and O-TMCMC on posteriors with known log-evidence "
                       "(REFERENCE section 8); errors over seeds 0.." + str(seeds - 1)}), flush=True)
     for p in problems:
         for m in methods:
-            print(json.dumps(evidence_benchmark(p, m, seeds, samples)), flush=True)
+            print(json.dumps(evidence_benchmark(p, m, seeds, samples, **overrides)), flush=True)
     return 0
 
 

@@ -10,7 +10,9 @@ REFERENCE.md section 2. Stages q_0 = 0 < q_1 < ... < q_m = 1 with f_j ∝ p(thet
    rejected without a forward solve.
 
 Chains: ``chains="particles"`` moves every resampled particle for a number of sweeps, fixed or adaptive (stop when
-the correlation between the particles' start and current positions falls below ``corr_threshold``);
+the correlation between the particles' start and current positions falls below ``corr_threshold``: the smaller of
+the plain population correlation and a within-mode estimate from copies of one parent, see
+``_Run.start_correlation``);
 ``chains="ching-chen"`` grows one chain per distinct resampled point with length equal to its multiplicity (the
 original algorithm; every chain state is a sample).
 
@@ -44,6 +46,9 @@ __all__ = ["SamplerError", "tmcmc", "choose_next_exponent", "stage_weights", "we
 
 #: exit status after a SIGTERM/SIGUSR1 was turned into a checkpoint (EX_TEMPFAIL: "try again")
 EXIT_CHECKPOINTED = 75
+
+#: the adaptive-sweep rule uses siblings of one parent when at least this fraction of the particles are extra copies
+SIBLING_FRACTION = 0.1
 
 
 class SamplerError(RuntimeError):
@@ -409,12 +414,34 @@ class _Run:
 
     @staticmethod
     def start_correlation(ch):
-        """Mean over dimensions of the correlation between the particles' start and current positions."""
+        """Correlation between the particles' start and current positions, mean over dimensions: the smaller of the
+        plain correlation over the population and a within-mode estimate from siblings.
+
+        Siblings (copies of one resampled parent, hence one start x0) move independently given x0. For a mode of
+        variance s^2 and a lag correlation rho, the mean squared displacement is D = E(x - x0)^2 = 2 s^2 (1 - rho)
+        and the spread among siblings is W = E Var(x | x0) = s^2 (1 - rho^2) (exact for Gaussian modes), so
+        rho = 2 W / D - 1 with W and D taken over the siblings. Both are local, so the spread between modes, which
+        keeps the plain correlation near 1 on a multimodal posterior, drops out. Each estimate errs high in its own
+        case: the plain one through the spread between modes, the sibling one because copies come from high-weight
+        starts near a mode's centre, which move less (on unimodal problems it exceeds the plain one); hence the
+        minimum. The sibling estimate needs at least ``SIBLING_FRACTION`` of the population to be extra copies."""
         a, b = ch["start"], ch["pos"]
         da, db = a - a.mean(0), b - b.mean(0)
         den = np.sqrt((da * da).sum(0) * (db * db).sum(0))
-        corr = np.where(den > 0, (da * db).sum(0) / np.where(den > 0, den, 1.0), 0.0)
-        return float(corr.mean())
+        plain = float(np.where(den > 0, (da * db).sum(0) / np.where(den > 0, den, 1.0), 0.0).mean())
+        _, group, counts = np.unique(a, axis=0, return_inverse=True, return_counts=True)
+        group = group.ravel()
+        dof = int(np.sum(counts[counts > 1] - 1))
+        if dof < SIBLING_FRACTION * len(a):
+            return plain
+        in_group = counts[group] > 1
+        g, x = group[in_group], b[in_group]
+        sums = np.zeros((counts.size, x.shape[1]))
+        np.add.at(sums, g, x)
+        within = ((x - sums[g] / counts[g][:, None]) ** 2).sum(0) / dof
+        disp = ((x - a[in_group]) ** 2).mean(0)
+        rho = np.where(disp > 0, 2.0 * within / np.where(disp > 0, disp, 1.0) - 1.0, 1.0)
+        return min(plain, float(np.clip(rho, -1.0, 1.0).mean()))
 
     def finish_stage(self, st):
         ch = st["chain"]
