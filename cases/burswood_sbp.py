@@ -329,7 +329,7 @@ def write_outputs(out, args, post, like, forward, preset, synthetic, seed):
                 f"Burswood SBP, {study.method_name(args.method)}: {tag} vs MAP and posterior predictive")
     study.plot_marginals(post, out / "marginals.png",
                          marks={"generating": GENERATING, **PAPER} if synthetic else PAPER,
-                         bounds=BOUNDS)
+                         bounds=BOUNDS, title=f"Burswood SBP posterior ({tag})")
     study.plot_stages(post, out / "stages.png")
     for name, res in results.items():
         res.write_vtu(out / "map_fields", prefix=f"{name}")

@@ -173,8 +173,9 @@ def _pyplot():
     return plt
 
 
-def plot_marginals(post, path, marks: dict | None = None, bounds: dict | None = None):
-    """Histogram of each parameter's final-stage samples; ``marks`` {label: {name: value}} drawn as lines."""
+def plot_marginals(post, path, marks: dict | None = None, bounds: dict | None = None, title: str | None = None):
+    """Histogram of each parameter's final-stage samples; ``marks`` {label: {name: value}} drawn as lines;
+    ``title`` above the panels (say "synthetic" there when the data are)."""
     plt = _pyplot()
     d = len(post.names)
     cols = min(d, 4)
@@ -194,6 +195,8 @@ def plot_marginals(post, path, marks: dict | None = None, bounds: dict | None = 
     for ax in list(axes.flat)[d:]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
