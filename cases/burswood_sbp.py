@@ -341,6 +341,29 @@ def write_outputs(out, args, post, like, forward, preset, synthetic, seed):
     return summary
 
 
+def throughput(like, prior, args, n):
+    """Forward evaluations per second for n prior draws (seed 0) with the run's executor (1 process with
+    ``--processes 1``, the pool, or the MPI ranks); one JSON line on rank 0."""
+    like.bind(prior.names)
+    evaluator = inference.Evaluator(like)
+    thetas = prior.sample(np.random.default_rng(0), n)
+    executor = inference.default_executor(args.dispatch, args.processes)
+    if executor.is_root:
+        t0 = time.perf_counter()
+        values, _, _ = executor.evaluate(evaluator, thetas)
+        wall = time.perf_counter() - t0
+        if isinstance(executor, inference.MPIExecutor):
+            executor.finish(("ok", None))
+        print(json.dumps({"case": CASE, "benchmark": "throughput", "executor": executor.name,
+                          "processes": executor.ranks,
+                          "n": n, "wall_s": round(wall, 2), "evaluations_per_s": round(n / wall, 3),
+                          "fe_solves_per_s": round(len(like.observations) * n / wall, 3),
+                          "failed": int(np.sum(~np.isfinite(values)))}), flush=True)
+    else:
+        executor.serve(evaluator)
+    executor.close()
+
+
 # ------------------------------------------------------------------------------------------------ command line
 def _options(ap):
     ap.add_argument("--recordings", nargs="+", metavar="TEST=CSV",
@@ -357,6 +380,8 @@ def _options(ap):
     ap.add_argument("--max-stages", type=int, default=200, help="stop after this many stages (tests)")
     ap.add_argument("--timeout", type=float, help="seconds per forward evaluation (then a failed particle)")
     ap.add_argument("--generate", action="store_true", help="regenerate the shipped synthetic recordings and exit")
+    ap.add_argument("--throughput", type=int, metavar="N",
+                    help="benchmark: time N forward evaluations (prior draws) on this executor and exit")
 
 
 def _pairs(items, what, cast=float):
@@ -400,6 +425,9 @@ def main(argv=None):
     forward.compile_material()
     like = inference.Likelihood(observations, forward)
     prior = inference.UniformPrior(BOUNDS)
+    if args.throughput:
+        throughput(like, prior, args, args.throughput)
+        return 0
     n_samples = args.samples or preset.n_samples
     summaries = []
     for run_args, seed, out in study.run_directories(args, Path("results") / CASE):
