@@ -113,12 +113,14 @@ def test_small_calibration_serial_and_two_ranks_agree_and_move_toward_the_genera
     np.testing.assert_array_equal(a["stage_samples"], b["stage_samples"])
     np.testing.assert_array_equal(a["map_theta"], b["map_theta"])
     assert json.loads((mpi / "summary.json").read_text())["ranks"] == 2
-    # the final population is closer to the generating values than the prior population (prior-width units)
-    lo = np.array([sbp.BOUNDS[n][0] for n in sbp.GENERATING])
-    hi = np.array([sbp.BOUNDS[n][1] for n in sbp.GENERATING])
-    truth = np.array(list(sbp.GENERATING.values()))
-    dist = lambda th: np.mean(np.abs((th[:, :3] - truth) / (hi - lo)))  # noqa: E731
-    assert dist(a["samples"]) < 0.6 * dist(a["stage_samples"][0])
+    # the final population moves toward the generating M and sigma'_p0: mean distance in prior-width units below
+    # half its expectation under the prior, E|U - t| = (t^2 + (1 - t)^2)/2 for U ~ U(0, 1) and truth at t. (C_alpha_e
+    # is left out: 12 points per test with 5 % noise on a 10-increment mesh hardly constrain the rate effect.)
+    for i, name in enumerate(("M", "sigma_p0")):
+        lo, hi = sbp.BOUNDS[name]
+        t = (sbp.GENERATING[name] - lo) / (hi - lo)
+        distance = np.mean(np.abs((a["samples"][:, i] - lo) / (hi - lo) - t))
+        assert distance < 0.5 * (t**2 + (1 - t) ** 2) / 2, name
 
 
 @pytest.mark.slow
