@@ -22,11 +22,12 @@ import math
 
 import numpy as np
 
+from ._jit import STRAIN_TO_TENSOR as _T
+from ._jit import VOIGT_IDENTITY as _I
+from ._jit import VOIGT_WEIGHTS as _W
+from ._jit import expm1_over_x as _expm1_over_x
 from ._jit import jit
 
-_I = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)   # identity, Voigt
-_W = (1.0, 1.0, 1.0, 2.0, 2.0, 2.0)   # a:b = sum W a b for stress-like Voigt vectors
-_T = (2.0, 2.0, 2.0, 1.0, 1.0, 1.0)   # engineering-strain deviator -> 2 x tensor deviator
 _NX = 13                                        # unknowns per point
 #: columns of the per-point parameter array ``prm``
 PARAMETER_COLUMNS = ("M2", "c_e", "c_p", "r_G", "omega", "omega_d", "inv_beta", "mu")
@@ -38,14 +39,6 @@ def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5])
 
 
-@jit
-def _expm1_over_x(x):
-    """phi(x) = (exp(x) - 1)/x and phi'(x); series sum_k x^k/(k+1)! (k <= 6) for |x| < 1e-2 (error < 4e-16)."""
-    if abs(x) < 1e-2:
-        phi = 1.0 + x * (1 / 2 + x * (1 / 6 + x * (1 / 24 + x * (1 / 120 + x * (1 / 720 + x / 5040)))))
-        dphi = 1 / 2 + x * (2 / 6 + x * (3 / 24 + x * (4 / 120 + x * (5 / 720 + x * 6 / 5040))))
-        return phi, dphi
-    return math.expm1(x) / x, (math.exp(x) * (x - 1.0) + 1.0) / (x * x)
 
 
 @jit

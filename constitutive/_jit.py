@@ -1,4 +1,5 @@
-"""The one compilation policy of the constitutive kernels (numba), imported only by the kernel modules.
+"""The one compilation policy of the constitutive kernels (numba), and the small pieces the kernels share
+(Voigt constants, the exponential-integration helper). Imported only by the kernel modules.
 
 ``jit(func)`` compiles ``func`` in nopython mode on its first call with
   - ``error_model="numpy"``: floating-point division by zero and invalid operations give inf/nan as in numpy (a
@@ -12,7 +13,15 @@
 """
 from __future__ import annotations
 
+import math
+
 import numba
+
+VOIGT_IDENTITY = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)
+#: a:b = sum W a b for stress-like Voigt vectors (tensor shear components)
+VOIGT_WEIGHTS = (1.0, 1.0, 1.0, 2.0, 2.0, 2.0)
+#: engineering-strain deviator -> 2 x tensor deviator
+STRAIN_TO_TENSOR = (2.0, 2.0, 2.0, 1.0, 1.0, 1.0)
 
 
 def jit(func=None, *, inline="never"):
@@ -25,3 +34,14 @@ def jit(func=None, *, inline="never"):
         return numba.njit(cache=True, error_model="numpy", inline=inline)(func)
     except RuntimeError:  # no writable cache location ("cannot cache function ...: no locator available")
         return numba.njit(cache=False, error_model="numpy", inline=inline)(func)
+
+
+@jit
+def expm1_over_x(x):
+    """phi(x) = (exp(x) - 1)/x and phi'(x) (exact integration of p' along a volumetric elastic strain increment);
+    series sum_k x^k/(k+1)! (k <= 6) for |x| < 1e-2 (error < 4e-16)."""
+    if abs(x) < 1e-2:
+        phi = 1.0 + x * (1 / 2 + x * (1 / 6 + x * (1 / 24 + x * (1 / 120 + x * (1 / 720 + x / 5040)))))
+        dphi = 1 / 2 + x * (2 / 6 + x * (3 / 24 + x * (4 / 120 + x * (5 / 720 + x * 6 / 5040))))
+        return phi, dphi
+    return math.expm1(x) / x, (math.exp(x) * (x - 1.0) + 1.0) / (x * x)

@@ -14,23 +14,16 @@ import math
 
 import numpy as np
 
+from ._jit import STRAIN_TO_TENSOR as _T
+from ._jit import VOIGT_IDENTITY as _I
+from ._jit import VOIGT_WEIGHTS as _W
+from ._jit import expm1_over_x as _expm1_over_x
 from ._jit import jit
 
-_I = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)   # identity, Voigt
-_W = (1.0, 1.0, 1.0, 2.0, 2.0, 2.0)   # a:b = sum W a b for stress-like Voigt vectors
-_T = (2.0, 2.0, 2.0, 1.0, 1.0, 1.0)   # engineering-strain deviator -> 2 x tensor deviator
 #: columns of the per-point parameter array ``prm``: M^2, lambda, kappa and G (constant_G) or nu
 PARAMETER_COLUMNS = ("M2", "lambda_", "kappa", "G_or_nu")
 
 
-@jit
-def _expm1_over_x(z):
-    """phi(z) = (exp(z) - 1)/z and phi'(z); series sum_k z^k/(k+1)! (k <= 6) for |z| < 1e-2."""
-    if abs(z) < 1e-2:
-        phi = 1.0 + z * (1 / 2 + z * (1 / 6 + z * (1 / 24 + z * (1 / 120 + z * (1 / 720 + z / 5040)))))
-        dphi = 1 / 2 + z * (2 / 6 + z * (3 / 24 + z * (4 / 120 + z * (5 / 720 + z * 6 / 5040))))
-        return phi, dphi
-    return math.expm1(z) / z, (math.exp(z) * (z - 1.0) + 1.0) / (z * z)
 
 
 @jit
