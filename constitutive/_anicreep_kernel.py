@@ -26,7 +26,7 @@ from ._jit import STRAIN_TO_TENSOR as _T
 from ._jit import VOIGT_IDENTITY as _I
 from ._jit import VOIGT_WEIGHTS as _W
 from ._jit import expm1_over_x as _expm1_over_x
-from ._jit import jit
+from ._jit import jit, next_substep
 
 _NX = 13                                        # unknowns per point
 #: columns of the per-point parameter array ``prm``
@@ -422,9 +422,7 @@ def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, ma
             ratio_out[i] = ratio
             for k in range(6):
                 dvp_out[i, k] += dvp_c[k]
-            pos += units >> level
-            while level > 0 and pos % (units >> (level - 1)) == 0:  # both halves of this level done: go up
-                level -= 1
+            pos, level = next_substep(pos, level, units)
         pm_out[i] = pm_c
         dv = (dvp_out[i, 0] + dvp_out[i, 1] + dvp_out[i, 2]) / 3.0
         e2 = 0.0

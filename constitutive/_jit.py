@@ -45,3 +45,13 @@ def expm1_over_x(x):
         dphi = 1 / 2 + x * (2 / 6 + x * (3 / 24 + x * (4 / 120 + x * (5 / 720 + x * 6 / 5040))))
         return phi, dphi
     return math.expm1(x) / x, (math.exp(x) * (x - 1.0) + 1.0) / (x * x)
+
+
+@jit(inline="always")
+def next_substep(pos, level, units):
+    """Depth-first bisection of an increment into ``units`` = 2^max_depth slots: after an accepted sub-step of size
+    units >> level at slot ``pos``, the next slot and level (climb a level each time both halves are done)."""
+    pos += units >> level
+    while level > 0 and pos % (units >> (level - 1)) == 0:
+        level -= 1
+    return pos, level

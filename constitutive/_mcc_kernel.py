@@ -18,7 +18,7 @@ from ._jit import STRAIN_TO_TENSOR as _T
 from ._jit import VOIGT_IDENTITY as _I
 from ._jit import VOIGT_WEIGHTS as _W
 from ._jit import expm1_over_x as _expm1_over_x
-from ._jit import jit
+from ._jit import jit, next_substep
 
 #: columns of the per-point parameter array ``prm``: M^2, lambda, kappa and G (constant_G) or nu
 PARAMETER_COLUMNS = ("M2", "lambda_", "kappa", "G_or_nu")
@@ -184,8 +184,6 @@ def update_points(stress, pc, void_ratio, deps, prm, constant_G, tol, max_it, ma
             e_c -= (1.0 + e_c) * (sub[0] + sub[1] + sub[2])
             for k in range(6):
                 dep_out[i, k] += dep_c[k]
-            pos += units >> level
-            while level > 0 and pos % (units >> (level - 1)) == 0:  # both halves of this level done: go up
-                level -= 1
+            pos, level = next_substep(pos, level, units)
         pc_out[i] = pc_c
     return -1
