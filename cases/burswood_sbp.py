@@ -37,6 +37,7 @@ import numpy as np
 import constitutive
 import fem
 import inference
+from inference import mismatch
 from inference.observations import DataError, read_csv_table
 
 from . import study
@@ -124,21 +125,18 @@ class SBPForward:
         """Run one material update so the compiled ANICREEP kernel exists in this process before the process pool
         forks (workers inherit it instead of each compiling it again)."""
         model = self.material(GENERATING)
-        s = self.site
-        stress = np.array([[s["K0"] * s["sigma_v0"], s["sigma_v0"], s["K0"] * s["sigma_v0"], 0.0, 0.0, 0.0]])
+        stress = fem.Geostatic(self.site["sigma_v0"], self.site["K0"], self.site["u0"]).effective_stress(1)
         model.update(stress, model.initial_state(stress), np.zeros((1, 6)), 1.0)
 
     def solvers(self, save_fields="none"):
-        def build():
-            return {name: fem.Solver(pressuremeter_problem(rate, self.preset, self.site, self.fixed["e0"],
-                                                           save_fields))
-                    for name, rate in self.rates.items()}
-
-        if save_fields != "none":
-            return build()
-        if self._solvers is None:
-            self._solvers = build()
-        return self._solvers
+        """{test: fem.Solver}; the ones without saved fields are built once per process and reused."""
+        if save_fields == "none" and self._solvers is not None:
+            return self._solvers
+        built = {name: fem.Solver(pressuremeter_problem(rate, self.preset, self.site, self.fixed["e0"], save_fields))
+                 for name, rate in self.rates.items()}
+        if save_fields == "none":
+            self._solvers = built
+        return built
 
     def results(self, params, save_fields="none") -> dict:
         """{test: fem.Result} for one particle (raises fem.ConvergenceError / IntegrationError on failure)."""
@@ -233,27 +231,17 @@ def load_recordings(files: dict, pore_pressure=False) -> inference.Observations:
 
 
 # ------------------------------------------------------------------------------------------------ outputs
-def predictive_curves(forward, post, like, n_draws, seed):
-    """Posterior predictive of the recordings: forward solves at ``n_draws`` posterior samples, times the error
-    model (1 + eps), eps ~ N(0, sigma_eps^2) of each sample. Returns ({(test, curve): 2.5/50/97.5 % (3, n)},
-    number of draws used); a draw whose solve fails is left out and not counted."""
+def predictive_bands(post, like, n_draws, seed):
+    """95 % posterior predictive band of the records (inference.mismatch: the exact mixture of U_sim (1 + eps) over
+    ``n_draws`` posterior samples, each with its sigma_eps). Returns ({(test, curve): PredictiveBand}, draws)."""
     rng = np.random.default_rng(seed)
     idx = rng.choice(len(post.samples), size=min(n_draws, len(post.samples)), replace=False)
-    draws, used = {}, 0
-    for k in idx:
-        params, sigma = like.split(post.samples[k])
-        try:
-            sim = like.simulated_at_observations(forward(params))
-        except Exception:  # noqa: BLE001 - a failed draw is left out of the band
-            continue
-        used += 1
-        for key, values in sim.items():
-            draws.setdefault(key, []).append(values * (1.0 + sigma * rng.standard_normal(values.size)))
-    return {key: np.quantile(np.array(v), [0.025, 0.5, 0.975], axis=0) for key, v in draws.items()}, used
+    sims, sigmas = mismatch.simulate_samples(like, post.samples[idx])
+    return mismatch.predictive_bands(like, sims, sigmas), len(idx)
 
 
 def plot_curves(path, like, map_curves, bands, title):
-    plt = study._pyplot()
+    plt = study.pyplot()
     obs = like.observations
     curves = list(next(iter(obs)).curves)
     fig, axes = plt.subplots(1, len(curves), figsize=(5.5 * len(curves), 4.2), squeeze=False)
@@ -262,9 +250,9 @@ def plot_curves(path, like, map_curves, bands, title):
         for i, t in enumerate(obs):
             c = t.curves[cname]
             color = f"C{i}"
-            if (t.name, cname) in bands:
-                lo, _, hi = bands[t.name, cname]
-                ax.fill_between(c.x, lo, hi, color=color, alpha=0.2, lw=0, label=f"{t.name}: 95 % predictive")
+            band = bands[t.name, cname]
+            ax.fill_between(c.x, band.lower, band.upper, color=color, alpha=0.2, lw=0,
+                            label=f"{t.name}: 95 % predictive ({100 * band.coverage:.0f} % of records inside)")
             x, y = map_curves[t.name][cname]
             ax.plot(x, y, color=color, lw=1.5, label=f"{t.name}: MAP")
             ax.plot(c.x, c.y, "o", ms=3, mfc="none", color=color, label=f"{t.name}: recorded")
@@ -340,7 +328,7 @@ def write_outputs(out, args, post, like, forward, preset, synthetic, seed):
     params, _ = like.split(post.map_theta)
     results = forward.results(params, save_fields="phases")
     map_curves = forward.curves_of(results)
-    bands, drawn = predictive_curves(forward, post, like, 24 if args.quick else 40, seed)
+    bands, drawn = predictive_bands(post, like, 24 if args.quick else 40, seed)
     tag = "SYNTHETIC recordings" if synthetic else "recordings"
     plot_curves(out / "curves.png", like, map_curves, bands,
                 f"Burswood SBP, {study.method_name(args.method)}: {tag} vs MAP and posterior predictive")
@@ -445,20 +433,13 @@ def main(argv=None):
     if args.throughput:
         throughput(like, prior, args, args.throughput)
         return 0
-    n_samples = args.samples or preset.n_samples
-    summaries = []
-    for run_args, seed, out in study.run_directories(args, Path("results") / CASE):
-        t0 = time.perf_counter()
-        post = study.calibrate(like, prior, run_args, out, seed, n_samples, max_steps=preset.max_steps,
-                               max_stages=args.max_stages, timeout=args.timeout)
-        if study.is_root():
-            summary = write_outputs(out, run_args, post, like, forward, preset, synthetic, seed)
-            summaries.append(summary)
-            print(json.dumps({"case": CASE, "method": run_args.method, "out": str(out), "seed": seed,
-                              "wall_s": round(time.perf_counter() - t0, 1), "n_stages": summary["n_stages"],
-                              "n_forward_solves": summary["n_forward_solves"],
-                              "log_evidence": round(post.log_evidence, 3),
-                              "map": {k: round(v, 4) for k, v in post.map.items()}}), flush=True)
+    settings = dict(max_steps=preset.max_steps, max_stages=args.max_stages, timeout=args.timeout)
+
+    def finish(run_args, seed, out, post):
+        return write_outputs(out, run_args, post, like, forward, preset, synthetic, seed)
+
+    summaries = study.run_all(args, Path("results") / CASE, like, prior, args.samples or preset.n_samples, settings,
+                              finish)
     if study.is_root() and len(summaries) > 1:
         base = Path(args.out or Path("results") / CASE)
         truth = generating_values(observations) if synthetic else None

@@ -313,7 +313,7 @@ def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str) ->
 def plot_loop(path, like, classes, diag, label):
     """Data, base and enriched MAP fits (top row) and the base class's relative residuals with the mismatch regions
     shaded (bottom row), one column per curve kind."""
-    plt = study._pyplot()
+    plt = study.pyplot()
     names = ["q", "p", "axial_stress"]
     ylabels = {"q": "q (kPa)", "p": "p' (kPa)", "axial_stress": "sigma'_v (kPa)"}
     fig, axes = plt.subplots(2, 3, figsize=(15, 8), sharex="col")

@@ -37,7 +37,7 @@ import numpy as np
 import inference
 from cases import study
 from cases.simsand_triaxial import CURVES, SimsandTriaxial, TriaxialTest, conditions_of, plot_csl, plot_curves, \
-    run_all, write_runs
+    sampler_settings, write_runs
 
 CASE = "simsand_synthetic"
 DATA = Path(__file__).parent / "data" / "simsand_synthetic"
@@ -175,8 +175,7 @@ def main(argv=None):
     obs, forward, like, prior = build(args.noise, args.free)
     preset = PRESETS["quick" if args.quick else "full"]
     n_samples = args.samples or preset["n_samples"]
-    settings = dict(max_steps=preset["max_steps"], n_steps=args.sweeps or "adaptive",
-                    min_steps=min(2, args.sweeps or 2), max_failure_fraction=MAX_FAILURE_FRACTION)
+    settings = sampler_settings(args, preset, MAX_FAILURE_FRACTION)
 
     def finish(run_args, seed, out, post):
         summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
@@ -185,7 +184,7 @@ def main(argv=None):
         report_run(out, run_args, post, obs, forward, summary)
         return summary
 
-    summaries = run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
+    summaries = study.run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
     if study.is_root():
         truth = {**TRUE, "sigma_eps": args.noise} if args.noise else TRUE  # noise-free: sigma_eps has no true value
         write_runs(args.out or DEFAULT_OUT, f"{CASE}, SYNTHETIC data, noise {args.noise:g}", summaries,

@@ -27,7 +27,7 @@ from constitutive import SIMSAND, labtests
 from inference import DataError, ForwardModelError
 
 __all__ = ["TriaxialTest", "conditions_of", "SimsandTriaxial", "predictive", "plot_curves", "plot_csl",
-           "plot_map_spread", "run_all", "write_runs", "CURVES"]
+           "plot_map_spread", "sampler_settings", "write_runs", "CURVES"]
 
 #: observed curves per drainage type (test curve name -> CSV quantity)
 CURVES = {True: {"q": "q", "e": "e"}, False: {"q": "q", "u": "u"}}
@@ -176,18 +176,11 @@ def predictive(forward: SimsandTriaxial, post, n_draws=200, seed=0):
     return band, grids, at_map
 
 
-def _pyplot():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
-
 def plot_curves(path, observations, forward, post, title, reference=None, predict=(), seed=0):
     """Data vs MAP curves with the 95 % posterior predictive band, one row per test (the paper's Figs. 2-4, 13).
     ``reference``: optional {test: {curve: (x, y)}} drawn dashed (true-value curves); ``predict``: names of tests
     not used in the calibration (titled "prediction")."""
-    plt = _pyplot()
+    plt = study.pyplot()
     band, grids, at_map = predictive(forward, post, seed=seed)
     tests = list(forward.tests)
     ncol = max(len(CURVES[t.drained]) for t in tests)
@@ -225,7 +218,7 @@ def critical_void_ratio(params, p):
 def plot_csl(path, lines: dict, end_states=None, title=""):
     """CSL in e-log p' (Fig. 6/14 style): ``lines`` {label: full SIMSAND parameter dict}; ``end_states``
     {label: (p', e)} of the data at the end of each test."""
-    plt = _pyplot()
+    plt = study.pyplot()
     p = np.geomspace(5.0, 5000.0, 200)
     fig, ax = plt.subplots(figsize=(5.2, 3.8))
     for k, (label, prm) in enumerate(lines.items()):
@@ -243,7 +236,7 @@ def plot_csl(path, lines: dict, end_states=None, title=""):
 
 def plot_map_spread(path, summaries, names, reference: dict, title):
     """MAP of each run divided by the reference value, per parameter and method (the paper's Fig. 5 style)."""
-    plt = _pyplot()
+    plt = study.pyplot()
     fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(names), 3.6))
     methods = sorted({s["method"] for s in summaries})
     for k, m in enumerate(methods):
@@ -264,16 +257,11 @@ def plot_map_spread(path, summaries, names, reference: dict, title):
     plt.close(fig)
 
 
-def run_all(args, default_out, like, prior, n_samples, settings, finish):
-    """Every run of the command line (methods x seeds, cases.study.run_directories): calibrate, then on rank 0
-    ``finish(run_args, seed, out, post) -> summary``. Returns the summaries (rank 0) or []."""
-    summaries = []
-    for run_args, seed, out in study.run_directories(args, default_out):
-        post = study.calibrate(like, prior, run_args, out, seed, n_samples, **settings)
-        if study.is_root():
-            summaries.append(finish(run_args, seed, out, post))
-            print(f"{out}: MAP " + ", ".join(f"{k} {v:.4g}" for k, v in post.map.items()))
-    return summaries
+def sampler_settings(args, preset, max_failure_fraction):
+    """tmcmc settings of a SIMSAND study: the preset's sweep cap, ``--sweeps`` (fixed count) or adaptive, and the
+    study's failure allowance."""
+    return dict(max_steps=preset["max_steps"], n_steps=args.sweeps or "adaptive", min_steps=min(2, args.sweeps or 2),
+                max_failure_fraction=max_failure_fraction)
 
 
 def write_runs(top, title, summaries, names, references, spread_reference, note=""):

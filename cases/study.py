@@ -26,8 +26,8 @@ import numpy as np
 import inference
 from inference.executors import mpi_world
 
-__all__ = ["arguments", "is_root", "method_name", "calibrate", "write_summary", "parameter_table",
-           "runs_table", "plot_marginals", "plot_stages", "run_directories"]
+__all__ = ["arguments", "is_root", "method_name", "calibrate", "run_all", "write_summary", "parameter_table",
+           "runs_table", "plot_marginals", "plot_stages", "run_directories", "pyplot"]
 
 PROPOSALS = {"de": "de", "o": "gaussian"}
 
@@ -93,6 +93,23 @@ def calibrate(like, prior, args, out: Path, seed: int, n_samples: int, executor=
                                log=out / "progress.log", **settings)
     finally:
         executor.close()
+
+
+def run_all(args, default_out, like, prior, n_samples, settings, finish):
+    """Every run of the command line (methods x seeds, :func:`run_directories`): calibrate, then on rank 0
+    ``finish(run_args, seed, out, post) -> summary`` and one JSON line per run on stdout. Returns the summaries
+    (rank 0) or [] (other ranks)."""
+    summaries = []
+    for run_args, seed, out in run_directories(args, default_out):
+        t0 = time.perf_counter()
+        post = calibrate(like, prior, run_args, out, seed, n_samples, **settings)
+        if is_root():
+            summaries.append(finish(run_args, seed, out, post))
+            print(json.dumps({"out": str(out), "method": run_args.method, "seed": seed,
+                              "wall_s": round(time.perf_counter() - t0, 1), "n_stages": post.n_stages,
+                              "n_forward_solves": post.n_forward_solves, "log_evidence": round(post.log_evidence, 3),
+                              "map": {k: round(v, 4) for k, v in post.map.items()}}), flush=True)
+    return summaries
 
 
 def write_summary(out: Path, case: str, args, seed: int, post, like, extra=None) -> dict:
@@ -166,7 +183,8 @@ def runs_table(summaries: list, names, reference: dict | None = None) -> str:
     return "\n".join(rows)
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib.pyplot on the off-screen Agg backend."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -176,7 +194,7 @@ def _pyplot():
 def plot_marginals(post, path, marks: dict | None = None, bounds: dict | None = None, title: str | None = None):
     """Histogram of each parameter's final-stage samples; ``marks`` {label: {name: value}} drawn as lines;
     ``title`` above the panels (say "synthetic" there when the data are)."""
-    plt = _pyplot()
+    plt = pyplot()
     d = len(post.names)
     cols = min(d, 4)
     rows = -(-d // cols)
@@ -204,7 +222,7 @@ def plot_marginals(post, path, marks: dict | None = None, bounds: dict | None = 
 
 def plot_stages(post, path):
     """Samples of each parameter against the stage index (how the population narrows)."""
-    plt = _pyplot()
+    plt = pyplot()
     d = len(post.names)
     fig, axes = plt.subplots(1, d, figsize=(2.6 * d, 2.6), squeeze=False)
     for i, (ax, n) in enumerate(zip(axes[0], post.names)):

@@ -42,7 +42,8 @@ import numpy as np
 import inference
 from cases import study
 from cases.simsand_synthetic import MAX_FAILURE_FRACTION
-from cases.simsand_triaxial import CURVES, SimsandTriaxial, conditions_of, plot_csl, plot_curves, run_all, write_runs
+from cases.simsand_triaxial import CURVES, SimsandTriaxial, conditions_of, plot_csl, plot_curves, sampler_settings, \
+    write_runs
 from inference.observations import read_csv_table
 
 CASE = "toyoura"
@@ -209,8 +210,7 @@ def main(argv=None):
     like_all = inference.Likelihood(all_obs, forward_all, batch=True, sigma="sigma_eps")
     preset = PRESETS["quick" if args.quick else "full"]
     n_samples = args.samples or preset["n_samples"]
-    settings = dict(max_steps=preset["max_steps"], n_steps=args.sweeps or "adaptive",
-                    min_steps=min(2, args.sweeps or 2), max_failure_fraction=MAX_FAILURE_FRACTION)
+    settings = sampler_settings(args, preset, MAX_FAILURE_FRACTION)
 
     def finish(run_args, seed, out, post):
         summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
@@ -222,7 +222,7 @@ def main(argv=None):
         report_run(out, run_args, post, cal_obs, all_obs, forward_all, summary)
         return summary
 
-    summaries = run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
+    summaries = study.run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
     if study.is_root():
         write_runs(args.out or DEFAULT_OUT, f"{CASE} (measured data, Verdugo & Ishihara 1996)", summaries,
                    list(prior.names), REFERENCES, PAPER_DE_MEAN, note="" if args.undrained else SUBSTITUTION_NOTE)

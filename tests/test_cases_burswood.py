@@ -75,7 +75,7 @@ def test_user_recordings_in_mpa_and_percent_are_converted(tmp_path):
     np.testing.assert_allclose(obs["fast"].curves["cavity_pressure"].y, [100.0, 120.0])
 
 
-def test_failed_fe_solve_is_a_zero_likelihood_particle(tiny_records):
+def test_a_forward_solve_that_raises_is_a_zero_likelihood_particle(tiny_records):
     """A forward solve that raises inside a calibration gives -inf with its reason, never a crash."""
     import inference
 
