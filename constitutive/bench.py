@@ -23,26 +23,24 @@ def _mcc_batch(n, seed=0):
     return model, rng.uniform(0.6, 1.5, n)
 
 
-def mcc_drained_triaxial_batch(n=2000, n_points=100, substeps=2):
-    """MCC drained triaxial to 25 % axial strain, n parameter sets in one vectorized call."""
-    model, e0 = _mcc_batch(n)
+def _mcc_triaxial_batch(drained, n=2000, n_points=100, substeps=2):
+    """MCC drained or undrained triaxial to 25 % axial strain, n parameter sets in one vectorized call."""
+    model, e0 = _mcc_batch(n, seed=0 if drained else 1)
     axial = np.linspace(0.0, 0.25, n_points + 1)[1:]
+    test = labtests.drained_triaxial if drained else labtests.undrained_triaxial
     t0 = time.perf_counter()
-    labtests.drained_triaxial(model, e0, 100.0, axial, substeps=substeps)
+    test(model, e0, 100.0, axial, substeps=substeps)
     wall = time.perf_counter() - t0
-    return {"benchmark": "mcc_drained_triaxial_batch", "n_particles": n, "n_steps": n_points * substeps,
-            "seconds": round(wall, 3), "ms_per_particle_test": round(1e3 * wall / n, 4)}
+    return {"benchmark": f"mcc_{'drained' if drained else 'undrained'}_triaxial_batch", "n_particles": n,
+            "n_steps": n_points * substeps, "seconds": round(wall, 3), "ms_per_particle_test": round(1e3 * wall / n, 4)}
 
 
-def mcc_undrained_triaxial_batch(n=2000, n_points=100, substeps=2):
-    """MCC undrained triaxial to 25 % axial strain, n parameter sets in one vectorized call."""
-    model, e0 = _mcc_batch(n, seed=1)
-    axial = np.linspace(0.0, 0.25, n_points + 1)[1:]
-    t0 = time.perf_counter()
-    labtests.undrained_triaxial(model, e0, 100.0, axial, substeps=substeps)
-    wall = time.perf_counter() - t0
-    return {"benchmark": "mcc_undrained_triaxial_batch", "n_particles": n, "n_steps": n_points * substeps,
-            "seconds": round(wall, 3), "ms_per_particle_test": round(1e3 * wall / n, 4)}
+def mcc_drained_triaxial_batch():
+    return _mcc_triaxial_batch(drained=True)
+
+
+def mcc_undrained_triaxial_batch():
+    return _mcc_triaxial_batch(drained=False)
 
 
 def _timed_updates(name, model, stress, state, dstrain, dt, n_increments):
