@@ -4,8 +4,9 @@ One pressuremeter expansion, default 240-element mesh (60 x 4), 100 equal increm
 0.167 %/s, Burswood initial state: linear elastic, Modified Cam Clay (and ANICREEP when constitutive provides it).
 Wall time per solve (best of N after one warm-up, which also builds nothing new: the Solver is built once, as in the
 calibration loop), the one-off build time, Newton work counters (residual evaluations, material calls, banded LU
-factorizations, step cuts) and the peak resident memory of the process. ``--newton both`` adds modified Newton
-(refresh_ratio 0.1) beside the default full Newton.
+factorizations, step cuts) and the peak resident memory of the process. ``--newton both`` adds full Newton with the
+tangent predictor (problem.predictor 'tangent') and modified Newton (refresh_ratio 0.1) beside the default (full
+Newton, extrapolated predictor).
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ def materials():
     if hasattr(C, "ANICREEP"):
         try:
             yield "anicreep", C.ANICREEP(M=1.71, lambda_=0.40, kappa=0.026, nu=0.3, e0=2.0, sigma_p0=58.4,
-                                        C_alpha_e=0.020)
+                                        C_alpha_e=0.020, vertical_axis=2)
         except Exception as err:  # noqa: BLE001 - the parameter names of a model still being written may differ
             print(json.dumps({"case": "anicreep", "skipped": str(err)}))
 
@@ -37,10 +38,12 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--newton", choices=("full", "both"), default="full")
     args = ap.parse_args(argv)
-    variants = {"full": 0.0, "modified": 0.1} if args.newton == "both" else {"full": 0.0}
-    for (name, model), (newton, ratio) in ((m, v) for m in materials() for v in variants.items()):
+    variants = {"full": {}}
+    if args.newton == "both":
+        variants.update({"full, tangent predictor": {"predictor": "tangent"}, "modified": {"refresh_ratio": 0.1}})
+    for (name, model), (newton, options) in ((m, v) for m in materials() for v in variants.items()):
         t0 = time.perf_counter()
-        solver = Solver(pressuremeter(model, n_increments=100, save_fields="none", refresh_ratio=ratio))
+        solver = Solver(pressuremeter(model, n_increments=100, save_fields="none", **options))
         build = time.perf_counter() - t0
         solver.solve()
         times = []

@@ -113,6 +113,8 @@ class Problem:
     pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls: rtol,
     max_iterations, refresh_ratio (0, the default: full Newton with the material tangent; > 0: modified Newton, the
     factorization refreshed when an iteration reduces the residual by less than this factor; fem.Solver._newton),
+    predictor ('extrapolate': the start of Newton in a step is the last step's solution rate times dt, within a
+    phase; 'tangent': the constrained dofs moved with the last factorized Jacobian; fem.Solver._newton),
     max_cuts (step halvings before ConvergenceError). Convergence: at every free dof |R_i| <= rtol * (sum of the
     absolute element contributions to dof i, floored at 1e-6 of the largest such sum of that field: the
     round-off level, fem.solver.SCALE_FLOOR).
@@ -135,6 +137,7 @@ class Problem:
     rtol: float = 1e-6
     max_iterations: int = 25
     refresh_ratio: float = 0.0
+    predictor: str = "extrapolate"
     max_cuts: int = 10
 
     def __post_init__(self):
@@ -173,6 +176,8 @@ class Problem:
             raise ProblemError(f"hourglass_modulus = {self.hourglass_modulus} kPa must be positive")
         if not 0.0 <= self.refresh_ratio < 1.0:
             raise ProblemError(f"refresh_ratio = {self.refresh_ratio} must lie in [0, 1) (0: full Newton)")
+        if self.predictor not in ("extrapolate", "tangent"):
+            raise ProblemError(f"predictor = {self.predictor!r} must be 'extrapolate' or 'tangent'")
         if self.save_fields not in ("phases", "all", "none"):
             raise ProblemError(f"save_fields = {self.save_fields!r} must be 'phases', 'all' or 'none'")
         rmin, rmax = self.mesh.nodes[:, 0].min(), self.mesh.nodes[:, 0].max()
