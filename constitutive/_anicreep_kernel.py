@@ -7,8 +7,15 @@ backward Euler in the unknowns X = (sigma' (6), alpha_d (6), z), d lambda = d la
 
     R_sigma = (sigma' - sigma'_E(d eps - d lambda W g))/p'_m,n^r     (E), W = (1, 1, 1, 2, 2, 2)
     R_alpha = alpha_d - alpha_d,n - omega[(3s/(4p') - alpha_d)<d eps_v^vp> + omega_d (s/(3p') - alpha_d) d eps_d^vp] (R)
-    R_z     = ln(p'_m^d/p'_m,n^r) - c_p d eps_v^vp - z/beta              (F), (H), (V) in log form
-              (rate independent: 1/beta = 0; R_z = z where the elastic trial lies inside the reference surface).
+    R_z     = ln(p'_m^d/p'_m,n^r) - c_p d eps_v^vp - ln((1 + chi)/(1 + chi_n)) - z/beta   (F), (H), (D), (V)
+              in log form (rate independent: 1/beta = 0; R_z = z where the elastic trial lies inside the reference
+              surface), chi = chi_n exp(-xi(|d eps_v^vp| + xi_d d eps_d^vp)) (D).
+
+Destructuration (D) adds no unknown: the bonding chi at the end of the increment is an explicit function of the
+viscoplastic strain increments (exact integration of d chi = -xi chi (|d eps_v^vp| + xi_d d eps_d^vp) at the
+increment's constant rates, the same exponential integration as (H)), so it enters R_z and the last Jacobian row
+only. Every destructuration operation is guarded by chi_n > 0: with chi_n = 0 (switch off, chi0 = 0, or bonding
+destroyed to underflow) the arithmetic is exactly that of the model without (D).
 
 The Jacobian dR/dX is ANALYTIC (forward-mode chain rule written out in ``_evaluate``; the test suite checks it
 against complex-step differentiation of an independent numpy residual). Newton with the z-step limited to
@@ -30,7 +37,7 @@ from ._jit import jit, next_substep
 
 _NX = 13                                        # unknowns per point
 #: columns of the per-point parameter array ``prm``
-PARAMETER_COLUMNS = ("M2", "c_e", "c_p", "r_G", "omega", "omega_d", "inv_beta", "mu")
+PARAMETER_COLUMNS = ("M2", "c_e", "c_p", "r_G", "omega", "omega_d", "inv_beta", "mu", "xi", "xi_d")
 
 
 @jit
@@ -84,10 +91,10 @@ def _apply_stiffness(gk, c, v, k):
 
 
 @jit
-def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, want_jac, R, J, ws):
+def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active, want_jac, R, J, ws):
     """Residuals R (13) at X and, when ``want_jac``, the analytic Jacobian J = dR/dX (13 x 13). ``ws`` is scratch
     (rows 0-31 used here, 32 x 13 at least); on return ws[2, :6] holds g and, with ``want_jac``, ws[6, :6] the vector c of the elastic
-    stiffness (``_elastic_stress``). Returns (ln(p'_m^d/p'_m^r), d lambda, G_bar)."""
+    stiffness (``_elastic_stress``). Returns (ln(p'_m^d/p'_m^r), d lambda, G_bar, chi at the end of the increment)."""
     M2, c_e, c_p, r_G, omega, omega_d, inv_beta = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6]
     sig = X[0:6]
     alp = X[6:12]
@@ -112,9 +119,13 @@ def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, wa
         a2 = s[k] / (3.0 * p) - alp[k]
         R[6 + k] = alp[k] - alp_n[k] - omega * (a1 * dv_plus + omega_d * a2 * dd)
     ln_ratio = math.log(pmd) - ln_pm_n - c_p * dv
+    chi = chi_n
+    if chi_n > 0.0:         # (D): p'_m^r = (1 + chi) p'_mi^r
+        chi = chi_n * math.exp(-prm[8] * (abs(dv) + prm[9] * dd))
+        ln_ratio -= math.log1p(chi) - math.log1p(chi_n)
     R[12] = ln_ratio - inv_beta * z if active else z
     if not want_jac:
-        return ln_ratio, dlam, gk
+        return ln_ratio, dlam, gk, chi
 
     # ---- analytic Jacobian: chain rule through (F), (V), (E), (R), (H). Per column j (13 unknowns) the
     # derivatives of p', M^2 - alpha^2, xi:xi and xi:alpha_d (dxi_k/dsigma'_j = delta_kj - (I_k + alpha_k) I_j/3,
@@ -187,12 +198,17 @@ def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, wa
     if active:              # R_z
         for j in range(_NX):
             J[12, j] = dpmd[j] / pmd - c_p * ddv[j]
+        if chi_n > 0.0:     # -d ln(1 + chi) = xi chi/(1 + chi) (sign(dv) d(d eps_v^vp) + xi_d d(d eps_d^vp))
+            f_chi = prm[8] * chi / (1.0 + chi)
+            sgn = 1.0 if dv > 0.0 else (-1.0 if dv < 0.0 else 0.0)
+            for j in range(_NX):
+                J[12, j] += f_chi * (sgn * ddv[j] + prm[9] * ddd[j])
         J[12, 12] -= inv_beta
     else:
         for j in range(_NX):
             J[12, j] = 0.0
         J[12, 12] = 1.0
-    return ln_ratio, dlam, gk
+    return ln_ratio, dlam, gk, chi
 
 
 @jit
@@ -245,10 +261,10 @@ def _all_finite(a):
 
 
 @jit(inline="always")  # one call site (update_points): compiled once, inside it
-def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz,
+def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it, max_dz,
                  sig_o, alp_o, dvp_o, tan_o, ws, X, Xn, dX, R, J, LU, piv, rhs):
     """One backward-Euler increment of one point. Fills sig_o, alp_o (deviatoric), dvp_o, tan_o (6 x 6); returns
-    (converged, p'_m^r at the end, p'_m^d/p'_m^r at the end)."""
+    (converged, p'_m^r at the end, p'_m^d/p'_m^r at the end, chi at the end)."""
     M2, c_e, c_p, r_G, inv_beta, mu = prm[0], prm[1], prm[2], prm[3], prm[6], prm[7]
     p_n = (sig_n[0] + sig_n[1] + sig_n[2]) / 3.0
     s_n = ws[7, :6]
@@ -269,6 +285,8 @@ def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz
     K_t = p_t * c_e
     A_el = (K_t * trg * trg + 2.0 * r_G * K_t * G2) / pmd_t
     A = A_el + c_p * trg
+    if chi_n > 0.0:  # (D) softens the linearized hardening: d ln(1 + chi)/d lambda at chi_n
+        A -= prm[8] * chi_n / (1.0 + chi_n) * (abs(trg) + prm[9] * math.sqrt(2.0 / 3.0 * G2))
     dlam_c = L_t / (A if A > 0.0 else A_el)  # linearized return to the reference surface
     if viscous:
         dlam_ref = mu * dt
@@ -311,12 +329,12 @@ def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz
     n_jac = n_ls = 0
     step = 1.0
     m0 = 0.0
-    ln_ratio, dlam, gk = 0.0, 0.0, 0.0
+    ln_ratio, dlam, gk, chi = 0.0, 0.0, 0.0, chi_n
     Xn[:] = X
     while True:
         with_jac = at_iterate or step == 1.0
-        ln_ratio, dlam, gk = _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, prm, dlam_ref, active, with_jac, R,
-                                       J, ws)
+        ln_ratio, dlam, gk, chi = _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active,
+                                            with_jac, R, J, ws)
         m = 0.0
         rmax = 0.0
         for i in range(_NX):
@@ -354,12 +372,12 @@ def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz
         for i in range(_NX):
             Xn[i] = X[i] + dX[i]
     if not converged:
-        return False, pm_n, 0.0
+        return False, pm_n, 0.0, chi_n
 
     # converged: R, J, g (ws[2]) and c (ws[6]) belong to X; consistent tangent dX/d(d eps) = J^-1 [S_e/p'_m,n^r; 0]
     LU[:, :] = J
     if not _lu_factor(LU, piv):
-        return False, pm_n, 0.0
+        return False, pm_n, 0.0, chi_n
     unit = ws[37, :6]
     for j in range(6):
         unit[:] = 0.0
@@ -378,15 +396,17 @@ def _local_solve(sig_n, alp_n, pm_n, deps, dt, prm, viscous, tol, max_it, max_dz
         dvp_o[k] = dlam * _W[k] * g[k]
         dvp_v += dvp_o[k] * _I[k]
     pm_new = pm_n * math.exp(c_p * dvp_v)  # (H)
+    if chi_n > 0.0:
+        pm_new *= (1.0 + chi) / (1.0 + chi_n)  # (D), chi from the converged residual
     ok = _all_finite(tan_o) and (X[0] + X[1] + X[2]) > 0.0
-    return ok, pm_new, math.exp(ln_ratio)
+    return ok, pm_new, math.exp(ln_ratio), chi
 
 
 @jit
-def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth,
-                  stress_out, alpha_out, pm_out, dvp_out, vp_shear_out, ratio_out, tangent_out):
-    """Integrate one increment at every point (arrays over n points: stress, alpha (n, 6), pm_ref (n,), deps
-    (n, 6), dt (n,), prm (n, 8) in the order PARAMETER_COLUMNS). A point that fails is split into halves
+def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth,
+                  stress_out, alpha_out, pm_out, chi_out, dvp_out, vp_shear_out, ratio_out, tangent_out):
+    """Integrate one increment at every point (arrays over n points: stress, alpha (n, 6), pm_ref (n,), chi (n,) the
+    bonding (0 without destructuration), deps (n, 6), dt (n,), prm (n, 10) in the order PARAMETER_COLUMNS). A point that fails is split into halves
     (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays (dvp_out the viscoplastic strain increment,
     vp_shear_out its eps_d^vp = sqrt(2/3 e^vp:e^vp)); returns the index of the first point that
     failed at the deepest level, or -1."""
@@ -401,6 +421,7 @@ def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, ma
         sig_c[:] = stress[i]
         alp_c[:] = alpha[i]
         pm_c = pm_ref[i]
+        chi_c = chi[i]
         dvp_out[i, :] = 0.0
         pos = 0
         level = 0
@@ -408,9 +429,9 @@ def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, ma
             frac = 1.0 / (1 << level)
             for k in range(6):
                 sub_deps[k] = deps[i, k] * frac
-            ok, pm_new, ratio = _local_solve(sig_c, alp_c, pm_c, sub_deps, dt[i] * frac, prm[i], viscous, tol,
-                                             max_it, max_dz, stress_out[i], alpha_out[i], dvp_c, tangent_out[i],
-                                             ws, X, Xn, dX, R, J, LU, piv, rhs)
+            ok, pm_new, ratio, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt[i] * frac, prm[i],
+                                                      viscous, tol, max_it, max_dz, stress_out[i], alpha_out[i],
+                                                      dvp_c, tangent_out[i], ws, X, Xn, dX, R, J, LU, piv, rhs)
             if not ok:
                 if level >= max_depth:
                     return i
@@ -419,11 +440,13 @@ def update_points(stress, alpha, pm_ref, deps, dt, prm, viscous, tol, max_it, ma
             sig_c[:] = stress_out[i]
             alp_c[:] = alpha_out[i]
             pm_c = pm_new
+            chi_c = chi_new
             ratio_out[i] = ratio
             for k in range(6):
                 dvp_out[i, k] += dvp_c[k]
             pos, level = next_substep(pos, level, units)
         pm_out[i] = pm_c
+        chi_out[i] = chi_c
         dv = (dvp_out[i, 0] + dvp_out[i, 1] + dvp_out[i, 2]) / 3.0
         e2 = 0.0
         for k in range(6):  # eps_d^vp increment sqrt(2/3 e:e) of the whole increment (engineering shear: weight 1/2)

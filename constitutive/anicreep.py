@@ -18,6 +18,19 @@ Equations (REFERENCE.md section 4; Yin, Karstunen et al. 2010, 2011; Wheeler et 
                     g_q = 2(eta - alpha)/(M^2 - alpha^2);  beta = (lambda - kappa)/C_alpha_e,
                     mu = C_alpha_e/((1 + e0) tau) (M^2 - alpha_K0^2)/(M^2 - eta_K0^2);
 (H)  hardening      dp'_m^r = p'_m^r (1 + e0)/(lambda - kappa) d eps_v^vp  (integrated exactly: exponential);
+                    with destructuration (D) this is the hardening of the intrinsic size p'_mi^r;
+(D)  destructuration (switch ``destructuration=True``; S-CLAY1S of Koskinen, Karstunen & Wheeler 2002 in the
+                    elasto-viscoplastic form of Yin, Karstunen, Chang, Koskinen & Lojander 2011, "EVP-SCLAY1S"):
+                    p'_m^r = (1 + chi) p'_mi^r, the bonding chi >= 0 decaying with viscoplastic strain
+                    d chi = -xi chi (|d eps_v^vp| + xi_d d eps_d^vp),
+                    integrated exactly at the increment's constant rates (as (H)):
+                    chi_{n+1} = chi_n exp(-xi (|d eps_v^vp| + xi_d d eps_d^vp)).
+                    The structured (natural) soil yields at the apparent size (1 + chi) p'_mi^r and softens towards
+                    the intrinsic (reconstituted) response as chi decays: a peak and post-peak strength loss in
+                    undrained shear, a steep post-yield compression curve that joins the intrinsic NCL. Under
+                    isotropic loading (d eps_d^vp = 0, rate independent, eta = 0 so p' = p'_m^r):
+                    p' = (1 + chi0 exp(-xi eps_v^vp)) p'_mi0 exp(c_p eps_v^vp), c_p = (1 + e0)/(lambda - kappa),
+                    eps_v = eps_v^vp + kappa/(1 + e0) ln(p'/p'_0): a closed-form stress-strain curve (tested).
 (R)  rotational     d alpha_d = omega [(3s/(4p') - alpha_d) <d eps_v^vp> + omega_d (s/(3p') - alpha_d) d eps_d^vp],
                     d eps_d^vp = sqrt(2/3 de^vp:de^vp) >= 0 (a magnitude, REFERENCE convention);
 (K)  from M         sin phi' = 3M/(6 + M), K0_nc = 1 - sin phi', eta_K0 = 3(1 - K0_nc)/(1 + 2K0_nc),
@@ -27,6 +40,9 @@ Equations (REFERENCE.md section 4; Yin, Karstunen et al. 2010, 2011; Wheeler et 
 
 Switches of the one implementation:
   ``anisotropy=False``  alpha_d = 0 and omega = 0 (isotropic creep model; alpha_K0 -> 0 in mu and in p'_m^r0);
+  ``destructuration=True``  bonding (D) with parameters chi0, xi, xi_d; off (default) or with chi0 = 0 the model
+                        is bit-identical to the model without (D) (every (D) operation in the kernel is guarded by
+                        chi > 0);
   ``viscous=False``     rate-independent limit (beta -> infinity): consistency f(sigma', p'_m^r) = 0 on the same
                         surfaces with an elastic domain (S-CLAY1-like); with anisotropy=False it is Modified Cam Clay
                         (with (1 + e0) in place of (1 + e)).
@@ -36,7 +52,8 @@ Integration of one increment (backward Euler, per point, compiled: :mod:`constit
   d eps^vp = d lambda g(sigma'_{n+1}, alpha_{n+1}); d lambda_ref = mu dt (viscous) or 1 (rate independent);
   residuals  R_sigma = (sigma' - sigma'_E(d eps - d eps^vp))/p'_m,n^r   (E)
              R_alpha = alpha - alpha_n - d alpha                            (R), backward Euler
-             R_z     = ln(p'_m^d/p'_m^r) - z/beta                           (V) in log form: d lambda =
+             R_z     = ln(p'_m^d/p'_m^r) - z/beta                           (V) in log form, p'_m^r at the end of the
+                       increment from (H) and (D) (chi is an explicit function of d eps^vp, not an unknown): d lambda =
                        mu dt (p'_m^d/p'_m^r)^beta  <=>  ln(d lambda/(mu dt)) = beta ln(p'_m^d/p'_m^r);
                        rate independent: R_z = ln(p'_m^d/p'_m^r) (1/beta = 0), and R_z = z with d lambda = 0 for
                        points whose elastic trial lies inside the reference surface.
@@ -96,6 +113,15 @@ class ANICREEP(MaterialModel):
         sigma_p0  : vertical preconsolidation stress at the reference rate, kPa (> 0);
         anisotropy: True (S-CLAY1 rotated surfaces with rotational hardening) or False (alpha_d = 0, omega = 0);
         viscous   : True (overstress viscoplasticity) or False (rate-independent limit, consistency condition);
+        destructuration: False (default) or True (bonding (D), S-CLAY1S/EVP-SCLAY1S), which needs
+        chi0      : initial bonding chi_0 >= 0 (the apparent-to-intrinsic size ratio is 1 + chi_0; roughly the
+                    sensitivity minus one). ``sigma_p0`` is then the apparent (natural, structured) preconsolidation
+                    stress: the intrinsic initial size is p'_mi^r0 = p'_m^r0/(1 + chi_0), so chi_0 changes how much of
+                    the yield stress is structure, not where the natural soil yields;
+        xi        : absolute rate of destructuration (>= 0; S-CLAY1S "a", typically 8-12 for Finnish and Scottish soft
+                    clays);
+        xi_d      : relative weight of deviatoric viscoplastic strain in destructuration (>= 0; "b", typically
+                    0.2-0.4);
         vertical_axis : 1, 2 or 3, the Voigt component that is the deposition (vertical, K0-consolidation) axis of
                     the initial fabric alpha_d = alpha_K0 (e_v e_v - I/3). Default 1 (the axial direction of the lab
                     drivers); the axisymmetric FE maps r->1, z->2, theta->3, so the pressuremeter needs 2.
@@ -103,12 +129,13 @@ class ANICREEP(MaterialModel):
     State (dict of arrays over n points): ``alpha`` (n, 6) the deviatoric fabric tensor alpha_d (stress-like Voigt),
     ``pm_ref`` (n,) the reference-surface size p'_m^r (kPa), ``void_ratio`` (n,), ``vp_strain`` (n, 6) accumulated
     viscoplastic strain (engineering Voigt), ``vp_shear`` (n,) accumulated eps_d^vp magnitude, ``overstress`` (n,)
-    p'_m^d/p'_m^r at the end of the increment.
+    p'_m^d/p'_m^r at the end of the increment, ``chi`` (n,) the bonding (zeros without destructuration; the intrinsic
+    size is pm_ref/(1 + chi)).
     """
 
     name = "ANICREEP"
     tangent_kind = "consistent"
-    parameter_names = ("M", "lambda_", "kappa", "nu", "e0", "C_alpha_e", "tau", "sigma_p0")
+    parameter_names = ("M", "lambda_", "kappa", "nu", "e0", "C_alpha_e", "tau", "sigma_p0", "chi0", "xi", "xi_d")
     #: Newton tolerance on the scaled residuals (stress / p'_m,n^r, alpha, log-overstress)
     tolerance = 1e-10
     max_iterations = 40
@@ -117,7 +144,7 @@ class ANICREEP(MaterialModel):
     max_dz = 3.0
 
     def __init__(self, M, lambda_, kappa, nu, e0, sigma_p0, C_alpha_e=None, tau=86400.0, *, anisotropy=True,
-                 viscous=True, vertical_axis=1):
+                 viscous=True, destructuration=False, chi0=None, xi=None, xi_d=None, vertical_axis=1):
         name = self.name
         self.M = check_parameter("M", M, lower=0.0, upper=3.0, model=name)
         self.lambda_ = check_parameter("lambda_", lambda_, lower=0.0, model=name)
@@ -141,12 +168,22 @@ class ANICREEP(MaterialModel):
         else:
             self.C_alpha_e = None if C_alpha_e is None else check_parameter("C_alpha_e", C_alpha_e, lower=0.0,
                                                                              model=name)
+        self.destructuration = bool(destructuration)
+        for key, value in (("chi0", chi0), ("xi", xi), ("xi_d", xi_d)):
+            if self.destructuration:
+                if value is None:
+                    raise ParameterError(f"{name}: parameter {key} is required when destructuration=True")
+                value = check_parameter(key, value, lower=0.0, lower_open=False, model=name)
+            elif value is not None:
+                raise ParameterError(f"{name}: parameter {key} = {value!r} given but destructuration=False")
+            setattr(self, key, value)
         if vertical_axis not in (1, 2, 3):
             raise ParameterError(f"{name}: parameter vertical_axis = {vertical_axis!r} must be 1, 2 or 3")
         self.vertical_axis = int(vertical_axis)
 
         shapes = [np.shape(v) for v in (self.M, self.lambda_, self.kappa, self.nu, self.e0, self.sigma_p0, self.tau,
-                                         self.C_alpha_e if self.C_alpha_e is not None else 1.0)]
+                                         self.C_alpha_e if self.C_alpha_e is not None else 1.0,
+                                         *((self.chi0, self.xi, self.xi_d) if self.destructuration else ()))]
         try:
             self._shape = np.broadcast_shapes(*shapes)
         except ValueError:
@@ -189,7 +226,7 @@ class ANICREEP(MaterialModel):
             raise ValueError(f"{self.name}: parameters are given for {self._shape[0]} points but {what} has {n}")
 
     def _point_parameters(self, n):
-        """Everything the local solver needs, as a C-contiguous (n, 8) array in the column order of
+        """Everything the local solver needs, as a C-contiguous (n, 10) array in the column order of
         ``_anicreep_kernel.PARAMETER_COLUMNS`` (cached per n: the model is immutable)."""
         cache = self.__dict__.setdefault("_prm_cache", {})
         if n not in cache:
@@ -201,6 +238,8 @@ class ANICREEP(MaterialModel):
                 "omega": self.omega, "omega_d": self.omega_d,
                 "inv_beta": 1.0 / self.beta if self.viscous else 0.0,
                 "mu": self.mu if self.viscous else 1.0,
+                "xi": self.xi if self.destructuration else 0.0,                  # (D)
+                "xi_d": self.xi_d if self.destructuration else 0.0,
             }
             cache[n] = np.ascontiguousarray(np.column_stack(
                 [np.broadcast_to(np.asarray(prm[k], dtype=float), (n,)) for k in _kernel().PARAMETER_COLUMNS]))
@@ -214,7 +253,8 @@ class ANICREEP(MaterialModel):
 
     def reference_size(self, n):
         """p'_m^r0 (kPa): the surface (F) with alpha = alpha_K0 (0 without anisotropy) through the K0_nc state at
-        sigma'_v = sigma'_p0: p' = (1 + 2K0_nc) sigma'_p0/3, q = (1 - K0_nc) sigma'_p0."""
+        sigma'_v = sigma'_p0: p' = (1 + 2K0_nc) sigma'_p0/3, q = (1 - K0_nc) sigma'_p0 (with destructuration the
+        apparent size (1 + chi_0) p'_mi^r0)."""
         k0, a, M2 = (np.broadcast_to(v, (n,)) for v in (self.k0_nc, self.alpha_k0, self.M**2))
         sp = np.broadcast_to(self.sigma_p0, (n,))
         p = (1.0 + 2.0 * k0) * sp / 3.0
@@ -224,7 +264,8 @@ class ANICREEP(MaterialModel):
     # ------------------------------------------------------------------ state
     def initial_state(self, stress0, void_ratio0=None) -> dict:
         """State at effective stress ``stress0`` (n, 6): alpha_d = alpha_K0 about the vertical axis, p'_m^r from
-        sigma'_p0 (``reference_size``), void ratio ``void_ratio0`` (default e0). A stress outside the reference surface
+        sigma'_p0 (``reference_size``), chi = chi_0 (0 without destructuration), void ratio ``void_ratio0`` (default
+        e0). A stress outside the reference surface
         (sigma'_p0 below the in-situ state) is allowed: it carries an initial overstress and creeps at once."""
         stress0 = as_points(stress0, "stress0")
         n = stress0.shape[0]
@@ -239,8 +280,9 @@ class ANICREEP(MaterialModel):
         pm_ref = self.reference_size(n)
         pmd = _kernel().surface_size_points(np.ascontiguousarray(stress0), alpha,
                                             np.ascontiguousarray(self._point_parameters(n)[:, 0]))
+        chi = np.broadcast_to(self.chi0 if self.destructuration else 0.0, (n,)).astype(float)
         return {"alpha": alpha.copy(), "pm_ref": pm_ref.copy(), "void_ratio": e, "vp_strain": np.zeros((n, 6)),
-                "vp_shear": np.zeros(n), "overstress": pmd / pm_ref}
+                "vp_shear": np.zeros(n), "overstress": pmd / pm_ref, "chi": chi}
 
     # ------------------------------------------------------------------ update
     def update(self, stress, state, dstrain, dt):
@@ -255,12 +297,18 @@ class ANICREEP(MaterialModel):
         if np.any(~np.isfinite(dt) | (dt < 0.0)):
             raise ValueError(f"{self.name}: time increment dt = {dt[~np.isfinite(dt) | (dt < 0.0)][0]} must be >= 0")
         new_stress, alpha, dvp, tangent = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6, 6))
-        pm_ref, vp_shear, ratio = np.empty(n), np.empty(n), np.empty(n)
+        pm_ref, chi, vp_shear, ratio = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        chi_n = state.get("chi")
+        if chi_n is None:  # a state made without the bonding key: only the model without destructuration accepts it
+            if self.destructuration:
+                raise KeyError(f"{self.name}: state has no 'chi' (bonding); make it with initial_state")
+            chi_n = np.zeros(n)
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
-            np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(dstrain), dt,
-            self._point_parameters(n), self.viscous, self.tolerance, self.max_iterations, self.max_dz,
-            self.max_substep_depth, new_stress, alpha, pm_ref, dvp, vp_shear, ratio, tangent)
+            np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(chi_n, dtype=float),
+            np.ascontiguousarray(dstrain), dt, self._point_parameters(n), self.viscous, self.tolerance,
+            self.max_iterations, self.max_dz, self.max_substep_depth, new_stress, alpha, pm_ref, chi, dvp, vp_shear,
+            ratio, tangent)
         if failed >= 0:
             raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
                                    f"sub-stepping (strain increment {dstrain[failed]}, dt {dt[failed]:g} s, "
@@ -269,5 +317,5 @@ class ANICREEP(MaterialModel):
                      "void_ratio": state["void_ratio"] - (1.0 + self.e0) * dstrain[:, :3].sum(axis=1),
                      "vp_strain": state["vp_strain"] + dvp,
                      "vp_shear": state["vp_shear"] + vp_shear,
-                     "overstress": ratio}
+                     "overstress": ratio, "chi": chi}
         return new_stress, new_state, tangent

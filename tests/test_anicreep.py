@@ -268,12 +268,16 @@ def _cavity_increment(n, size=1e-3):
     return de
 
 
-def _loaded_states(viscous):
+#: a structured (sensitive) clay for the destructuration tests: chi0, xi, xi_d (S-CLAY1S a, b)
+STRUCTURE = dict(destructuration=True, chi0=5.0, xi=10.0, xi_d=0.3)
+
+
+def _loaded_states(viscous, destructuration=False):
     rng = np.random.default_rng(3)
     n = 6
     M = rng.uniform(0.8, 1.8, n)
     m = ANICREEP(M=M, sigma_p0=rng.uniform(30, 80, n), C_alpha_e=0.02 if viscous else None, viscous=viscous,
-                 vertical_axis=2, **BURSWOOD)
+                 vertical_axis=2, **BURSWOOD, **(STRUCTURE if destructuration else {}))
     sig = np.tile([0.9 * 31.0, 31.0, 0.9 * 31.0, 0, 0, 0], (n, 1))
     st = m.initial_state(sig)
     de = _cavity_increment(n) + rng.normal(0, 3e-4, (n, 6))
@@ -282,9 +286,11 @@ def _loaded_states(viscous):
     return m, sig, st, rng
 
 
-@pytest.mark.parametrize("viscous", [True, False])
-def test_consistent_tangent_matches_finite_differences(viscous):
-    m, sig, st, rng = _loaded_states(viscous)
+@pytest.mark.parametrize("viscous, destructuration", [(True, False), (False, False), (True, True), (False, True)])
+def test_consistent_tangent_matches_finite_differences(viscous, destructuration):
+    m, sig, st, rng = _loaded_states(viscous, destructuration)
+    if destructuration:
+        assert np.all(st["chi"] < 5.0) and np.all(st["chi"] > 0.0)  # bonding partly destroyed: (D) active
     n = sig.shape[0]
     de = _cavity_increment(n, 5e-4) + rng.normal(0, 2e-4, (n, 6))
     _, _, T = m.update(sig, st, de, 1.0)
@@ -393,15 +399,19 @@ def _residual_oracle(X, deps, d):
     r_alp = alp - d["alpha_n"] - d["omega"] * ((0.75 * s / p - alp) * dv_plus
                                                 + d["omega_d"] * (s / (3.0 * p) - alp) * dd)  # (R)
     r_z = np.log(pmd) - np.log(d["pm_n"]) - d["c_p"] * dv - d["inv_beta"] * z             # (H), (V)
+    if d["chi_n"] > 0.0:                                                                   # (D)
+        chi = d["chi_n"] * np.exp(-d["xi"] * ((dv if dv.real > 0.0 else -dv) + d["xi_d"] * dd))
+        r_z = r_z - np.log(1.0 + chi) + np.log(1.0 + d["chi_n"])
     return np.concatenate([(sig - sig_e) / d["pm_n"], r_alp, [r_z]])
 
 
-@pytest.mark.parametrize("viscous", [True, False])
-def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous):
+@pytest.mark.parametrize("viscous, destructuration", [(True, False), (False, False), (True, True), (False, True)])
+def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous, destructuration):
     """The kernel's residual equals the numpy transcription to round-off and its analytic Jacobian equals the
-    complex-step derivative (exact to round-off) of that transcription, at perturbed loaded states."""
+    complex-step derivative (exact to round-off) of that transcription, at perturbed loaded states (with bonding:
+    the (D) terms of R_z, including states where d eps_v^vp < 0 after the perturbation)."""
     from constitutive import _anicreep_kernel as K
-    m, sig, st, rng = _loaded_states(viscous)
+    m, sig, st, rng = _loaded_states(viscous, destructuration)
     n = sig.shape[0]
     prm = m._point_parameters(n)
     R, J, ws = np.zeros(13), np.zeros((13, 13)), np.zeros((38, 13))
@@ -410,13 +420,13 @@ def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous)
         col = dict(zip(K.PARAMETER_COLUMNS, prm[i]))
         p_n = sig[i, :3].mean()
         d = dict(col, p_n=p_n, s_n=sig[i] - p_n * _I, alpha_n=st["alpha"][i], pm_n=st["pm_ref"][i],
-                 dlam_ref=col["mu"] * 1.0 if viscous else 1.0)
+                 chi_n=st["chi"][i], dlam_ref=col["mu"] * 1.0 if viscous else 1.0)
         deps = _cavity_increment(1, 2e-3)[0] + rng.normal(0, 3e-4, 6)
         for dlam_scale in (1e-4, 3e-3):  # small and large viscoplastic multipliers
             X = np.concatenate([sig[i] * (1 + rng.normal(0, 0.02, 6)), st["alpha"][i] + rng.normal(0, 0.02, 6),
                                 [np.log(dlam_scale / d["dlam_ref"])]])
-            K._evaluate(X, deps, d["s_n"], p_n, d["alpha_n"], d["pm_n"], np.log(d["pm_n"]), prm[i], d["dlam_ref"],
-                        True, True, R, J, ws)
+            K._evaluate(X, deps, d["s_n"], p_n, d["alpha_n"], d["pm_n"], np.log(d["pm_n"]), d["chi_n"], prm[i],
+                        d["dlam_ref"], True, True, R, J, ws)
             R0 = _residual_oracle(X.astype(complex), deps, d).real
             h = 1e-30
             Jcs = np.stack([_residual_oracle(X + 1j * h * e, deps, d).imag / h for e in np.eye(13)], axis=1)
@@ -484,3 +494,120 @@ def test_vp_shear_increment_is_the_deviatoric_measure_of_the_vp_strain_increment
         expected = deviatoric_strain(st2["vp_strain"] - st["vp_strain"])
         np.testing.assert_allclose(st2["vp_shear"] - st["vp_shear"], expected, rtol=1e-9, atol=1e-15)
         sig, st = sig2, st2
+
+
+# --------------------------------------------------------------------------------------------- destructuration (D)
+@pytest.mark.parametrize("bad, message", [
+    (dict(chi0=-0.5), "chi0 = -0.5"), (dict(xi=None), "xi is required"), (dict(xi_d=-1.0), "xi_d = -1"),
+])
+def test_destructuration_parameters_are_validated(bad, message):
+    prm = dict(M=1.2, sigma_p0=60.0, C_alpha_e=0.02, **BURSWOOD, **STRUCTURE)
+    prm.update(bad)
+    with pytest.raises(ParameterError, match=message):
+        ANICREEP(**prm)
+    with pytest.raises(ParameterError, match="chi0 = 2.0 given but destructuration=False"):
+        ANICREEP(M=1.2, sigma_p0=60.0, C_alpha_e=0.02, chi0=2.0, **BURSWOOD)
+
+
+@pytest.mark.parametrize("viscous", [True, False])
+def test_no_bonding_is_bit_identical_to_the_model_without_destructuration(viscous):
+    """chi0 = 0 with the switch on gives the same bits as the switch off (stress, tangent, every state array), over
+    a cavity path with a sub-stepped increment; the state carries chi = 0 throughout."""
+    rng = np.random.default_rng(7)
+    n = 5
+    common = dict(M=rng.uniform(0.7, 1.8, n), sigma_p0=rng.uniform(20, 120, n), viscous=viscous, vertical_axis=2,
+                  C_alpha_e=0.02 if viscous else None, **BURSWOOD)
+    off = ANICREEP(**common)
+    on = ANICREEP(**common, destructuration=True, chi0=0.0, xi=12.0, xi_d=0.4)
+    sig = np.tile([27.9, 31.0, 27.9, 0, 0, 0], (n, 1))
+    runs = []
+    for m in (off, on):
+        s, st = sig.copy(), m.initial_state(sig)
+        for k in range(40):
+            s, st, T = m.update(s, st, _cavity_increment(n) * (15.0 if k == 20 else 1.0), 0.6)
+        runs.append((s, st, T))
+    (s0, st0, T0), (s1, st1, T1) = runs
+    assert np.array_equal(s0, s1) and np.array_equal(T0, T1)
+    assert all(np.array_equal(st0[k], st1[k]) for k in st0) and not st1["chi"].any()
+
+
+def _isotropic_structured_closed_form(eps_v, p0, pm0, chi0, xi, c_p, c_e):
+    """Rate-independent isotropic (eta = 0) loading of the structured isotropic model from p'_0 inside the reference
+    surface of size p'_m^r0 = (1 + chi0) p'_mi0 (module docstring, (D)): elastic while p'_0 exp(c_e eps_v) < p'_m^r0,
+    then p' = p'_m^r = p'_mi0 exp(c_p e) (1 + chi0 exp(-xi e)) with e = eps_v^vp solving
+    eps_v = e + ln(p'/p'_0)/c_e (d eps_d^vp = 0). Returns p' and chi."""
+    pmi0 = pm0 / (1.0 + chi0)
+
+    def surface(e):
+        return pmi0 * np.exp(c_p * e) * (1.0 + chi0 * np.exp(-xi * e))
+
+    p, chi = [], []
+    for ev in eps_v:
+        if p0 * np.exp(c_e * ev) <= pm0:
+            p.append(p0 * np.exp(c_e * ev))
+            chi.append(chi0)
+            continue
+        e = brentq(lambda e: e + np.log(surface(e) / p0) / c_e - ev, 0.0, ev)
+        p.append(surface(e))
+        chi.append(chi0 * np.exp(-xi * e))
+    return np.array(p), np.array(chi)
+
+
+@pytest.mark.parametrize("n_steps", [40, 400])
+def test_isotropic_compression_of_structured_clay_follows_the_closed_form(n_steps):
+    """Independent oracle of (D): strain-controlled isotropic compression (eps_1 = eps_2 = eps_3) of the rate-
+    independent isotropic model with bonding: the exact exponential laws of (E), (H) and (D) make the update exact
+    for any step (errors at round-off for 40 and 400 steps), through yield, the post-yield collapse of structure
+    (p' falls while the specimen is compressed: chi0 = 5, xi = 15) and the approach to the intrinsic line."""
+    chi0, xi = 5.0, 15.0
+    m = ANICREEP(M=1.2, sigma_p0=60.0, viscous=False, anisotropy=False, **BURSWOOD,
+                 destructuration=True, chi0=chi0, xi=xi, xi_d=0.3)
+    sig = np.full((1, 6), 40.0)
+    sig[0, 3:] = 0.0
+    st = m.initial_state(sig)
+    pm0 = st["pm_ref"][0]
+    eps = np.linspace(0.0, 0.3, n_steps + 1)[1:]
+    de = np.zeros((1, 6))
+    de[0, :3] = eps[0] / 3.0
+    p, chi, evp = [], [], []
+    for _ in eps:
+        sig, st, _ = m.update(sig, st, de, 1.0)
+        assert np.allclose(sig[0, :3], sig[0, 0], rtol=1e-13) and np.allclose(sig[0, 3:], 0.0, atol=1e-12)
+        p.append(sig[0, 0])
+        chi.append(st["chi"][0])
+        evp.append(st["vp_strain"][0, :3].sum())
+    c_e, c_p = 3.0 / 0.026, 3.0 / (0.40 - 0.026)
+    p_exact, chi_exact = _isotropic_structured_closed_form(eps, 40.0, pm0, chi0, xi, c_p, c_e)
+    np.testing.assert_allclose(p, p_exact, rtol=1e-9)
+    np.testing.assert_allclose(chi, chi_exact, rtol=1e-9)
+    np.testing.assert_allclose(chi, chi0 * np.exp(-xi * np.array(evp)), rtol=1e-12)  # chi = chi0 exp(-xi eps_v^vp)
+    post = np.array(p)[eps > np.log(pm0 / 40.0) / c_e]     # past the elastic range
+    k = int(np.argmin(post))
+    assert post[:k + 1].max() <= pm0 * (1 + 1e-12)         # yields at the apparent (structured) size
+    assert post[k] < 0.85 * pm0                            # and then collapses (strain softening in compression)
+    # at large strain the bonding is gone: p' approaches the intrinsic line p'_mi0 exp(c_p eps_v^vp)
+    assert chi[-1] < 0.02 * chi0
+    assert p[-1] == pytest.approx(pm0 / (1 + chi0) * np.exp(c_p * evp[-1]), rel=0.07)
+
+
+@pytest.mark.parametrize("anisotropy", [False, True])
+def test_structured_clay_softens_after_peak_in_undrained_compression(anisotropy):
+    """Undrained triaxial compression of a lightly overconsolidated clay (labtests, rate independent): the
+    unstructured model hardens to critical state (isotropic: q never falls) or barely softens (anisotropic, K0
+    fabric: < 4 %); the structured one (same apparent sigma'_p0, chi0 = 5, xi = 10, xi_d = 0.3) peaks and loses
+    more than 15 % of its peak q by 15 % strain while chi decays monotonically."""
+    strains = np.linspace(0.0, 0.15, 76)[1:]
+    common = dict(M=1.2, sigma_p0=60.0, viscous=False, anisotropy=anisotropy, **BURSWOOD)
+    q = {}
+    for structured in (False, True):
+        m = ANICREEP(**common, **(STRUCTURE if structured else {}))
+        c = labtests.undrained_triaxial(m, 2.0, 40.0, strains, k0=0.7, substeps=2, route="generic")
+        q[structured] = c["q"][0]
+    loss = {k: 1.0 - v[-1] / v.max() for k, v in q.items()}
+    if anisotropy:
+        assert loss[False] < 0.04
+    else:
+        assert np.all(np.diff(q[False]) > -1e-9)
+    assert loss[True] > 0.15
+    assert np.argmax(q[True]) < 0.3 * strains.size                           # the peak comes early
+    assert q[True].max() == pytest.approx(q[False].max(), rel=0.15)          # at about the same apparent strength
