@@ -23,9 +23,14 @@ deviatoric plane). The void ratio enters M_p and M_pt and follows the total volu
 e = e_0 - (1 + e_0) eps_v (linearised small strain, as the laboratory void ratio is computed from Delta V / V_0).
 
 Stress-point integration: explicit modified Euler with local error control and consistent drift correction
-(Sloan, Abbo & Sheng 2001), vectorised over points with per-point pseudo-time and substep size. One integrator serves
-the six-component space (``update``, strain control) and the triaxial space (``update_triaxial`` and the fast
-``triaxial_test``, where prescribed stress components are held at every stage of every substep). The elastic-plastic
+(Sloan, Abbo & Sheng 2001), with per-point pseudo-time and substep size. The scheme exists twice, each over the same
+compiled equations (III)-(VII) of :mod:`constitutive._simsand_kernel` (one source, numba-compiled for arrays and for
+floats): vectorised numpy over points in the six-component space (``update``, strain control), and a compiled per-point
+kernel in the triaxial space (``update_triaxial`` and the fast ``triaxial_test``, where prescribed stress components
+are held at every stage of every substep). The numpy integrator also runs in the triaxial space with
+``triaxial_integrator="numpy"``: the reference the kernel is tested against (the same results bit for bit point by
+point; in a batch the numpy crossing iteration runs until every crossing point of the batch converged, which moves
+results by about 1e-8 relative). The elastic-plastic
 transition inside a substep is located by the Pegasus method on the yield function. At the origin of loading (q = 0
 and eps_d^p = 0 the yield surface degenerates to the hydrostatic axis) the deviatoric flow direction and the Lode
 angle are taken from the deviatoric strain increment (for stress-controlled components, from the prescribed part). Below ``p_min`` (kPa) the stress is cut off to the isotropic state
@@ -56,6 +61,25 @@ CONTROL_STIFFNESS_RATIO = 1e-2
 #: the relative stress error of a substep is measured against max(|sigma'|, this fraction of p_at) so that states
 #: near the tension cutoff (liquefied sand) do not demand vanishing substeps
 STRESS_ERROR_FLOOR = 1e-2
+#: why a point failed, by the integrators' failure code (1-6; 0: none; ``_simsand_kernel`` names the codes)
+FAILURE_REASONS = (
+    None,
+    "a:D m + K_p <= 0 (no unique plastic response)",
+    "mixed control lost: the tangent stiffness on the stress-controlled components fell below {ratio} of the elastic "
+    "one (uncontrollable path)",
+    "mixed control lost within the substep: the tangent stiffness on the stress-controlled components fell below "
+    "{ratio} of the elastic one",
+    "drift correction failed (no free stress component changes f)",
+    f"void ratio outside (0, {E_MAX_STIFFNESS}) or non-finite stress",
+    "error control cannot be met (substep below 1e-12 of the increment or more than {max_substeps} substeps)",
+)
+
+
+def _kernel():
+    """The compiled equations and triaxial integrator, imported on first use (keeps ``import constitutive`` free of
+    numba)."""
+    from . import _simsand_kernel
+    return _simsand_kernel
 
 
 def friction_ratio(tan_phi, sin3theta, derivatives=True):
@@ -63,23 +87,12 @@ def friction_ratio(tan_phi, sin3theta, derivatives=True):
 
     M_c = 6 sin phi/(3 - sin phi) in triaxial compression (sin 3theta = +1), c M_c in extension (sin 3theta = -1),
     c = (3 - sin phi)/(3 + sin phi). Returns M, or (M, dM/dtan_phi, dM/dsin3theta) when ``derivatives``.
+    (The formula is ``_simsand_kernel.friction_terms``, shared by both integrators.)
     """
-    sec2 = 1.0 + tan_phi * tan_phi
-    root = np.sqrt(sec2)
-    sin_phi = tan_phi / root
-    Mc = 6.0 * sin_phi / (3.0 - sin_phi)
-    c = (3.0 - sin_phi) / (3.0 + sin_phi)
-    c2 = c * c
-    c4 = c2 * c2
-    den = 1.0 + c4 - (1.0 - c4) * sin3theta
-    M = Mc * np.sqrt(np.sqrt(2.0 * c4 / den))
-    if not derivatives:
-        return M
-    dlnM_dc = 1.0 / c - c2 * c * (1.0 + sin3theta) / den
-    dlnM_dsin = 3.0 / (sin_phi * (3.0 - sin_phi)) - 6.0 / (3.0 + sin_phi) ** 2 * dlnM_dc
-    dM_dtan = M * dlnM_dsin / (sec2 * root)
-    dM_dsin3 = M * 0.25 * (1.0 - c4) / den
-    return M, dM_dtan, dM_dsin3
+    t, s = np.broadcast_arrays(np.asarray(tan_phi, dtype=float), np.asarray(sin3theta, dtype=float))
+    terms = _kernel().friction_terms(np.ascontiguousarray(t.ravel()), np.ascontiguousarray(s.ravel()))
+    terms = tuple(x.reshape(t.shape)[()] for x in terms)
+    return terms if derivatives else terms[0]
 
 
 def friction_from_angle(phi_deg):
@@ -135,6 +148,8 @@ class TriaxialStress:
 
     The same equations as :class:`GeneralStress` restricted to diagonal states with two equal lateral components
     (q = |sigma'_a - sigma'_r|, sin 3theta = sign(sigma'_a - sigma'_r)); the Lode gradient vanishes there.
+    Used by the numpy integrator only with ``triaxial_integrator="numpy"``: the reference (test oracle) of the
+    compiled triaxial integrator (:mod:`constitutive._simsand_kernel`), which is what the triaxial paths run.
     """
 
     size = 2
@@ -196,7 +211,10 @@ class SIMSAND(MaterialModel):
     Options: ``p_at`` (kPa, 101.325), ``p_min`` (kPa, tension cutoff and stiffness floor, default 0.1),
     ``stol`` (relative local error tolerance of the substepping, default 1e-3: curves within about 1e-3 of the
     converged ones), ``ftol`` (yield-function drift
-    tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 1000).
+    tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 1000), ``triaxial_integrator``
+    ("compiled", default: :meth:`update_triaxial` and :meth:`triaxial_test` run the numba kernel of
+    :mod:`constitutive._simsand_kernel`; "numpy": the vectorised numpy integrator in the triaxial space, kept as the
+    reference (test oracle) of the kernel, several times slower).
 
     State (dict of (n,) arrays): ``void_ratio`` e, ``void_ratio_initial`` e_0 (reference of e = e_0 - (1 + e_0)
     eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0), ``substep`` the last substep size proposed
@@ -210,7 +228,7 @@ class SIMSAND(MaterialModel):
     parameter_names = ("nu", "K_0", "n", "e_ref", "lambda_c", "xi", "phi_mu", "k_p", "A_d", "n_p", "n_d")
 
     def __init__(self, nu, K_0, n, e_ref, lambda_c, xi, phi_mu, k_p, A_d, n_p, n_d, *,
-                 p_at=P_AT, p_min=0.1, stol=1e-3, ftol=1e-8, max_substeps=1000):
+                 p_at=P_AT, p_min=0.1, stol=1e-3, ftol=1e-8, max_substeps=1000, triaxial_integrator="compiled"):
         m = self.name
         self.nu = check_parameter("nu", nu, lower=-1.0, upper=0.5, model=m)
         self.K_0 = check_parameter("K_0", K_0, lower=0.0, model=m)
@@ -228,6 +246,9 @@ class SIMSAND(MaterialModel):
         self.stol = float(check_parameter("stol", stol, lower=0.0, upper=1.0, model=m))
         self.ftol = float(check_parameter("ftol", ftol, lower=0.0, upper=1.0, model=m))
         self.max_substeps = int(check_parameter("max_substeps", max_substeps, lower=1.0, lower_open=False, model=m))
+        if triaxial_integrator not in ("compiled", "numpy"):
+            raise ParameterError(f"{m}: triaxial_integrator must be 'compiled' or 'numpy', got {triaxial_integrator!r}")
+        self.triaxial_integrator = triaxial_integrator
         sizes = {np.size(getattr(self, k)) for k in self.parameter_names} - {1}
         for k in self.parameter_names:
             if np.ndim(getattr(self, k)) > 1:
@@ -245,12 +266,11 @@ class SIMSAND(MaterialModel):
 
     # ------------------------------------------------------------------ parameters per point
     def _point_params(self, n):
-        """Parameters broadcast to (n,) (n must equal the number of parameter sets where they are arrays)."""
+        """Parameters as a (len(PARAMETER_COLUMNS), n) array in the row order of
+        ``_simsand_kernel.PARAMETER_COLUMNS`` (n must equal the number of parameter sets where they are arrays)."""
         if self.n_sets not in (1, n):
             raise ValueError(f"{self.name}: {n} points but parameter arrays of length {self.n_sets}")
-        names = ("K_0", "n", "lambda_c", "xi", "k_p", "A_d", "n_p", "n_d", "_log_e_ref", "_log_tan_mu",
-                 "_shear_ratio")
-        return {k: np.broadcast_to(getattr(self, k), (n,)) for k in names}
+        return np.array([np.broadcast_to(getattr(self, k), (n,)) for k in _kernel().PARAMETER_COLUMNS], dtype=float)
 
     # ------------------------------------------------------------------ closed-form pieces
     def critical_void_ratio(self, p):
@@ -298,14 +318,14 @@ class SIMSAND(MaterialModel):
             i = int(np.argmax(eta >= Mp))
             raise ValueError(f"{self.name}: initial stress ratio q/p' = {eta[i]:.4g} at point {i} is not below the "
                              f"peak-strength ratio M_p = {Mp[i]:.4g}")
-        eps_dp = par["k_p"] * eta / (Mp - eta)
+        eps_dp = par[_kernel().KP] * eta / (Mp - eta)
         return {"void_ratio": e0, "void_ratio_initial": e0.copy(), "eps_dp": eps_dp, "substep": np.ones(n)}
 
     # ------------------------------------------------------------------ local evaluation
     def _evaluate(self, space, sig, e, eps_dp, par, gradients=True, dstrain=None):
         """Invariants, yield function (IV) and, with ``gradients``, moduli (III), flow (V) and consistency terms.
 
-        ``space`` is GENERAL or TRIAXIAL; ``par`` holds the parameters of the same points ((m,) arrays);
+        ``space`` is GENERAL or TRIAXIAL; ``par`` the parameters of the same points ((ncol, m), _point_params);
         ``dstrain`` (the substep strain) gives the deviatoric flow direction at q = 0. Returns a dict of arrays.
         """
         I = space.identity
@@ -325,26 +345,14 @@ class SIMSAND(MaterialModel):
             dd = (d_dir * d_dir) @ space.weights
             shearing = ~shear & (dd > 1e-20 * (dstrain * dstrain).sum(axis=1))  # not round-off of a volumetric one
             sin3 = np.where(shearing, space.lode(d_dir, np.where(shearing, 0.5 * dd, 1.0), shearing)[0], sin3)
-        # (VI) critical state line and (VII) interlocking
-        log_pr = np.log(pe / self.p_at)
-        x = np.exp(par["xi"] * log_pr)
-        log_r = par["_log_e_ref"] - par["lambda_c"] * x - np.log(e)  # ln(e_c/e)
-        tan_p = np.exp(par["n_p"] * log_r + par["_log_tan_mu"])
-        tan_pt = np.exp(par["_log_tan_mu"] - par["n_d"] * log_r)
-        H = eps_dp / (par["k_p"] + eps_dp)
+        kernel = _kernel()  # the equations (III)-(VII), shared with the compiled triaxial integrator
+        e = np.ascontiguousarray(e, dtype=float)
+        eps_dp = np.ascontiguousarray(eps_dp, dtype=float)
+        sin3 = np.ascontiguousarray(sin3, dtype=float)
         if not gradients:
-            Mp = friction_ratio(tan_p, sin3, derivatives=False)
-            return {"p": p, "q": q, "eta": eta, "Mp": Mp, "f": eta - H * Mp}
-        Mp, dMp_dtan, dMp_dsin3 = friction_ratio(tan_p, sin3)
-        Mpt = friction_ratio(tan_pt, sin3, derivatives=False)
-        f = eta - H * Mp  # (IV)
-        # (III) hypo-elastic moduli
-        K = par["K_0"] * self.p_at * (E_MAX_STIFFNESS - e) ** 2 / (1.0 + e) * np.exp(par["n"] * log_pr)
-        G = par["_shear_ratio"] * K
-        # derivatives of f: through eta, and through M_p(e_c(p'), e, sin3theta); d ln e_c/dp' = -lambda xi x/p'
-        HdM = H * dMp_dtan * tan_p * par["n_p"]
-        df_dp = -eta / pe + HdM * par["lambda_c"] * par["xi"] * x / pe
-        df_de = HdM / e
+            f, Mp = kernel.yield_value(eta, pe, e, eps_dp, sin3, par, self.p_at)
+            return {"p": p, "q": q, "eta": eta, "Mp": Mp, "f": f}
+        f, K, G, df_dp, df_de, dil, Kp, HdM_dsin3 = kernel.material_terms(eta, pe, e, eps_dp, sin3, par, self.p_at)
         # nhat = dq/dsigma = 3 s/(2 q) (nhat:nhat = 3/2); at q = 0 along the deviatoric strain increment
         nhat = 1.5 * s / np.where(shear, q, 1.0)[:, None]
         if d_dir is not None:
@@ -352,16 +360,14 @@ class SIMSAND(MaterialModel):
             nhat = np.where(shear[:, None], nhat, d_dir * scale[:, None])
         a_dev = nhat / pe[:, None]  # df/dq = 1/p'
         if lode_grad is not None:
-            a_dev = a_dev - (H * dMp_dsin3)[:, None] * lode_grad
+            a_dev = a_dev - HdM_dsin3[:, None] * lode_grad
         # plastic potential (V): m = A_d (M_pt - eta) I/3 + nhat (strain-like), D m = K A_d (M_pt - eta) I + 2 G nhat
-        dil = par["A_d"] * (Mpt - eta)
         Dm = (K * dil)[:, None] * I + 2.0 * G[:, None] * nhat
-        Kp = Mp * par["k_p"] / (par["k_p"] + eps_dp) ** 2  # -df/d eps_d^p
         den = df_dp * K * dil + 2.0 * G * ((a_dev * nhat) @ space.weights) + Kp
         # row acting on a strain increment: a:D d eps + (df/de) de, with de = -(1 + e_0) d eps_v (caller adds v0)
         Da = space.strain_row * (2.0 * G[:, None] * a_dev + (df_dp * K)[:, None] * I)
-        return {"p": p, "q": q, "eta": eta, "Mp": Mp, "Mpt": Mpt, "f": f, "K": K, "G": G, "Dm": Dm, "den": den,
-                "Da": Da, "df_de": df_de, "Kp": Kp, "a": a_dev + (df_dp / 3.0)[:, None] * I}
+        return {"p": p, "q": q, "eta": eta, "f": f, "K": K, "G": G, "Dm": Dm, "den": den, "Da": Da, "df_de": df_de,
+                "a": a_dev + (df_dp / 3.0)[:, None] * I}
 
     @staticmethod
     def _elastic(space, ev, deps):
@@ -442,16 +448,17 @@ class SIMSAND(MaterialModel):
         moving = np.any(dload != 0.0, axis=1)  # a zero increment (zero loads) changes nothing
         act = np.flatnonzero(moving if active is None else moving & active)
         stol, ftol = self.stol, self.ftol
+        k = _kernel()
         par = None
         while act.size:
-            if par is None or par["k_p"].shape[0] != act.size:
-                par = {k: v[act] for k, v in par_all.items()}
+            if par is None or par.shape[1] != act.size:
+                par = par_all[:, act]
             s0, e0, k0, v0 = sig[act], e[act], eps[act], v0_all[act]
             fail = np.zeros(act.size, dtype=bool)
 
-            def flag(mask, reason):
+            def flag(mask, code):
                 if raise_errors and np.any(mask):
-                    raise IntegrationError(int(act[np.argmax(mask)]), reason)
+                    raise IntegrationError(int(act[np.argmax(mask)]), self.failure_reason(code))
                 fail[mask] = True
             h = np.minimum(dT[act], 1.0 - T[act])
             dl = h[:, None] * dload[act]
@@ -462,17 +469,15 @@ class SIMSAND(MaterialModel):
             pl = on_surface & (dlam1 > 0.0)
             if np.any(on_surface & ~pl):  # unloading from the surface (elastic; mixed control: re-solve)
                 dsig1, deps1, dlam1 = self._rates(space, ev0, dl, v0, pl, control)
-            flag(pl & ~(ev0["den"] > 0.0), "a:D m + K_p <= 0 (no unique plastic response)")
-            flag(~np.all(np.isfinite(deps1), axis=1), "mixed control lost: the tangent stiffness on the stress-"
-                 f"controlled components fell below {CONTROL_STIFFNESS_RATIO} of the elastic one (uncontrollable path)")
+            flag(pl & ~(ev0["den"] > 0.0), k.NO_UNIQUE_RESPONSE)
+            flag(~np.all(np.isfinite(deps1), axis=1), k.CONTROL_LOST)
             ddv1 = -v0 * (deps1 @ space.volumetric_row)
             # stage 2 at the Euler estimate
             ev1 = self._evaluate(space, s0 + dsig1, e0 + ddv1, k0 + dlam1, par, dstrain=dl)
             dsig2, deps2, dlam2 = self._rates(space, ev1, dl, v0, pl, control)
             if control.size:
                 flag(~np.all(np.isfinite(deps2), axis=1) & np.all(np.isfinite(ev1["Dm"]), axis=1) & ~fail,
-                     "mixed control lost within the substep: the tangent stiffness on the stress-controlled "
-                     f"components fell below {CONTROL_STIFFNESS_RATIO} of the elastic one")
+                     k.CONTROL_LOST_WITHIN)
             sig_new = s0 + 0.5 * (dsig1 + dsig2)
             deps_new = 0.5 * (deps1 + deps2)
             eps_new = np.maximum(k0 + 0.5 * (dlam1 + dlam2), 0.0)
@@ -483,7 +488,7 @@ class SIMSAND(MaterialModel):
             snorm = np.sqrt((sig_new**2) @ space.weights)
             floor = STRESS_ERROR_FLOOR * self.p_at
             err = 0.5 * dnorm / np.maximum(snorm, floor)
-            err = np.maximum(err, 0.5 * np.abs(dlam2 - dlam1) * par["k_p"] / (par["k_p"] + eps_new) ** 2)
+            err = np.maximum(err, 0.5 * np.abs(dlam2 - dlam1) * par[k.KP] / (par[k.KP] + eps_new) ** 2)
             if control.free.size == 0:  # pure stress control: the strain error, as the stress error it would make
                 dstr = self._elastic(space, ev0, deps2 - deps1)
                 err = np.maximum(err, 0.5 * np.sqrt((dstr**2) @ space.weights) / np.maximum(snorm, floor))
@@ -495,8 +500,7 @@ class SIMSAND(MaterialModel):
             restart = np.zeros(act.size, dtype=bool)
             cross = np.zeros(act.size, dtype=bool)
             if el.size:
-                pel = {k: v[el] for k, v in par.items()}
-                f_el = self._evaluate(space, sig_new[el], e_new[el], eps_new[el], pel, gradients=False)["f"]
+                f_el = self._evaluate(space, sig_new[el], e_new[el], eps_new[el], par[:, el], gradients=False)["f"]
                 out = f_el > ftol
                 restart[el[out & on_surface[el]]] = True  # unloading then reloading inside the substep: shorten
                 c = out & ~on_surface[el]
@@ -504,7 +508,7 @@ class SIMSAND(MaterialModel):
                     ci = el[c]
                     cross[ci] = True
                     frac[ci] = self._crossing(space, s0[ci], sig_new[ci] - s0[ci], e0[ci], e_new[ci] - e0[ci],
-                                              k0[ci], ev0["f"][ci], f_el[c], {k: v[ci] for k, v in par.items()})
+                                              k0[ci], ev0["f"][ci], f_el[c], par[:, ci])
                     sig_new[ci] = s0[ci] + frac[ci, None] * (sig_new[ci] - s0[ci])
                     e_new[ci] = e0[ci] + frac[ci] * (e_new[ci] - e0[ci])
                     deps_new[ci] *= frac[ci, None]
@@ -513,18 +517,18 @@ class SIMSAND(MaterialModel):
             c = np.flatnonzero(ok & pl)
             if c.size:
                 sig_new[c], e_new[c], eps_new[c], deps_new[c], bad = self._drift_correct(
-                    space, sig_new[c], e_new[c], eps_new[c], deps_new[c], v0[c], {k: v[c] for k, v in par.items()},
-                    control, {k: v[c] for k, v in ev1.items()})
+                    space, sig_new[c], e_new[c], eps_new[c], deps_new[c], v0[c], par[:, c], control,
+                    {key: v[c] for key, v in ev1.items()})
                 fc = np.zeros(act.size, dtype=bool)
                 fc[c[bad]] = True
-                flag(fc, "drift correction failed (no free stress component changes f)")
+                flag(fc, k.DRIFT_FAILED)
             # tension cutoff (sand carries no tension): isotropic p' = p_min for the rest of the increment
             low = ok & ((sig_new @ space.volumetric_row if space.size == 2 else sig_new[:, :3].sum(axis=1))
                         < 3.0 * self.p_min)
             if np.any(low):
                 sig_new[low] = self.p_min * space.identity
             flag(ok & ~((e_new > 0.0) & (e_new < E_MAX_STIFFNESS) & np.all(np.isfinite(sig_new), axis=1)),
-                 f"void ratio outside (0, {E_MAX_STIFFNESS}) or non-finite stress")
+                 k.STATE_INVALID)
             ok &= ~fail
             # commit accepted substeps
             acc = act[ok]
@@ -538,8 +542,7 @@ class SIMSAND(MaterialModel):
             dT[act] = np.where(cross, h * (1.0 - frac), np.where(restart, 0.25, fac) * h)
             nsub[act] += 1
             flag(~fail & ((dT[act] < 1e-12) & (T[act] < 1.0 - 1e-12) | (nsub[act] > self.max_substeps)),
-                 f"error control cannot be met (substep below 1e-12 of the increment or more than "
-                 f"{self.max_substeps} substeps)")
+                 k.ERROR_CONTROL)
             failed[act[fail]] = True
             act = act[(T[act] < 1.0 - 1e-12) & ~fail]
         return sig, e, eps, strain, plastic_end, failed, np.minimum(dT, 1.0)
@@ -626,6 +629,22 @@ class SIMSAND(MaterialModel):
             D = D - np.where(plastic[:, None, None], upd, 0.0)
         return D
 
+    def failure_reason(self, code):
+        """The message of an integrator failure code (``FAILURE_REASONS``)."""
+        return FAILURE_REASONS[code].format(ratio=CONTROL_STIFFNESS_RATIO, max_substeps=self.max_substeps)
+
+    def _kernel_options(self):
+        """The scalar arguments every compiled integrator takes after ``prm``."""
+        return (self.p_at, self.p_min, self.stol, self.ftol, CONTROL_STIFFNESS_RATIO, STRESS_ERROR_FLOOR * self.p_at,
+                self.max_substeps)
+
+    def _kernel_params(self, n):
+        """(n, ncol) C-contiguous parameter rows for the compiled integrator (cached per n: the model is immutable)."""
+        cache = self.__dict__.setdefault("_prm_cache", {})
+        if n not in cache:
+            cache[n] = np.ascontiguousarray(self._point_params(n).T)
+        return cache[n]
+
     def update_triaxial(self, stress, state, dload, stress_control=(False, True), raise_errors=True, active=None):
         """Fast path for axisymmetric triaxial states (the same equations and integrator in two components).
 
@@ -633,18 +652,40 @@ class SIMSAND(MaterialModel):
         strain-controlled, the stress increment (kPa) where ``stress_control`` is True (default: drained triaxial,
         radial stress prescribed). Undrained triaxial: strain control with d eps_r = -d eps_a/2.
         Returns (stress, state, strain increment (n, 2) = (d eps_a, d eps_r), failed (n,) bool); failed points
-        raise IntegrationError unless ``raise_errors`` is False (they then stay at their last accepted substep).
-        Points outside ``active`` (bool (n,), default all) are left unchanged.
+        raise IntegrationError (the first failed point) unless ``raise_errors`` is False (they then stay at their
+        last accepted substep). Points outside ``active`` (bool (n,), default all) are left unchanged.
+        Runs the compiled kernel (``_simsand_kernel.update_points``), or the numpy reference with
+        ``triaxial_integrator="numpy"``.
         """
         stress = np.asarray(stress, dtype=float).reshape(-1, 2)
         dload = np.broadcast_to(np.asarray(dload, dtype=float), stress.shape)
-        control = np.flatnonzero(np.asarray(stress_control, dtype=bool))
-        sig, e, eps, deps, _, failed, sub = self._integrate(TRIAXIAL, stress, state, dload, control, raise_errors,
-                                                            active)
+        held = np.asarray(stress_control, dtype=bool)
+        if self.triaxial_integrator == "numpy":
+            sig, e, eps, deps, _, failed, sub = self._integrate(TRIAXIAL, stress, state, dload, np.flatnonzero(held),
+                                                                raise_errors, active)
+            return sig, self._state(state, e, eps, sub), deps, failed
+        n = stress.shape[0]
+        sig, e, eps, deps, sub, code = np.empty((n, 2)), np.empty(n), np.empty(n), np.empty((n, 2)), np.empty(n), \
+            np.empty(n, dtype=np.int64)
+        _kernel().update_points(
+            np.ascontiguousarray(stress), *self._kernel_state(state, n), np.ascontiguousarray(dload), bool(held[0]),
+            bool(held[1]), np.ones(n, dtype=bool) if active is None else np.asarray(active, dtype=bool),
+            self._kernel_params(n), *self._kernel_options(), sig, e, eps, deps, sub, code)
+        failed = code > 0
+        if raise_errors and np.any(failed):
+            i = int(np.argmax(failed))
+            raise IntegrationError(i, self.failure_reason(code[i]))
         return sig, self._state(state, e, eps, sub), deps, failed
 
+    @staticmethod
+    def _kernel_state(state, n):
+        """(e, eps_d^p, 1 + e_0, substep) as contiguous (n,) arrays."""
+        return tuple(np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (n,))) for v in (
+            state["void_ratio"], state["eps_dp"], 1.0 + np.asarray(state["void_ratio_initial"], dtype=float),
+            state.get("substep", 1.0)))
+
     def triaxial_test(self, e0, p0, axial_strain, *, drained=True, substeps=1, on_failure="raise"):
-        """Fast triaxial compression/extension from the isotropic state (e0, p0 kPa) with :meth:`update_triaxial`.
+        """Fast triaxial compression/extension from the isotropic state (e0, p0 kPa) in the triaxial space.
 
         Drained: constant sigma'_r, axial strain control (the radial stress is held at every stage of every substep,
         so the result does not depend on the step size beyond the error tolerance). Undrained: isochoric,
@@ -652,7 +693,10 @@ class SIMSAND(MaterialModel):
         axial_strain (n_points,) requested strains from 0, each interval split in ``substeps`` steps; e0, p0 scalars
         or (n,). Returns named curves (n, n_points) as :mod:`constitutive.labtests` (axial_strain, radial_strain,
         volumetric_strain, q, p, e, excess_pore_pressure, axial_stress, radial_stress) and ``failed`` (n,):
-        with ``on_failure="nan"`` a point whose integration fails is frozen and its curves are NaN from there.
+        with ``on_failure="nan"`` a point whose integration fails is frozen and its curves are NaN from there; with
+        "raise" an IntegrationError names the point that failed first (earliest target, then lowest index).
+        The whole test runs point by point in the compiled kernel (``_simsand_kernel.triaxial_points``); with
+        ``triaxial_integrator="numpy"`` increment by increment through the numpy reference of :meth:`update_triaxial`.
         """
         if on_failure not in ("raise", "nan"):
             raise ValueError(f"on_failure must be 'raise' or 'nan', got {on_failure!r}")
@@ -661,14 +705,33 @@ class SIMSAND(MaterialModel):
         p0 = np.broadcast_to(np.asarray(p0, dtype=float), (n,))
         state = self.initial_state(p0[:, None] * IDENTITY, np.broadcast_to(np.asarray(e0, dtype=float), (n,)))
         sig = np.stack([p0, p0], axis=1)
+        d_axial = np.diff(np.concatenate([[0.0], targets])) / substeps
+        if self.triaxial_integrator == "numpy":
+            rec, failed = self._triaxial_records_numpy(sig, state, d_axial, drained, substeps, on_failure)
+        else:
+            rec, fail_at, code = np.empty((5, n, targets.size)), np.empty(n, dtype=np.int64), \
+                np.empty(n, dtype=np.int64)
+            _kernel().triaxial_points(sig, *self._kernel_state(state, n), d_axial, int(substeps), bool(drained),
+                                      self._kernel_params(n), *self._kernel_options(), rec, fail_at, code)
+            failed = code > 0
+            if on_failure == "raise" and np.any(failed):
+                i = int(np.lexsort((np.arange(n), np.where(failed, fail_at, targets.size)))[0])
+                raise IntegrationError(i, self.failure_reason(code[i]))
+        eps_a, eps_r, sig_a, sig_r, e = rec
+        return {"axial_strain": eps_a, "radial_strain": eps_r, "volumetric_strain": eps_a + 2.0 * eps_r,
+                "q": sig_a - sig_r, "p": (sig_a + 2.0 * sig_r) / 3.0, "e": e,
+                "excess_pore_pressure": p0[:, None] - sig_r, "axial_stress": sig_a, "radial_stress": sig_r,
+                "failed": failed}
+
+    def _triaxial_records_numpy(self, sig, state, d_axial, drained, substeps, on_failure):
+        """The numpy reference of ``_simsand_kernel.triaxial_points`` (test oracle): records (5, n, n_targets) of
+        eps_a, eps_r, sigma'_a, sigma'_r, e (NaN once a point failed) and the failed mask."""
+        n = sig.shape[0]
         control = (False, True) if drained else (False, False)
         strain = np.zeros((n, 2))
         alive = np.ones(n, dtype=bool)
-        rec = {k: np.full((n, targets.size), np.nan) for k in ("eps_a", "eps_r", "sig_a", "sig_r", "e")}
-        previous = 0.0
-        for j, target in enumerate(targets):
-            d_a = (target - previous) / substeps
-            previous = target
+        rec = np.full((5, n, d_axial.size), np.nan)
+        for j, d_a in enumerate(d_axial):
             dload = np.zeros((n, 2))
             dload[:, 0] = d_a
             if not drained:
@@ -678,14 +741,9 @@ class SIMSAND(MaterialModel):
                                                                 raise_errors=on_failure == "raise", active=alive)
                 strain += deps
                 alive &= ~failed
-            for key, val in (("eps_a", strain[:, 0]), ("eps_r", strain[:, 1]), ("sig_a", sig[:, 0]),
-                             ("sig_r", sig[:, 1]), ("e", state["void_ratio"])):
+            for key, val in enumerate((strain[:, 0], strain[:, 1], sig[:, 0], sig[:, 1], state["void_ratio"])):
                 rec[key][:, j] = np.where(alive, val, np.nan)
-        return {"axial_strain": rec["eps_a"], "radial_strain": rec["eps_r"],
-                "volumetric_strain": rec["eps_a"] + 2.0 * rec["eps_r"], "q": rec["sig_a"] - rec["sig_r"],
-                "p": (rec["sig_a"] + 2.0 * rec["sig_r"]) / 3.0, "e": rec["e"],
-                "excess_pore_pressure": p0[:, None] - rec["sig_r"], "axial_stress": rec["sig_a"],
-                "radial_stress": rec["sig_r"], "failed": ~alive}
+        return rec, ~alive
 
     @staticmethod
     def _state(state, e, eps, substep):
