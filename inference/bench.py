@@ -7,7 +7,7 @@
 
 Each line of the evidence benchmark: problem, method, log-evidence bias, spread (std over seeds) and RMSE, errors of
 posterior means and standard deviations (where exact values are known), minor-mode weight (B2-B4), likelihood calls,
-acceptance and wall time per run.
+acceptance, sweeps per stage, stages and wall time per run.
 """
 from __future__ import annotations
 
@@ -26,6 +26,7 @@ from .tmcmc import tmcmc
 METHODS = {
     "O-TMCMC/ching-chen": dict(proposal="gaussian", chains="ching-chen"),
     "O-TMCMC/adaptive": dict(proposal="gaussian", scale_adapt=True),
+    "O-TMCMC/mixture": dict(proposal="gaussian", covariance="mixture"),
     "DE-TMCMC/paper": dict(proposal="de", de_variant="paper"),
     "DE-TMCMC/symmetric": dict(proposal="de", de_variant="symmetric"),
     "DE-TMCMC/redblue": dict(proposal="de", de_variant="redblue"),
@@ -36,7 +37,7 @@ _DEFAULT_ARGS = {"B1": (4,), "B2": (10,), "B3": (2,), "B4": (2,), "B5": (), "B6"
 
 def evidence_benchmark(problem_key, method, seeds, n_samples, **overrides):
     prob = PROBLEMS[problem_key](*_DEFAULT_ARGS[problem_key])
-    errors, means, stds, minor, calls, acc, walls = [], [], [], [], [], [], []
+    errors, means, stds, minor, calls, acc, walls, sweeps, stages = [], [], [], [], [], [], [], [], []
     for seed in range(seeds):
         kw = dict(METHODS[method])
         kw.update(overrides)
@@ -47,6 +48,8 @@ def evidence_benchmark(problem_key, method, seeds, n_samples, **overrides):
         errors.append(post.log_evidence - prob.log_evidence)
         calls.append(post.n_forward_solves)
         acc.append(np.nanmean([r["acceptance"] for r in post.stages[1:]]))
+        sweeps.append(np.mean([r["sweeps"] for r in post.stages[1:]]))
+        stages.append(post.n_stages)
         if prob.mean is not None:
             means.append(np.max(np.abs(post.samples.mean(0) - prob.mean)))
             stds.append(np.max(np.abs(post.samples.std(0, ddof=1) / prob.std - 1.0)))
@@ -57,7 +60,9 @@ def evidence_benchmark(problem_key, method, seeds, n_samples, **overrides):
         "benchmark": "evidence", "problem": prob.name, "method": method, "n_samples": n_samples, "seeds": seeds,
         "ln_Z_exact": prob.log_evidence, "ln_Z_bias": float(e.mean()), "ln_Z_spread": float(e.std(ddof=1)) if
         seeds > 1 else 0.0, "ln_Z_rmse": float(np.sqrt(np.mean(e**2))), "calls_mean": float(np.mean(calls)),
-        "acceptance_mean": float(np.mean(acc)), "wall_s_per_run": float(np.mean(walls)),
+        "acceptance_mean": float(np.mean(acc)), "sweeps_per_stage": float(np.mean(sweeps)),
+        "stages_mean": float(np.mean(stages)),
+        "wall_s_per_run": float(np.mean(walls)),
     }
     if means:
         line["max_abs_mean_error"] = float(np.mean(means))
@@ -71,23 +76,26 @@ def evidence_benchmark(problem_key, method, seeds, n_samples, **overrides):
     return line
 
 
-def overhead_benchmark(n_samples=2000, d=10):
-    """Sampler time per stage with a free log-likelihood (forward model excluded)."""
+def overhead_benchmark(n_samples=2000, d=10, sweeps=(1, 6)):
+    """Sampler time per stage with a free log-likelihood (forward model excluded), with one sweep per stage and
+    the cost of each further sweep (from the runs with sweeps[0] and sweeps[1] sweeps per stage)."""
     prob = PROBLEMS["B1"](d)
     out = []
-    for method in ("O-TMCMC/adaptive", "DE-TMCMC/redblue"):
-        t0 = time.perf_counter()
-        post = tmcmc(prob.log_like, prob.prior, n_samples=n_samples, executor=SerialExecutor(), seed=0,
-                     vectorized=True, progress=False, n_steps=1, **METHODS[method])
-        wall = time.perf_counter() - t0
-        # subtract the likelihood's own time, measured separately on the same number of points
-        thetas = prob.prior.sample(np.random.default_rng(0), post.n_forward_solves)
-        t1 = time.perf_counter()
-        prob.log_like(thetas)
-        like_time = time.perf_counter() - t1
+    for method in ("O-TMCMC/adaptive", "O-TMCMC/mixture", "DE-TMCMC/redblue"):
+        per_stage = []
+        for n_steps in sweeps:
+            t0 = time.perf_counter()
+            post = tmcmc(prob.log_like, prob.prior, n_samples=n_samples, executor=SerialExecutor(), seed=0,
+                         vectorized=True, progress=False, n_steps=n_steps, **METHODS[method])
+            wall = time.perf_counter() - t0
+            # subtract the likelihood's own time, measured separately on the same number of points
+            thetas = prob.prior.sample(np.random.default_rng(0), post.n_forward_solves)
+            t1 = time.perf_counter()
+            prob.log_like(thetas)
+            per_stage.append((wall - time.perf_counter() + t1) / (post.n_stages + 1))
         out.append({"benchmark": "sampler_overhead", "method": method, "n_samples": n_samples, "d": d,
-                    "n_stages": post.n_stages, "sweeps_per_stage": 1,
-                    "overhead_s_per_stage": (wall - like_time) / (post.n_stages + 1)})
+                    "n_stages": post.n_stages, "sweeps_per_stage": sweeps[0], "overhead_s_per_stage": per_stage[0],
+                    "overhead_s_per_extra_sweep": (per_stage[1] - per_stage[0]) / (sweeps[1] - sweeps[0])})
     return out
 
 

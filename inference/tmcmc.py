@@ -16,6 +16,24 @@ the plain population correlation and a within-mode estimate from copies of one p
 ``chains="ching-chen"`` grows one chain per distinct resampled point with length equal to its multiplicity (the
 original algorithm; every chain state is a sample).
 
+O-TMCMC proposal covariance (``covariance``): "global" — Eqs. (11)-(12), beta^2 times the weighted covariance of
+the whole stage population (the paper's rule); "mixture" — a Gaussian mixture fitted to the weighted stage population
+(``fit_gaussian_mixture``: EM, components added while the BIC improves), so that each mode gets its own covariance
+(the global covariance of a multimodal population contains the spread between modes, which makes a random walk step
+far too long in that direction and too short in the others). Each move of a particle is, with probability
+``independence``, an independence proposal from the mixture, else a random walk N(theta, beta^2 Sigma_c) with the
+component c drawn from the responsibilities r_c(theta) of the current point (beta^2 = 2.38^2 / d by default, the
+optimal random-walk scale for a Gaussian mode). Both are Metropolis-Hastings moves with their proposal density ratio
+in the acceptance (``mixture_proposal``): the random walk's covariance depends on the current point, so it is not
+symmetric. The alternative, a covariance chosen once per chain from its starting point and kept, is symmetric for
+each chain but not exact: the choice depends on where the chain starts, so the marginal of the moved population
+is not the target unless the chains never leave their component. The mixtures are fitted once per stage, before
+the moves, and fixed during it; the fit is crossed: one mixture to the even-indexed and one to the odd-indexed
+particles of the weighted population, and a chain moves with the mixture fitted to the half its parent is not in.
+A mixture fitted to the particle being moved rates the particle's own position too high (most of all for small
+modes, whose covariance rests on few points), so particles leave such modes too easily: on B2 at N = 1000 the minor
+mode weight fell to 0.086 and the log evidence rose by +0.17 with a self-fitted mixture, 0.099 and +0.08 crossed.
+
 DE variants (``de_variant``): "paper" — Eq. (14) as written, with the theta_best pull, all particles moved at once
 from one population; "symmetric" — theta_best term off; "redblue" — theta_best term off and the population split in
 two halves, each moved with differences drawn from the other half (as emcee does), which keeps detailed balance.
@@ -42,7 +60,7 @@ from .priors import Prior
 from .results import Posterior
 
 __all__ = ["SamplerError", "tmcmc", "choose_next_exponent", "stage_weights", "weighted_covariance",
-           "de_proposal", "EXIT_CHECKPOINTED"]
+           "de_proposal", "GaussianMixture", "fit_gaussian_mixture", "mixture_proposal", "EXIT_CHECKPOINTED"]
 
 #: exit status after a SIGTERM/SIGUSR1 was turned into a checkpoint (EX_TEMPFAIL: "try again")
 EXIT_CHECKPOINTED = 75
@@ -110,6 +128,140 @@ def de_proposal(current, best, diff_a, diff_b, gamma, lam, zeta, crossover):
     pull = diff_a - diff_b if best is None else (best - current) + (diff_a - diff_b)
     mutated = current + (1.0 + lam)[:, None] * gamma * pull + zeta
     return np.where(crossover, mutated, current)
+
+
+def _logsumexp_rows(a):
+    """ln sum_c exp(a[:, c]) for rows with at least one finite entry (faster than scipy's for small K)."""
+    top = a.max(1)
+    return top + np.log(np.exp(a - top[:, None]).sum(1))
+
+
+class GaussianMixture:
+    """A Gaussian mixture sum_c pi_c N(mu_c, Sigma_c) held by its Cholesky factors (arrays only: it pickles into a
+    checkpoint). ``component_logpdf(x, scale)`` gives ln N(x; mu_c, scale^2 Sigma_c) for every component; with
+    ``centred=True`` the means are taken as zero (the density of a displacement under the random-walk proposal)."""
+
+    def __init__(self, weights, means, covs):
+        self.weights = np.asarray(weights, dtype=float)
+        self.means = np.asarray(means, dtype=float)
+        self.covs = np.asarray(covs, dtype=float)
+        self.chol = np.linalg.cholesky(self.covs)
+        self.inv_chol = np.linalg.inv(self.chol)
+        self.log_det = 2.0 * np.log(np.diagonal(self.chol, axis1=1, axis2=2)).sum(1)
+
+    @property
+    def n_components(self):
+        return len(self.weights)
+
+    def component_logpdf(self, x, scale=1.0, centred=False):
+        x = np.atleast_2d(x)
+        d = x.shape[1]
+        dev = x[None] if centred else x[None] - self.means[:, None]
+        z = dev @ self.inv_chol.transpose(0, 2, 1)  # (K, m, d)
+        sq = np.einsum("kmi,kmi->mk", z, z) / scale**2
+        return -0.5 * (sq + self.log_det + d * math.log(2 * math.pi * scale**2))
+
+    def log_responsibilities(self, x):
+        """(ln r_c(x), ln g(x)): log posterior component probabilities (m, K) and the log mixture density (m,)."""
+        joint = self.component_logpdf(x) + np.log(self.weights)
+        log_g = _logsumexp_rows(joint)
+        return joint - log_g[:, None], log_g
+
+
+def fit_gaussian_mixture(theta, weights, max_components=5, floor=0.0, ridge=1e-6, max_iter=15, tol=1e-3):
+    """A Gaussian mixture fitted to the weighted population (theta_k, w_k) by EM, deterministic (no random numbers).
+
+    K = 1 is the weighted mean and covariance (Eq. 12). K + 1 components start from the K-component fit with the
+    component of largest pi_c lambda_max split in two along its principal axis v (means mu +- sqrt(lambda) v,
+    variance along v divided by 4), followed by at most ``max_iter`` EM iterations on the weighted points (stopped when
+    the weighted mean log-density gains less than ``tol``). K grows while the Bayesian information criterion improves:
+    BIC = -2 n_eff sum_k w_k ln g(theta_k) + n_par ln n_eff, n_eff = 1 / sum w_k^2 (normalized weights),
+    n_par = K - 1 + K (d + d (d + 1) / 2); a K with a component of fewer than d + 1 effective points or a singular
+    covariance is not taken. Every covariance gets ``ridge`` times the population variance plus ``floor`` (a
+    variance per coordinate) on its diagonal. Points of zero weight are ignored."""
+    keep = weights > 0
+    x, w = theta[keep], weights[keep] / weights[keep].sum()
+    d = x.shape[1]
+    n_eff = 1.0 / np.sum(w**2)
+    cov = weighted_covariance(x, w)
+    reg = np.diag(ridge * np.diag(cov) + floor)
+    n_par = lambda k: k - 1 + k * (d + d * (d + 1) / 2)  # noqa: E731
+
+    def m_step(resp):
+        pi = w @ resp
+        if np.min(pi) * n_eff < d + 1:
+            return None
+        means = (resp * w[:, None]).T @ x / pi[:, None]
+        covs = np.empty((len(pi), d, d))
+        for c in range(len(pi)):
+            dev = x - means[c]
+            covs[c] = ((resp[:, c] * w)[:, None] * dev).T @ dev / pi[c] + reg
+        try:
+            return GaussianMixture(pi, means, covs)
+        except np.linalg.LinAlgError:
+            return None
+
+    def em(mix):
+        ll_old = -np.inf
+        for _ in range(max_iter):
+            log_r, log_g = mix.log_responsibilities(x)
+            ll = float(w @ log_g)
+            if ll - ll_old < tol:
+                break
+            mix, ll_old = m_step(np.exp(log_r)), ll
+            if mix is None:
+                return None, -np.inf
+        return mix, ll  # (after max_iter: the log-density of the previous iterate, a lower bound since EM ascends)
+
+    best = GaussianMixture([1.0], [w @ x], [cov + reg])
+    best_bic = -2.0 * n_eff * float(w @ best.log_responsibilities(x)[1]) + n_par(1) * math.log(n_eff)
+    for k in range(2, max_components + 1):
+        lam, vec = np.linalg.eigh(best.covs)
+        c = int(np.argmax(best.weights * lam[:, -1]))
+        step = math.sqrt(lam[c, -1]) * vec[c, :, -1]
+        cov_half = best.covs[c] - 0.75 * lam[c, -1] * np.outer(vec[c, :, -1], vec[c, :, -1])
+        others = np.arange(best.n_components) != c
+        try:
+            start = GaussianMixture(
+                np.concatenate([best.weights[others], [best.weights[c] / 2] * 2]),
+                np.concatenate([best.means[others], [best.means[c] + step, best.means[c] - step]]),
+                np.concatenate([best.covs[others], [cov_half, cov_half]]))
+        except np.linalg.LinAlgError:
+            break
+        mix, ll = em(start)
+        if mix is None:
+            break
+        bic = -2.0 * n_eff * ll + n_par(k) * math.log(n_eff)
+        if bic >= best_bic:
+            break
+        best, best_bic = mix, bic
+    return best
+
+
+def mixture_proposal(mix, current, z, pick, kind, scale, independence, current_resp=None):
+    """The "mixture" move of O-TMCMC (``covariance="mixture"``): per particle, with probability ``independence``
+    (``kind < independence``) an independence proposal theta* ~ g = sum_c pi_c N(mu_c, Sigma_c), else a random walk
+    theta* = theta + scale L_c z whose component c is drawn with the responsibilities r_c(theta) of the current point.
+    ``z`` (m, d) standard normal, ``pick`` and ``kind`` (m,) uniform; ``current_resp``: ``mix.log_responsibilities``
+    of the current points if known. Returns (theta*, ln q(theta | theta*) - ln q(theta* | theta), the
+    log_responsibilities of theta*); the second is the Hastings correction of the acceptance ratio:
+    independence: ln g(theta) - ln g(theta*);
+    random walk: q(theta* | theta) = sum_c r_c(theta) N(theta* - theta; 0, scale^2 Sigma_c), and since the normal
+    density is even in the displacement delta, ln q(theta | theta*) - ln q(theta* | theta) =
+    logsumexp_c[ln r_c(theta*) + ln N(delta; 0, scale^2 Sigma_c)] - logsumexp_c[ln r_c(theta) + ...]."""
+    log_r, log_g = mix.log_responsibilities(current) if current_resp is None else current_resp
+    indep = kind < independence
+    # component of each particle: from the mixture weights (independence) or the responsibilities (random walk)
+    probs = np.where(indep[:, None], mix.weights[None, :], np.exp(log_r))
+    cum = np.cumsum(probs, axis=1)
+    comp = np.minimum((pick[:, None] * cum[:, -1:] >= cum).sum(1), mix.n_components - 1)
+    step = np.einsum("mij,mj->mi", mix.chol[comp], z)
+    proposal = np.where(indep[:, None], mix.means[comp] + step, current + scale * step)
+    log_r_new, log_g_new = mix.log_responsibilities(proposal)
+    walk = mix.component_logpdf(proposal - current, scale, centred=True)
+    log_ratio = np.where(indep, log_g - log_g_new,
+                         _logsumexp_rows(log_r_new + walk) - _logsumexp_rows(log_r + walk))
+    return proposal, log_ratio, (log_r_new, log_g_new)
 
 
 def resample(weights, rng, method="systematic"):
@@ -305,6 +457,15 @@ class _Run:
         cov = self.s["beta2"] * weighted_covariance(theta, w)
         cov += np.diag(1e-12 * (self.prior.upper - self.prior.lower) ** 2)
         best = theta[int(np.argmax(np.where(np.isfinite(st["log_like"]), st["log_like"], -np.inf)))].copy()
+        mixtures = None
+        if self.s["covariance"] == "mixture":  # fitted once per stage, before the moves: fixed during the stage
+            # cross-fitted: one mixture to the even-indexed and one to the odd-indexed weighted particles
+            half = np.arange(len(theta)) % 2
+            mixtures = [fit_gaussian_mixture(theta, w * (half == h) if w[half == h].sum() > 0 else w,
+                                             self.s["max_components"],
+                                             floor=1e-12 * (self.prior.upper - self.prior.lower) ** 2)
+                        for h in (0, 1)]
+            st["records_current"]["components"] = [m.n_components for m in mixtures]
         parents = resample(w, _rng(self.s["seed"], st["stage"], 0, 0), self.s["resampling"])
         if self.s["chains"] == "ching-chen":
             uniq, counts = np.unique(parents, return_counts=True)
@@ -314,11 +475,14 @@ class _Run:
             start = parents
             length = None
         st["chain"] = {
-            "q_next": q_next, "log_S": log_s, "cov": cov, "chol": np.linalg.cholesky(cov), "best": best,
+            "q_next": q_next, "log_S": log_s, "cov": cov, "chol": np.linalg.cholesky(cov), "best": best, "mixtures": None,
             "start": theta[start].copy(), "pos": theta[start].copy(), "log_like": st["log_like"][start].copy(),
             "log_prior": st["log_prior"][start].copy(), "length": length, "sweep": 0, "move": 0,
             "accepted": 0, "proposed": 0, "samples": [] if length is not None else None,
         }
+        if mixtures is not None:  # each chain moves with the mixture fitted to the other half than its parent
+            st["chain"].update(mixtures=mixtures, fit_of=1 - start % 2,
+                               resp=[m.log_responsibilities(theta[start]) for m in mixtures])
         st.setdefault("scale", 1.0)
         st["phase"] = "mcmc"
 
@@ -327,11 +491,24 @@ class _Run:
         return 2 if (self.s["proposal"] == "de" and self.s["de_variant"] == "redblue") else 1
 
     def propose(self, st, ch, movers, rng):
+        """Proposals for the movers, the Hastings term ln q(theta | theta*) - ln q(theta* | theta) (0 for the
+        symmetric moves) and, for the mixture move, the proposals' mixture responsibilities (else None)."""
         pos = ch["pos"]
         d = pos.shape[1]
         if self.s["proposal"] == "gaussian":
             z = rng.standard_normal((pos.shape[0], d))[movers]
-            return pos[movers] + st["scale"] * (z @ ch["chol"].T)
+            if ch["mixtures"] is None:
+                return pos[movers] + st["scale"] * (z @ ch["chol"].T), 0.0, None
+            pick, kind = rng.random(pos.shape[0])[movers], rng.random(pos.shape[0])[movers]
+            proposal, log_hastings, resp_new = np.empty_like(z), np.empty(movers.size), []
+            for g, mix in enumerate(ch["mixtures"]):
+                sel = ch["fit_of"][movers] == g
+                rows = movers[sel]
+                proposal[sel], log_hastings[sel], resp = mixture_proposal(
+                    mix, pos[rows], z[sel], pick[sel], kind[sel], st["scale"] * math.sqrt(self.s["beta2"]),
+                    self.s["independence"], tuple(r[rows] for r in ch["resp"][g]))
+                resp_new.append((sel, resp))
+            return proposal, log_hastings, resp_new
         C = pos.shape[0]
         if self.s["de_variant"] == "redblue":
             half = ch["move"]
@@ -346,7 +523,7 @@ class _Run:
         cross[np.arange(movers.size), i_rand] = True
         a, b = _draw_pairs(rng, movers, population)
         best = ch["best"] if self.s["de_variant"] == "paper" else None
-        return de_proposal(pos[movers], best, pos[a], pos[b], gamma, lam, zeta, cross)
+        return de_proposal(pos[movers], best, pos[a], pos[b], gamma, lam, zeta, cross), 0.0, None
 
     def mcmc(self, st):
         ch = st["chain"]
@@ -365,7 +542,7 @@ class _Run:
             else:
                 movers = active
             rng = _rng(self.s["seed"], st["stage"], sweep + 1, move)
-            proposal = self.propose(st, ch, movers, rng)
+            proposal, log_hastings, resp_new = self.propose(st, ch, movers, rng)
             u = rng.random(C)[movers]
             lp_new = self.prior.logpdf(proposal)
             inside = np.isfinite(lp_new)
@@ -377,14 +554,17 @@ class _Run:
             old = ch["log_prior"][movers] + q_next * ch["log_like"][movers]
             with np.errstate(invalid="ignore"):
                 new = lp_new + q_next * ll_new
-                accept = np.isfinite(new) & (np.log(u) < new - old)
+                accept = np.isfinite(new) & (np.log(u) < new - old + log_hastings)
             idx = movers[accept]
             ch["pos"][idx] = proposal[accept]
             ch["log_like"][idx] = ll_new[accept]
             ch["log_prior"][idx] = lp_new[accept]
+            for g, (sel, resp) in enumerate(resp_new or ()):  # cached mixture responsibilities of the positions
+                for cached, new_values in zip(ch["resp"][g], resp):
+                    cached[movers[sel & accept]] = new_values[accept[sel]]
             ch["accepted"] += int(accept.sum())
             ch["proposed"] += int(movers.size)
-            if self.s["scale_adapt"] and movers.size:
+            if self.s["scale_adapt"] and movers.size and ch["mixtures"] is None:
                 # proposal scale steered toward the target acceptance (population statistic, between moves)
                 st["scale"] *= math.exp(accept.mean() - self.s["target_acceptance"])
             # advance the (sweep, move) counter; a sweep ends after all its moves
@@ -508,13 +688,16 @@ def _fingerprint(loglike, prior, settings):
     keys = ("n_samples", "proposal", "de_variant", "chains", "n_steps", "min_steps", "max_steps", "corr_threshold",
             "beta2", "cov_target", "seed", "de_c", "de_c_star", "de_delta", "de_cr", "resampling", "scale_adapt",
             "target_acceptance")
+    if settings["covariance"] != "global":  # (checkpoints written before the option existed stay resumable)
+        keys += ("covariance", "max_components", "independence")
     out = {"likelihood": str(fp), "prior": str(prior.describe())}
     out.update({k: settings[k] for k in keys})
     return out
 
 
 def tmcmc(loglike, prior: Prior, n_samples=2000, proposal="de", *, de_variant="redblue", chains="particles",
-          n_steps="adaptive", min_steps=2, max_steps=25, corr_threshold=0.3, beta2=0.04, cov_target=1.0,
+          n_steps="adaptive", min_steps=2, max_steps=25, corr_threshold=0.3, beta2=None, cov_target=1.0,
+          covariance="global", max_components=5, independence=0.8,
           de_c=0.1, de_c_star=1e-12, de_delta=3.0, de_cr=0.9, executor=None, dispatch="dynamic", seed=0,
           checkpoint=None, resume=False, checkpoint_every=60.0, checkpoint_evals=None, progress=True,
           progress_every=10.0, vectorized=False, timeout=None, max_failure_fraction=0.1, max_stages=200,
@@ -525,6 +708,11 @@ def tmcmc(loglike, prior: Prior, n_samples=2000, proposal="de", *, de_variant="r
         theta (d,) -> ln L, or with ``vectorized=True`` thetas (m, d) -> (m,).
     prior: :class:`inference.Prior` (``UniformPrior``/``LogUniformPrior``); theta is in its order.
     proposal: "gaussian" (O-TMCMC) or "de" (DE-TMCMC); ``de_variant`` "paper", "symmetric" or "redblue".
+    covariance: O-TMCMC proposal covariance, "global" (Eqs. 11-12, the default) or "mixture" (one per mode of a
+        Gaussian mixture with at most ``max_components`` components fitted to each stage's weighted population; a
+        fraction ``independence`` of the moves are independence proposals from the mixture; see the module notes).
+        "mixture" keeps the proposal fixed within a stage, so it does not go with ``scale_adapt``.
+    beta2: the random-walk scale beta^2; None gives 0.04 with "global" (the paper) and 2.38^2 / d with "mixture".
     chains: "particles" (n_steps sweeps per stage, "adaptive" or an int) or "ching-chen".
     executor: None chooses MPI under mpirun (``dispatch`` "dynamic" or "spmd"), else a local process pool.
     checkpoint / resume: a file written atomically after every stage and every ``checkpoint_every`` seconds (or
@@ -547,6 +735,16 @@ def tmcmc(loglike, prior: Prior, n_samples=2000, proposal="de", *, de_variant="r
         raise ValueError(f"n_steps = {n_steps!r}: use 'adaptive' or a positive integer")
     if proposal == "de" and n_samples < 5:
         raise ValueError("DE-TMCMC needs n_samples >= 5 (three distinct partners per move)")
+    if covariance not in ("global", "mixture"):
+        raise ValueError(f"covariance = {covariance!r}: use 'global' (Eqs. 11-12) or 'mixture'")
+    if covariance == "mixture" and proposal != "gaussian":
+        raise ValueError("covariance = 'mixture' is a move of O-TMCMC: use it with proposal = 'gaussian'")
+    if covariance == "mixture" and scale_adapt:
+        raise ValueError("covariance = 'mixture' keeps its proposal fixed within a stage: scale_adapt must be False")
+    if not (0.0 <= independence <= 1.0) or int(max_components) != max_components or max_components < 1:
+        raise ValueError("independence must be in [0, 1] and max_components a positive integer")
+    if beta2 is None:
+        beta2 = 2.38**2 / prior.dim if covariance == "mixture" else 0.04
     if not (beta2 > 0 and cov_target > 0):
         raise ValueError("beta2 and cov_target must be > 0")
     if isinstance(loglike, Likelihood):
@@ -558,7 +756,8 @@ def tmcmc(loglike, prior: Prior, n_samples=2000, proposal="de", *, de_variant="r
                     checkpoint_every=float(checkpoint_every), checkpoint_evals=checkpoint_evals,
                     progress_every=float(progress_every), max_failure_fraction=float(max_failure_fraction),
                     max_stages=int(max_stages), resampling=resampling, scale_adapt=bool(scale_adapt),
-                    target_acceptance=float(target_acceptance))
+                    target_acceptance=float(target_acceptance), covariance=covariance,
+                    max_components=int(max_components), independence=float(independence))
     evaluator = Evaluator(loglike, vectorized=vectorized, timeout=timeout)
     own_executor = executor is None
     if executor is None:
