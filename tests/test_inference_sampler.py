@@ -276,15 +276,15 @@ def test_mpi_job_with_failing_workers_ends_without_hanging(tmp_path):
     assert "forward evaluations failed" in proc.stderr
 
 
-@pytest.mark.parametrize("sig,executor", [(signal.SIGTERM, "serial"), (signal.SIGKILL, "serial"),
-                                          (signal.SIGTERM, "pool")])
-def test_kill_and_resume_gives_the_uninterrupted_result(tmp_path, sig, executor):
+@pytest.mark.parametrize("sig,executor,method", [(signal.SIGTERM, "serial", "de"), (signal.SIGKILL, "serial", "de"),
+                                                 (signal.SIGTERM, "pool", "de"), (signal.SIGKILL, "serial", "mixture")])
+def test_kill_and_resume_gives_the_uninterrupted_result(tmp_path, sig, executor, method):
     """Killed mid-stage, resumed (with the serial executor), the run ends exactly as the uninterrupted one. With the
     pool, SIGTERM goes to the whole process group, as Slurm sends it."""
-    ref, _ = _script(tmp_path, "ref", "--executor", "serial")
+    ref, _ = _script(tmp_path, "ref", "--executor", "serial", script=SCRIPTS[method])
     ckpt = str(tmp_path / "run.ckpt")
     out = str(tmp_path / "resumed.npz")
-    cmd = [sys.executable, SCRIPT, out, "--executor", executor, "--checkpoint", ckpt, "--sleep", "0.003"]
+    cmd = [sys.executable, SCRIPTS[method], out, "--executor", executor, "--checkpoint", ckpt, "--sleep", "0.003"]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     deadline = time.time() + 30
     while not os.path.exists(ckpt) and time.time() < deadline:
@@ -299,10 +299,12 @@ def test_kill_and_resume_gives_the_uninterrupted_result(tmp_path, sig, executor)
     got = np.load(out)
     assert float(got["log_evidence"]) == float(ref["log_evidence"])
     np.testing.assert_array_equal(got["stage_samples"], ref["stage_samples"])
-    # a checkpoint of another problem (other proposal) is refused with a clear message
+    # a checkpoint of another problem (other proposal, or O-TMCMC with the global covariance) is refused clearly
+    cmd[1] = SCRIPT
     proc = subprocess.run(cmd[:-2] + ["--resume", "--proposal", "gaussian"], cwd=ROOT, capture_output=True,
                           text=True, timeout=60)
-    assert proc.returncode != 0 and "CheckpointError" in proc.stderr and "proposal" in proc.stderr
+    assert proc.returncode != 0 and "CheckpointError" in proc.stderr
+    assert {"de": "proposal", "mixture": "covariance"}[method] in proc.stderr
 
 
 def test_checkpoint_refuses_other_problem(tmp_path):
