@@ -33,19 +33,17 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 import inference
-from constitutive import ANICREEP, labtests, physics_catalog
-from inference import diagnose
+from constitutive import ANICREEP, labtests
 from inference.likelihood import ForwardModelError
-from inference.mismatch import simulate_samples
 
-from . import study
+from . import calibrate, study
+from .calibrate import LoopProblem, Settings
 
 CASE = "concealed_viscosity"
 DATA = Path(__file__).parent / "data"
@@ -217,96 +215,56 @@ def covariates(like, map_curves: dict, tests=TESTS) -> dict:
     return cov
 
 
-# ------------------------------------------------------------------------------------------------ one class
-@dataclass
-class Settings:
-    n_samples: int
-    max_steps: int
-    predictive_draws: int
-
-
+# ------------------------------------------------------------------------------------------------ the loop
 PRESETS = {"paper": Settings(400, 8, 100), "quick": Settings(200, 5, 60)}
+
+
+class _Problem(LoopProblem):
+    """This case's pieces of the shared loop (cases.calibrate.calibrate_class / run_loop)."""
+
+    case = CASE
+    model = "ANICREEP"
+    base_switches = BASE_SWITCHES
+    base_bounds = BASE_BOUNDS
+    sigma_bounds = SIGMA_BOUNDS
+
+    def forward(self, switches):
+        return LabForward(TESTS, switches)
+
+    def map_curves(self, params, switches):
+        raw, _ = simulate(TESTS, {k: np.array([v]) for k, v in params.items()}, switches)
+        return {t: {c: v[0] for c, v in cs.items()} for t, cs in raw.items()}
+
+    def covariates(self, like, map_curves):
+        return covariates(like, map_curves)
+
+    def summary_extra(self, switches):
+        return {"fixed": FIXED, "synthetic": True}
+
+    def description(self, label, base_name):
+        return (f"**SYNTHETIC data** ({label}). Base class {base_name} with M, sigma'_p0, sigma_eps free; "
+                "catalog: constitutive.physics_catalog.")
+
+    def plot(self, path, like, classes, diag, label):
+        plot_loop(path, like, classes, diag, label)
+
+
+PROBLEM = _Problem()
 
 
 def calibrate_class(obs, name, switches, bounds, log_uniform, args, out, seed, settings):
     """Calibrate one model class; returns (the class dict of inference.diagnose.write_input, Posterior, Likelihood,
     MAP raw curves)."""
-    t0 = time.perf_counter()
-    forward = LabForward(TESTS, switches)
-    like = inference.Likelihood(obs, forward, batch=True)
-    uniform = {k: v for k, v in bounds.items() if k not in log_uniform}
-    prior = inference.UniformPrior({**uniform, **SIGMA_BOUNDS})
-    if log_uniform:
-        prior = prior & inference.LogUniformPrior({k: bounds[k] for k in log_uniform})
-    post = study.calibrate(like, prior, args, out, seed, settings.n_samples, executor=inference.SerialExecutor(),
-                           max_steps=settings.max_steps, progress=False)
-    calib_s = time.perf_counter() - t0
-    summary = study.write_summary(out, CASE, args, seed, post, like, extra={
-        "model_class": name, "switches": switches, "fixed": FIXED, "synthetic": True, "calibration_wall_s": calib_s})
-    params, sigma = like.split(post.map_theta)
-    map_raw, _ = simulate(TESTS, {k: np.array([v]) for k, v in params.items()}, switches)
-    map_raw = {t: {c: v[0] for c, v in cs.items()} for t, cs in map_raw.items()}
-    rng = np.random.default_rng(seed)
-    rows = rng.choice(len(post.samples), size=min(settings.predictive_draws, len(post.samples)), replace=False)
-    sample_sims, sample_sigma = simulate_samples(like, post.samples[rows])
-    q = post.quantiles()
-    cls = {"name": name, "role": "base", "log_evidence": float(post.log_evidence), "J_g": summary["J_g_at_map"],
-           "parameters": {n: {"map": post.map[n], "mean": post.mean[n], "std": post.std[n], "q2.5": q[n][0],
-                              "q97.5": q[n][2]} for n in post.names},
-           "sigma_eps": float(sigma), "wall_s": calib_s, "n_forward_solves": summary["n_forward_solves"],
-           "map_simulated": like.simulated_at_observations({t.name: {c: map_raw[t.name][c] for c in t.curves}
-                                                            for t in TESTS}),
-           "sample_simulated": sample_sims, "sample_sigma": sample_sigma}
-    return cls, post, like, map_raw
+    return calibrate.calibrate_class(obs, name, switches, bounds, log_uniform, args, out, seed, settings, PROBLEM)
 
 
-# ------------------------------------------------------------------------------------------------ the loop
 def class_name(switches):
-    return "ANICREEP(" + ", ".join(f"{k}={v}" for k, v in sorted(switches.items())) + ")"
+    return calibrate.class_name(switches, "ANICREEP")
 
 
 def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str) -> dict:
     """Calibrate, locate, explain, enrich, recalibrate, compare; writes everything into ``out``."""
-    t_loop = time.perf_counter()
-    out = Path(out)
-    candidates = physics_catalog.signatures(BASE_SWITCHES)
-    base, _, like, base_raw = calibrate_class(obs, class_name(BASE_SWITCHES), BASE_SWITCHES, BASE_BOUNDS, (), args,
-                                              out / "base", seed, settings)
-    cov = covariates(like, base_raw)
-    description = (f"**SYNTHETIC data** ({label}). Base class {base['name']} with M, sigma'_p0, sigma_eps free; "
-                   "catalog: constitutive.physics_catalog.")
-    classes = [base]
-    diagnose.write_input(out, like, classes, cov, candidates, description=description)
-    t0 = time.perf_counter()
-    first = diagnose.diagnose_directory(out)
-    screen_s = time.perf_counter() - t0
-    raws = {base["name"]: base_raw}
-    skipped = []
-    for cand in first["candidates"]:
-        if not cand["named"]:
-            continue
-        if cand["enrichment"] is None:
-            skipped.append(cand["name"])
-            continue
-        switches, bounds, log_uniform = physics_catalog.enriched_settings(cand["name"], BASE_SWITCHES, BASE_BOUNDS)
-        enriched, _, _, raw = calibrate_class(obs, class_name(switches), switches, bounds, log_uniform, args,
-                                              out / f"enriched_{cand['name'].replace(' ', '_')}", seed, settings)
-        enriched.update(role="enriched", candidate=cand["name"])
-        classes.append(enriched)
-        raws[enriched["name"]] = raw
-        break
-    if len(classes) > 1:
-        diagnose.write_input(out, like, classes, cov, candidates, description=description)
-    final = diagnose.diagnose_directory(out)
-    plot_loop(out / "diagnosis.png", like, classes, final, label)
-    timing = {"screen_and_rank_s": screen_s, "diagnose_final_s": final["wall_s"],
-              "calibration_s": {c["name"]: c["wall_s"] for c in classes}, "loop_s": time.perf_counter() - t_loop}
-    (out / "loop.json").write_text(json.dumps({"label": label, "seed": seed, "verdict": final["verdict"],
-                                               "omitted_physics": final["omitted_physics"],
-                                               "named": [c["name"] for c in final["candidates"] if c["named"]],
-                                               "named_without_enrichment": skipped, "log_bayes": final["log_bayes"],
-                                               "timing": timing, "settings": vars(settings)}, indent=1, default=float))
-    return {**final, "timing": timing}
+    return calibrate.run_loop(obs, args, out, seed, settings, label, PROBLEM)
 
 
 # ------------------------------------------------------------------------------------------------ figure
