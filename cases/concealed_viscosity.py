@@ -117,16 +117,19 @@ def simulate(tests, params: dict, switches: dict):
 
 
 class LabForward:
-    """Batched forward model (``inference.Likelihood(batch=True)``) of a model class given by its switches."""
+    """Batched forward model (``inference.Likelihood(batch=True)``) of a model class given by its switches;
+    ``simulate_tests(tests, params, switches) -> (curves, failed)`` defaults to this module's :func:`simulate` (another
+    lab case passes its own; each test names its recorded ``curves``)."""
 
-    def __init__(self, tests, switches):
+    def __init__(self, tests, switches, simulate_tests=None):
         self.tests = tuple(tests)
         self.switches = dict(switches)
+        self.simulate_tests = simulate if simulate_tests is None else simulate_tests
 
     def __call__(self, batch):
         names = list(batch[0])
         params = {n: np.array([p[n] for p in batch], dtype=float) for n in names}
-        curves, failed = simulate(self.tests, params, self.switches)
+        curves, failed = self.simulate_tests(self.tests, params, self.switches)
         out = []
         for i in range(len(batch)):
             bad = [t.name for t in self.tests if failed[t.name][i]]
@@ -173,15 +176,20 @@ def write_data(directory, control: bool, seed: int = 1) -> dict:
                   "in this project's issue-6 proof case (cases/); the file does not name it", f"synthetic_noise: multiplicative c ~ N(1, {NOISE}^2) per point (Eq. 1), seed {seed}",
                   f"test: {t.name}", f"test_type: {t.kind} ({kind[t.kind]})", f"strain_rate_per_s: {t.strain_rate:.6g}",
                   f"sigma_v0_kPa: {t.sigma_v0:g}", f"k0: {t.k0:g}", f"e0: {FIXED['e0']:g}"]
-        path = directory / f"{t.name}.csv"
-        columns = {"axial_strain_pct": 100.0 * t.strains, **{CURVE_UNITS[c]: curves[t.name][c] for c in t.curves}}
-        with path.open("w") as fh:
-            fh.writelines(f"# {h}\n" for h in header)
-            fh.write(",".join(columns) + "\n")
-            for row in zip(*columns.values()):
-                fh.write(",".join(f"{v:.9g}" for v in row) + "\n")
-        paths[t.name] = path
+        paths[t.name] = write_records(directory / f"{t.name}.csv", header, {
+            "axial_strain_pct": 100.0 * t.strains, **{CURVE_UNITS[c]: curves[t.name][c] for c in t.curves}})
     return paths
+
+
+def write_records(path, header, columns: dict) -> Path:
+    """One CSV: ``# `` header lines, the column names, then the rows (9 significant digits)."""
+    path = Path(path)
+    with path.open("w") as fh:
+        fh.writelines(f"# {h}\n" for h in header)
+        fh.write(",".join(columns) + "\n")
+        for row in zip(*columns.values()):
+            fh.write(",".join(f"{v:.9g}" for v in row) + "\n")
+    return path
 
 
 def load_data(directory) -> inference.Observations:
@@ -202,14 +210,15 @@ def load_data(directory) -> inference.Observations:
 # ------------------------------------------------------------------------------------------------ covariates
 def covariates(like, map_curves: dict, tests=TESTS) -> dict:
     """Per-point covariates (names from physics_catalog.COVARIATES) for every recorded curve: strain rate (test
-    condition), time since the start of shearing, strain level, and the MAP simulation's stress ratio and p'."""
+    condition), time since the start of shearing, strain level |eps_a|, and the MAP simulation's stress ratio and
+    p'."""
     cov = {"strain rate": {}, "time": {}, "strain level": {}, "stress ratio": {}, "mean effective stress": {}}
     for t in tests:
         for c in t.curves:
             k = (t.name, c)
             cov["strain rate"][k] = t.strain_rate
-            cov["time"][k] = t.strains / t.strain_rate
-            cov["strain level"][k] = t.strains
+            cov["time"][k] = np.abs(t.strains) / t.strain_rate
+            cov["strain level"][k] = np.abs(t.strains)
             cov["stress ratio"][k] = map_curves[t.name]["stress_ratio"]
             cov["mean effective stress"][k] = map_curves[t.name]["mean_stress"]
     return cov
