@@ -53,8 +53,9 @@ def _item(covariate, role, direction, meaning, curves=STRESS_CURVES):
 
 @dataclass(frozen=True)
 class Enrichment:
-    """How to add the physics: construct ``model_class`` with the base model's arguments plus ``switches``, and free
-    ``parameters`` {name: (lower, upper)} (log-uniform prior for the names in ``log_uniform``)."""
+    """How to add the physics: construct ``model_class`` with the base model's arguments plus ``switches`` (the
+    physics switch and any constructor argument the enrichment holds fixed), and free ``parameters``
+    {name: (lower, upper)} (log-uniform prior for the names in ``log_uniform``)."""
 
     model_class: str
     switches: dict
@@ -120,7 +121,9 @@ CATALOG = (
         "and extension, K0 and isotropic consolidation respond differently from an isotropic model.",
         (_item("stress path direction", "primary", 0, "compression and extension tests misfit with opposite "
                "signs", None),
-         _item("consolidation", "primary", 0, "K0- and isotropically consolidated tests misfit differently", None),
+         _item("consolidation", "supporting", 0, "K0- and isotropically consolidated tests misfit differently (only "
+               "where the consolidation induces a different fabric: isotropic reconsolidation below the "
+               "preconsolidation stress keeps the natural K0 fabric)", None),
          _item("stress ratio", "supporting", 0, "misfit grows with the stress ratio as the stress path turns "
                "towards the rotated surface")),
         {"anisotropy": True},
@@ -128,15 +131,27 @@ CATALOG = (
         references=("REFERENCE.md section 4: alpha_K0, omega, omega_d from M",)),
     Candidate(
         "destructuration",
-        "Bonding and structure of natural clay destroyed by plastic straining: a peak followed by softening that a "
-        "reconstituted-soil model cannot follow.",
+        "Bonding and structure of natural (sensitive) clay destroyed by plastic straining: the soil yields at an "
+        "apparent preconsolidation stress above its intrinsic one, then softens towards the reconstituted response "
+        "(a peak and post-peak strength loss in undrained shear, in compression and extension alike; a steep "
+        "post-yield compression curve). The strength loss follows accumulated plastic strain, not the strain rate "
+        "or the stress path direction.",
         (_item("strain level", "primary", -1, "past the peak the recorded stresses fall below the simulation as "
-               "strain accumulates"),
-         _item("overconsolidation", "supporting", 0, "structured (apparently overconsolidated) states misfit more")),
-        {"bonding": True},
-        None,
-        "S-CLAY1S / EVP-SCLAY1S bonding (chi, a, b) is not implemented in constitutive/ (notes/anicreep.md, "
-        "stretch goal)"),
+               "strain (and with it plastic strain) accumulates, in every test alike"),
+         _item("overconsolidation", "supporting", 0, "tests starting further inside the apparent yield surface "
+               "destructure later and misfit differently")),
+        {"destructuration": True},
+        # S-CLAY1S / EVP-SCLAY1S bonding (constitutive.anicreep, (D)). Priors (literature values recalled, not
+        # re-checked against the papers here): chi0 ~ sensitivity - 1, reported 4-12 for Scandinavian and Scottish
+        # soft clays (Murro, Bothkennar) and higher for very sensitive clays; log-uniform [0.1, 50] spans nearly
+        # unstructured to highly sensitive (quick clays excluded). xi (S-CLAY1S "a") reported 8-12; log-uniform
+        # [1, 30] spans a decade below and a factor 2.5 above. xi_d ("b") fixed at 0.2, the value most reported
+        # (0.2-0.4): in undrained shear d eps_v^vp is small, so destructuration is driven by xi xi_d eps_d^vp and the
+        # two are identifiable only as a product; fixing xi_d keeps two extra parameters on a ridge-free prior.
+        Enrichment("ANICREEP", {"destructuration": True, "xi_d": 0.2}, {"chi0": (0.1, 50.0), "xi": (1.0, 30.0)},
+                   ("chi0", "xi")),
+        references=("Koskinen, Karstunen & Wheeler (2002) S-CLAY1S; Yin, Karstunen, Chang, Koskinen & Lojander "
+                    "(2011) EVP-SCLAY1S; constitutive/anicreep.py (D)",)),
     Candidate(
         "state-dependent dilatancy",
         "Sand dilatancy and peak strength depending on the state (density and pressure, e_c(p')): dense states "
