@@ -475,7 +475,8 @@ class _Run:
             start = parents
             length = None
         st["chain"] = {
-            "q_next": q_next, "log_S": log_s, "cov": cov, "chol": np.linalg.cholesky(cov), "best": best, "mixtures": None,
+            "q_next": q_next, "log_S": log_s, "cov": cov, "chol": np.linalg.cholesky(cov), "best": best,
+            "mixtures": None,
             "start": theta[start].copy(), "pos": theta[start].copy(), "log_like": st["log_like"][start].copy(),
             "log_prior": st["log_prior"][start].copy(), "length": length, "sweep": 0, "move": 0,
             "accepted": 0, "proposed": 0, "samples": [] if length is not None else None,

@@ -67,6 +67,17 @@ def test_mixture_move_meets_the_b2_goal_within_the_call_budget():
     assert post.n_forward_solves <= 150_000
 
 
+def test_mixture_option_settings_are_checked():
+    prob = PROBLEMS["B6"]()
+    for bad, match in ((dict(proposal="de", covariance="mixture"), "O-TMCMC"),
+                       (dict(proposal="gaussian", covariance="mixture", scale_adapt=True), "scale_adapt"),
+                       (dict(proposal="gaussian", covariance="local"), "covariance"),
+                       (dict(proposal="gaussian", covariance="mixture", independence=1.5), "independence")):
+        with pytest.raises(ValueError, match=match):
+            tmcmc(prob.log_like, prob.prior, n_samples=50, executor=SerialExecutor(), vectorized=True,
+                  progress=False, **bad)
+
+
 def _separated_modes(d=10, n=2000, seed=0):
     """n points, half in each of two well separated modes N(+-0.5 1, 0.1^2 I), weighted 0.1 / 0.9 in total (with
     random per-point weights inside each mode)."""
