@@ -54,7 +54,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from .checkpoint import load_checkpoint, save_checkpoint
-from .executors import Evaluator, MPIExecutor, default_executor
+from .executors import Evaluator, MPIExecutor, _BaseExecutor, default_executor
 from .likelihood import Likelihood
 from .priors import Prior
 from .results import Posterior
@@ -761,6 +761,9 @@ def tmcmc(loglike, prior: Prior, n_samples=2000, proposal="de", *, de_variant="r
                     max_components=int(max_components), independence=float(independence))
     evaluator = Evaluator(loglike, vectorized=vectorized, timeout=timeout)
     own_executor = executor is None
+    if not (executor is None or isinstance(executor, _BaseExecutor)):
+        raise TypeError(f"executor = {executor!r}: pass None (MPI under mpirun, else a process pool) or an instance "
+                        "of inference.SerialExecutor, PoolExecutor or MPIExecutor")
     if executor is None:
         executor = default_executor(dispatch)
     if isinstance(executor, MPIExecutor) and not executor.is_root:

@@ -325,3 +325,24 @@ def test_checkpoint_refuses_other_problem(tmp_path):
     with pytest.raises(CheckpointError, match="prior"):
         tmcmc(lambda t: -t[0] ** 2 / 0.1, UniformPrior({"x": (0, 2)}), n_samples=50, executor=SerialExecutor(),
               checkpoint=ck, resume=True, progress=False)
+
+
+def test_arviz_export_carries_the_final_samples_and_evidence():
+    """to_arviz (optional arviz extra, installed with the test extra): the posterior group holds the final-stage
+    samples in prior order, sample_stats their log-likelihoods, attrs the log-evidence."""
+    az = pytest.importorskip("arviz")
+    prior = UniformPrior({"a": (-3.0, 3.0), "b": (-3.0, 3.0)})
+    post = tmcmc(lambda th: -0.5 * float(np.sum(np.asarray(th) ** 2)), prior, n_samples=100, seed=1,
+                           executor=SerialExecutor(), progress=False)
+    idata = post.to_arviz()
+    for i, name in enumerate(("a", "b")):
+        assert np.array_equal(idata.posterior[name].values[0], post.samples[:, i])
+    assert np.array_equal(idata.sample_stats["log_likelihood"].values[0], post.log_like)
+    assert idata.attrs["log_evidence"] == post.log_evidence
+    assert float(az.summary(idata, var_names=["a"])["mean"].iloc[0]) == pytest.approx(post.mean["a"], abs=1e-3)
+
+
+def test_executor_given_by_name_is_refused_with_the_choices():
+    prior = UniformPrior({"a": (-1.0, 1.0)})
+    with pytest.raises(TypeError, match="SerialExecutor"):
+        tmcmc(lambda th: 0.0, prior, n_samples=10, executor="serial")
