@@ -1067,7 +1067,7 @@ def plot_curves(path, like, map_simulated, bands, title):
         for ax in row[len(t.curves):]:
             ax.axis("off")
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -1077,10 +1077,16 @@ def plot_loop(path, like, classes, diag, label, synthetic):
     relative residual with the mismatch regions shaded."""
     plt = study.pyplot()
     panels = _panels(like)
-    fig, axes = plt.subplots(2, len(panels), figsize=(4.2 * len(panels), 6.5), squeeze=False)
+    ncol = min(4, len(panels))
+    nrow = -(-len(panels) // ncol)
+    fig, axes = plt.subplots(2 * nrow, ncol, figsize=(4.2 * ncol, 5.6 * nrow), squeeze=False)
+    for j in range(len(panels), nrow * ncol):
+        axes[2 * (j // ncol), j % ncol].axis("off")
+        axes[2 * (j // ncol) + 1, j % ncol].axis("off")
     base, enriched = classes[0], (classes[1] if len(classes) > 1 else None)
     for j, (t, c) in enumerate(panels):
-        curve, top, bottom = like.observations[t].curves[c], axes[0, j], axes[1, j]
+        row, col = 2 * (j // ncol), j % ncol
+        curve, top, bottom = like.observations[t].curves[c], axes[row, col], axes[row + 1, col]
         top.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
         top.plot(curve.x, base["map_simulated"][t, c], "k--", lw=1, label="base MAP")
         if enriched is not None:
@@ -1097,7 +1103,7 @@ def plot_loop(path, like, classes, diag, label, synthetic):
         bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")
     tag = "SYNTHETIC data" if synthetic else "recordings"
     fig.suptitle(f"{tag} ({label}): {diag['verdict']}; omitted physics: {diag['omitted_physics']}", fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()))
     fig.savefig(path, dpi=100)
     plt.close(fig)
 
