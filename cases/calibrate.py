@@ -882,6 +882,8 @@ class StudyForward:
             result = {t: {c: curves[t][c][i] for c in self.curves[t] + ("stress_ratio", "mean_stress")}
                       for t in curves}
             for name, sbp in self.sbp.items():
+                if bad:  # this particle has already failed: no FE solve for it
+                    break
                 try:
                     result.update(sbp(params))
                 except Exception as exc:  # noqa: BLE001 - an FE failure is this particle's zero likelihood
