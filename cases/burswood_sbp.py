@@ -79,7 +79,7 @@ class Preset:
 FE_FIELDS = ("radial_cells", "layers", "increments", "outer", "outer_radius_a0")
 PRESETS = {
     "paper": Preset(),
-    "quick": Preset(radial_cells=40, layers=1, increments=40, n_samples=64, max_steps=4),
+    "quick": Preset(layers=1, n_samples=64, max_steps=4),
 }
 
 
@@ -382,6 +382,8 @@ def _options(ap):
     ap.add_argument("--radial-cells", type=int)
     ap.add_argument("--layers", type=int)
     ap.add_argument("--increments", type=int)
+    ap.add_argument("--sweeps", type=int, help="fixed number of MCMC sweeps per stage (1: the paper's one Metropolis "
+                                              "step per resampled particle; default: adaptive, capped by the preset)")
     ap.add_argument("--max-stages", type=int, default=200, help="stop after this many stages (tests)")
     ap.add_argument("--timeout", type=float, help="seconds per forward evaluation (then a failed particle)")
     ap.add_argument("--generate", action="store_true", help="regenerate the shipped synthetic recordings and exit")
@@ -403,8 +405,9 @@ def _pairs(items, what, cast=float):
 
 
 def main(argv=None):
-    args = study.arguments(__doc__, argv, quick_help="the README's main job: 40 x 1 cells, 40 increments, N_s 64",
-                           add=_options)
+    args = study.arguments(__doc__, argv, add=_options,
+                           quick_help="the README's main job: the paper's 60 radial cells in one layer, 100 increments, "
+                                      "N_s 64")
     preset = PRESETS["quick" if args.quick else "paper"]
     preset = replace(preset, **{k: v for k, v in (("radial_cells", args.radial_cells), ("layers", args.layers),
                                                   ("increments", args.increments)) if v is not None})
@@ -433,7 +436,8 @@ def main(argv=None):
     if args.throughput:
         throughput(like, prior, args, args.throughput)
         return 0
-    settings = dict(max_steps=preset.max_steps, max_stages=args.max_stages, timeout=args.timeout)
+    settings = dict(max_steps=max(preset.max_steps, args.sweeps or 0), n_steps=args.sweeps or "adaptive",
+                    min_steps=min(2, args.sweeps or 2), max_stages=args.max_stages, timeout=args.timeout)
 
     def finish(run_args, seed, out, post):
         return write_outputs(out, run_args, post, like, forward, preset, synthetic, seed)
