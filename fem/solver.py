@@ -87,8 +87,8 @@ class Solver:
         self.free = np.ones(N, bool)
         self.free[self.cdofs] = False
         is_p = np.arange(N) % 3 == 2
-        self._ufree = self.free & ~is_p
-        self._pfree = self.free & is_p
+        self._ufree = np.flatnonzero(self.free & ~is_p)   # index arrays: cheaper than boolean masks per iteration
+        self._pfree = np.flatnonzero(self.free & is_p)
         # band storage (C order (N, rows), passed transposed = Fortran (rows, N)): A[i, j] at [j, 2kl + i - j]
         flat = (edofs[:, None, :] * rows + 2 * kl + edofs[:, :, None] - edofs[:, None, :])
         keep = self.free[edofs][:, :, None] & self.free[edofs][:, None, :]
