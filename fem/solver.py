@@ -198,7 +198,8 @@ class Solver:
 
     # ------------------------------------------------------------------ stepping
     def _increment(self, x, t0, t1, a0, a1):
-        """Advance from t0 to t1, halving the sub-step on failure (up to max_cuts halvings)."""
+        """Advance from t0 to t1, halving the sub-step on failure (up to max_cuts halvings). The extrapolated
+        predictor's rate is the last converged sub-step's; after a failure the next sub-step starts without it."""
         pb = self.problem
         frac, h, depth = 0.0, 1.0, 0
         while frac < 1.0 - 1e-12:
@@ -214,6 +215,7 @@ class Solver:
                 x = x_new
                 frac = f1
             except _StepFailed as err:
+                self._velocity = None  # the cut sub-step starts from the tangent predictor
                 self.stats["cuts"] += 1
                 depth += 1
                 if depth > pb.max_cuts:

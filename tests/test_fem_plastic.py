@@ -85,13 +85,17 @@ def test_step_cutting_recovers():
                 raise C.IntegrationError(0, "strain increment too large")
             return super().update(stress, state, dstrain, dt)
 
-    answers = []
+    exact = 50.0 + 30.0 + 2.0 * 5000.0 / 2.6 * 0.1      # sigma'_h0 + u0 + 2 G eps_c (isochoric field, no excess u)
+    stats = {}
     for model in (Fussy(5000.0, 0.3), C.LinearElastic(5000.0, 0.3)):
         pb = undrained_problem(model, n_radial=20, n_increments=2)
-        pb.rtol = 1e-10  # both converged far below the default tolerance
-        answers.append(fem.solve(pb).cavity_pressure[-1])
-    # the cut sub-steps are shorter: backward Euler's time error with k = 1e-14 m/s is ~1e-8 of the answer
-    assert answers[0] == pytest.approx(answers[1], rel=1e-7)
+        pb.rtol = 1e-10
+        solver = fem.Solver(pb)
+        # k = 1e-14 m/s: the nearly singular mass balance fixes p only to ~1e-3 kPa whatever the step sequence
+        # (measured with 2 to 64 uniform increments: cavity pressure within 1.2e-7 of exact)
+        assert solver.solve().cavity_pressure[-1] == pytest.approx(exact, rel=1e-6)
+        stats[type(model).__name__] = solver.stats["cuts"]
+    assert stats["Fussy"] > 0 and stats["LinearElastic"] == 0
 
 
 def test_material_calls_skipped_at_the_predictor_for_rate_independent_models():
