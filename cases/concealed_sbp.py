@@ -1,0 +1,379 @@
+"""Concealed physics at pressuremeter scale (issue 6): the two-rate self-boring pressuremeter of the Burswood case,
+SYNTHETIC data with a hidden effect, a rate-independent base class, and the calibrate -> diagnose loop.
+
+    python -m cases.concealed_sbp --effect viscosity --diagnose            # set_1: locate, explain, enrich, compare
+    python -m cases.concealed_sbp --effect "partial drainage" --diagnose   # set_2 (both candidates calibrated)
+    python -m cases.concealed_sbp --effect "partial drainage" --diagnose --pressure-only   # without pore pressure
+    python -m cases.concealed_sbp --control --diagnose                     # set_3: data from the base class
+    python -m cases.concealed_sbp --confusion --seeds 1                    # every data set x with/without pore p.
+    python -m cases.concealed_sbp --generate                               # rewrite the shipped SYNTHETIC data
+
+The data are SYNTHETIC (not measurements): two SBP expansions at the Burswood site (REFERENCE section 5: 0.167 %/s
+and 0.0185 %/s to 10 % cavity strain, sigma'_v0 31 kPa, K0 0.9, u0 38.8 kPa, probe radius 41.5 mm; ANICREEP with
+lambda 0.40, kappa 0.026, e0 2.0, nu 0.3 fixed, M 1.71 and sigma'_p0 58.4 kPa), simulated by the coupled FE of
+``cases.burswood_sbp`` with the generating model of :data:`EFFECTS` (stated here, never in the data files), times
+independent multiplicative noise c ~ N(1, 0.02^2) per point on the total cavity pressure and the total wall pore
+pressure (Eq. 1). Data generation and calibration use the SAME coarse FE (:data:`PRESET`: 30 radial cells x 1 layer,
+30 increments, outer boundary moved as the elastic field at 200 a0), so there is no discretization bias.
+
+Base class: rate-independent ANICREEP (``viscous=False``, anisotropic as in the Burswood case) in the coupled FE with
+the permeability held at the value the engineer assumes (:data:`EFFECTS` ``k_assumed``), M, sigma'_p0 and sigma_eps
+free. Enrichments from ``constitutive.physics_catalog``: viscosity (``viscous=True``, C_alpha_e log-uniform) and
+partial drainage (the same coupled FE with the permeability free, log-uniform over five decades).
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import fem
+import inference
+from constitutive import ANICREEP, physics_catalog
+from fem.oracles import consolidation_coefficient
+from inference import ForwardModelError, diagnose
+
+from . import burswood_sbp, study
+from .calibrate import LoopProblem, Settings, calibrate_class, class_name, run_loop
+from .concealed_viscosity import write_records
+
+CASE = "concealed_sbp"
+DATA = Path(__file__).parent / "data" / "concealed_sbp"
+#: coarse FE (same for data and calibration) and the sampler size
+PRESET = burswood_sbp.Preset(radial_cells=30, layers=1, increments=30, outer="field", outer_radius_a0=200.0,
+                             n_samples=48, max_steps=3)
+SETTINGS = Settings(n_samples=48, max_steps=3, predictive_draws=16)
+RATES = burswood_sbp.RATES
+SITE = burswood_sbp.SITE
+FIXED = burswood_sbp.FIXED
+NOISE = 0.02
+N_POINTS = 40
+CURVES = ("cavity_pressure", "pore_pressure")
+#: base class: rate independent, anisotropic ANICREEP in the coupled FE with the assumed permeability
+BASE_SWITCHES = {"viscous": False, "anisotropy": True, "destructuration": False}
+BASE_BOUNDS = {"M": (0.5, 2.0), "sigma_p0": (10.0, 200.0)}
+SIGMA_BOUNDS = {"sigma_eps": (0.002, 0.3)}
+GENERATING = {"M": 1.71, "sigma_p0": 58.4}
+#: hidden effects: generating switches and values, true permeability, the permeability the base class assumes, and
+#: the blind name of the shipped data set (file and directory names never name the effect)
+EFFECTS = {
+    "viscosity": {"switches": {"viscous": True}, "values": {"C_alpha_e": 0.02}, "k_true": 3.3e-9,
+                  "k_assumed": 3.3e-9, "dataset": "set_1"},
+    "partial drainage": {"switches": {}, "values": {}, "k_true": 1.0e-7, "k_assumed": 1.0e-9, "dataset": "set_2"},
+    "none": {"switches": {}, "values": {}, "k_true": 3.3e-9, "k_assumed": 3.3e-9, "dataset": "set_3"},
+}
+#: switches that are not ANICREEP arguments (the catalog's "coupled": permeability calibrated in the FE)
+FE_SWITCHES = ("coupled",)
+
+
+# ------------------------------------------------------------------------------------------------ forward model
+class Forward(burswood_sbp.SBPForward):
+    """One model class in the coupled FE: a batch of parameter dicts -> a list of {test: {curve: (strain %, kPa)}}
+    (a ForwardModelError for a failed particle). ``switches``: ANICREEP switches plus ``coupled`` (permeability a
+    free parameter ``permeability`` in m/s); otherwise the permeability is ``permeability``."""
+
+    def __init__(self, switches: dict, permeability: float, curves=CURVES, preset=PRESET):
+        super().__init__(preset, rates=RATES, curves=curves)
+        self.switches = dict(switches)
+        self.permeability = float(permeability)
+
+    def material(self, params):
+        f = self.fixed
+        values = {k: v for k, v in params.items() if k != "permeability"}
+        switches = {k: v for k, v in self.switches.items() if k not in FE_SWITCHES}
+        return ANICREEP(lambda_=f["lambda_"], kappa=f["kappa"], nu=f["nu"], e0=f["e0"], tau=f["tau"], **switches,
+                        **values, vertical_axis=2)
+
+    def compile_material(self):
+        model = ANICREEP(**{k: v for k, v in FIXED.items()}, **GENERATING, C_alpha_e=0.02, vertical_axis=2)
+        stress = fem.Geostatic(SITE["sigma_v0"], SITE["K0"], SITE["u0"]).effective_stress(1)
+        model.update(stress, model.initial_state(stress), np.zeros((1, 6)), 1.0)
+
+    def results(self, params, save_fields="none") -> dict:
+        material = self.material(params)
+        k = params.get("permeability", self.permeability)
+        return {name: s.solve(material=material, permeability=k) for name, s in self.solvers(save_fields).items()}
+
+    def one(self, params) -> dict:
+        return self.curves_of(self.results(params))
+
+    def __call__(self, batch):
+        out = []
+        for params in batch:
+            try:
+                out.append(self.one(params))
+            except Exception as exc:  # noqa: BLE001 - an FE failure is this particle's zero likelihood
+                out.append(ForwardModelError(f"{class_name(self.switches)}: {type(exc).__name__}: {exc}"))
+        return out
+
+
+def generating_forward(effect: str) -> tuple:
+    """(Forward, parameters) of the generating model of ``effect``."""
+    e = EFFECTS[effect]
+    return Forward({**BASE_SWITCHES, **e["switches"]}, e["k_true"]), {**GENERATING, **e["values"]}
+
+
+# ------------------------------------------------------------------------------------------------ data
+def strains() -> np.ndarray:
+    """Recorded cavity strains (%): N_POINTS equally spaced to 10 %."""
+    return np.linspace(0.0, 10.0, N_POINTS + 1)[1:]
+
+
+def synthetic_curves(effect: str, seed: int, noise=NOISE) -> dict:
+    """{test: {column: values}} of the SYNTHETIC records with hidden ``effect`` ("none": the control)."""
+    forward, params = generating_forward(effect)
+    results = forward.results(params)
+    rng = np.random.default_rng(np.random.SeedSequence([seed, list(EFFECTS).index(effect), 11]))
+    x = strains()
+    out = {}
+    for name, res in results.items():
+        sx = 100.0 * res.cavity_strain
+        cols = {"time_s": np.interp(x, sx, res.time), "cavity_strain_pct": x}
+        for c, y in (("cavity_pressure_kPa", res.cavity_pressure), ("pore_pressure_kPa", res.cavity_pore_pressure)):
+            cols[c] = np.interp(x, sx, y) * rng.normal(1.0, noise, x.size)
+        out[name] = cols
+    return out
+
+
+def header(effect: str, seed: int, test: str, noise=NOISE) -> list:
+    return ["synthetic: NOT MEASURED DATA. Generated with this project's coupled FE from a generating model stated in "
+            "this project's issue-6 proof case (cases/); the file does not name it",
+            f"synthetic_noise: multiplicative c ~ N(1, {noise}^2) per point on both pressures (Eq. 1), seed {seed}",
+            f"test: {test}", f"strain_rate_per_s: {RATES[test]}",
+            f"site: sigma_v0_kPa {SITE['sigma_v0']}, K0 {SITE['K0']}, u0_kPa {SITE['u0']}, probe_radius_m "
+            f"{SITE['a0']}", "depth_m: 5.25"]
+
+
+def write_data(effect: str, seed: int = 1, directory=None) -> dict:
+    """Write one SYNTHETIC data set (``DATA/<dataset>/sbp_{fast,slow}.csv``); returns {test: path}."""
+    directory = Path(directory or DATA / EFFECTS[effect]["dataset"])
+    directory.mkdir(parents=True, exist_ok=True)
+    return {name: write_records(directory / f"sbp_{name}.csv", header(effect, seed, name), cols)
+            for name, cols in synthetic_curves(effect, seed).items()}
+
+
+def observations_from(curves: dict, pore_pressure: bool, label: str) -> inference.Observations:
+    names = CURVES if pore_pressure else CURVES[:1]
+    return inference.Observations([
+        inference.Test(t, {c: inference.Curve(cols["cavity_strain_pct"], cols[f"{c}_kPa"], "cavity_strain", c, "%",
+                                              "kPa") for c in names},
+                       {"synthetic": label, "strain_rate_per_s": RATES[t]}) for t, cols in curves.items()])
+
+
+def load_data(effect: str, pore_pressure=True) -> inference.Observations:
+    files = {t: DATA / EFFECTS[effect]["dataset"] / f"sbp_{t}.csv" for t in RATES}
+    obs = burswood_sbp.load_recordings(files, pore_pressure=pore_pressure)
+    return inference.Observations([inference.Test(t.name, t.curves, {**t.conditions, "synthetic": "yes"})
+                                   for t in obs])
+
+
+# ------------------------------------------------------------------------------------------------ the loop problem
+class SBPProblem(LoopProblem):
+    """The base class of this case as a :class:`cases.calibrate.LoopProblem`."""
+
+    case = CASE
+    model = "ANICREEP"
+    base_switches = BASE_SWITCHES
+    base_bounds = BASE_BOUNDS
+    sigma_bounds = SIGMA_BOUNDS
+    base_dir = "base"
+
+    def __init__(self, k_assumed: float, pore_pressure: bool, processes=None):
+        self.k_assumed = float(k_assumed)
+        self.curves = CURVES if pore_pressure else CURVES[:1]
+        self.processes = processes
+
+    def forward(self, switches):
+        return Forward(switches, self.k_assumed, self.curves)
+
+    def map_curves(self, params, switches):
+        return self.forward(switches).one(params)
+
+    def catalog_switches(self, switches):
+        return {"coupled": False, **switches}
+
+    def executor(self):
+        return inference.default_executor("dynamic", self.processes)
+
+    def summary_extra(self, switches):
+        return {"k_assumed": self.k_assumed, "curves": list(self.curves), "fe": PRESET.__dict__}
+
+    def description(self, label, base_name):
+        return (f"**SYNTHETIC data** ({label}). Two SBP expansions (0.167 %/s, 0.0185 %/s); base class {base_name} "
+                f"in the coupled FE with k = {self.k_assumed:g} m/s assumed, M, sigma'_p0, sigma_eps free; curves "
+                f"{', '.join(self.curves)}; catalog: constitutive.physics_catalog.")
+
+    def covariates(self, like, map_curves) -> dict:
+        """Per-point covariates: strain rate (test condition), time since the start of the expansion, cavity strain
+        level and the drainage time factor T = c_h t / a0^2 (c_h of Randolph & Wroth from the assumed permeability
+        and the in-situ elastic shear modulus of the fixed kappa, nu)."""
+        p0 = SITE["sigma_v0"] * (1.0 + 2.0 * SITE["K0"]) / 3.0
+        bulk = (1.0 + FIXED["e0"]) * p0 / FIXED["kappa"]
+        shear = 3.0 * bulk * (1.0 - 2.0 * FIXED["nu"]) / (2.0 * (1.0 + FIXED["nu"]))
+        c_h = consolidation_coefficient(self.k_assumed, shear, FIXED["nu"])
+        cov = {k: {} for k in ("strain rate", "time", "strain level", "drainage time factor")}
+        for test in like.observations:
+            rate = RATES[test.name]
+            for c, curve in test.curves.items():
+                t = curve.x / 100.0 / rate
+                cov["strain rate"][test.name, c] = rate
+                cov["time"][test.name, c] = t
+                cov["strain level"][test.name, c] = curve.x / 100.0
+                cov["drainage time factor"][test.name, c] = c_h * t / SITE["a0"] ** 2
+        return cov
+
+    def plot(self, path, like, classes, diag, label):
+        plot_loop(path, like, classes, diag, label)
+
+
+def plot_loop(path, like, classes, diag, label):
+    """Records, base and enriched MAP curves, and the base residuals with the mismatch regions shaded."""
+    plt = study.pyplot()
+    curves = list(next(iter(like.observations)).curves)
+    fig, axes = plt.subplots(2, len(curves), figsize=(5.5 * len(curves), 7.5), squeeze=False)
+    base = classes[0]
+    for j, c in enumerate(curves):
+        ax, axr = axes[0, j], axes[1, j]
+        for i, t in enumerate(like.observations):
+            cur = t.curves[c]
+            ax.plot(cur.x, cur.y, "o", ms=3, mfc="none", color=f"C{i}", label=f"{t.name}: SYNTHETIC record")
+            for k, cl in enumerate(classes):
+                ax.plot(cur.x, cl["map_simulated"][t.name, c], ("--", "-", ":")[min(k, 2)], color=f"C{i}", lw=1.2,
+                        label=f"{t.name}: {cl['name']} MAP")
+            axr.plot(cur.x, cur.y / base["map_simulated"][t.name, c] - 1.0, "o-", ms=3, color=f"C{i}", label=t.name)
+        for r in diag["mismatch_regions"]:
+            if r["curve"] == c:
+                axr.axvspan(r["x_start"], r["x_end"], color="0.85")
+        ax.set_ylabel({"cavity_pressure": "total cavity pressure (kPa)",
+                       "pore_pressure": "total pore pressure at the wall (kPa)"}[c])
+        axr.set_ylabel(f"base residual U_obs/U_sim - 1 ({c})")
+        axr.axhline(0.0, color="k", lw=0.5)
+        for a in (ax, axr):
+            a.set_xlabel("cavity strain (%)")
+            a.legend(fontsize=6)
+    fig.suptitle(f"SYNTHETIC SBP records ({label}): {diag['verdict']}; omitted physics: {diag['omitted_physics']}",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ------------------------------------------------------------------------------------------------ the case's loop
+#: catalog candidates whose enrichment this case can calibrate (the coupled FE with ANICREEP)
+ENRICHABLE = ("viscosity", "partial drainage")
+
+
+def design_limits(diag: dict, pore_pressure: bool) -> str:
+    """What these records cannot decide, in words (from the candidate item statuses), or ""."""
+    named = [c for c in diag["candidates"] if c["named"]]
+    lnb = {c["candidate"]: c["log_bayes_vs_base"] for c in diag["classes"] if c["role"] == "enriched"}
+    notes = []
+    for c in diag["candidates"]:
+        if c["name"] not in ENRICHABLE:
+            continue
+        for i in c["items"]:
+            if i["role"] == "primary" and i["status"] == "not significant" and i["covariate"] == "strain rate":
+                notes.append(f"{c['name']}: a between-test trend with strain rate cannot be significant with "
+                             f"{len(RATES)} tests (the permutation null of {len(RATES)} tests has p >= 1/"
+                             f"{len(RATES)}!); more rates (at least 5-6 tests) are needed to name it from its "
+                             "signature")
+            if i["role"] == "primary" and i["status"] in ("direction not measurable", "not reported"):
+                notes.append(f"{c['name']}: its primary signature ({i['covariate']}, {i['meaning']}) needs curves "
+                             "that are not recorded" + ("" if pore_pressure else " (the wall pore pressure)"))
+    if diag["verdict"] == "structured mismatch" and len(named) != 1:
+        close = [n for n, v in lnb.items() if v is not None and v >= diagnose.STRONG_LOG_BAYES]
+        if len(close) > 1 and abs(lnb[close[0]] - lnb[close[1]]) < diagnose.STRONG_LOG_BAYES:
+            notes.append(f"the evidence does not separate {' and '.join(close)} (ln B {lnb[close[0]]:.1f} and "
+                         f"{lnb[close[1]]:.1f}, difference below {diagnose.STRONG_LOG_BAYES:g})")
+        notes.append("the records cannot tell the candidate physics apart: record the wall pore pressure and run "
+                     "more expansion rates")
+    return "; ".join(notes)
+
+
+def run_case(effect: str, seed: int, out: Path, pore_pressure=True, settings=SETTINGS, args=None, generated=None,
+             processes=None, all_enrichments=False) -> dict:
+    """The loop on one data set: calibrate the base class, diagnose, calibrate the enriched class of the best named
+    candidate (cases.calibrate.run_loop) and, with ``all_enrichments`` (or when several are named), every other
+    enrichable candidate; rewrite the diagnosis with every class. Returns a row for the confusion table."""
+    t0 = time.perf_counter()
+    out = Path(out)
+    label = f"data set {EFFECTS[effect]['dataset']}, seed {seed}, {'with' if pore_pressure else 'without'} pore pressure"
+    curves = generated if generated is not None else None
+    obs = (observations_from(curves, pore_pressure, "yes") if curves is not None
+           else load_data(effect, pore_pressure))
+    problem = SBPProblem(EFFECTS[effect]["k_assumed"], pore_pressure, processes)
+    args = args or study.arguments(__doc__, [])
+    diag = run_loop(obs, args, out, seed, settings, label, problem)
+    done = {c["candidate"] for c in diag["classes"] if c["role"] == "enriched"}
+    extra = [c["name"] for c in diag["candidates"] if c["name"] in ENRICHABLE and c["name"] not in done
+             and (c["named"] or (all_enrichments and diag["verdict"] == "structured mismatch"))]
+    if extra:
+        meta, like, classes, cov = diagnose.read_input(out)
+        for name in extra:
+            switches, bounds, log_uniform = physics_catalog.enriched_settings(name, BASE_SWITCHES, BASE_BOUNDS)
+            cls, _, _, _ = calibrate_class(obs, class_name(switches), switches, bounds, tuple(log_uniform), args,
+                                           out / f"enriched_{name.replace(' ', '_')}", seed, settings, problem)
+            cls.update(role="enriched", candidate=name)
+            classes.append(cls)
+        diagnose.write_input(out, like, classes, cov, meta["candidates"], description=meta["description"])
+        diag = diagnose.diagnose_directory(out)
+        problem.plot(out / "diagnosis.png", like, classes, diag, label)
+    limits = design_limits(diag, pore_pressure)
+    row = {"effect": effect, "dataset": EFFECTS[effect]["dataset"], "seed": seed, "pore_pressure": pore_pressure,
+           "verdict": diag["verdict"], "named": [c["name"] for c in diag["candidates"] if c["named"]],
+           "omitted_physics": diag["omitted_physics"], "log_bayes": diag["log_bayes"],
+           "log_evidence": {c["name"]: c["log_evidence"] for c in diag["classes"]},
+           "regions": [f"{r['test']} {r['curve']} {r['x_start']:.3g}-{r['x_end']:.3g} % ({r['sign']}, "
+                       f"{100 * r['mean_relative']:+.1f} %)" for r in diag["mismatch_regions"]],
+           "scores": {c["name"]: round(c["score"], 3) for c in diag["candidates"]},
+           "parameters": {c["name"]: c["parameters"] for c in diag["classes"]},
+           "design_limits": limits, "recommendation": diag["recommendation"], "wall_s": time.perf_counter() - t0}
+    (out / "case.json").write_text(json.dumps(row, indent=1, default=float))
+    return row
+
+
+# ------------------------------------------------------------------------------------------------ command line
+def _options(ap):
+    ap.add_argument("--effect", choices=[e for e in EFFECTS if e != "none"], default="viscosity")
+    ap.add_argument("--control", action="store_true", help="data from the base class itself (set_3)")
+    ap.add_argument("--diagnose", action="store_true", help="run the whole loop (the default action)")
+    ap.add_argument("--pressure-only", action="store_true", help="drop the wall pore-pressure records")
+    ap.add_argument("--all-enrichments", action="store_true",
+                    help="calibrate both enriched classes (viscosity, partial drainage) whenever the base misfits")
+    ap.add_argument("--confusion", action="store_true", help="every data set x with/without pore pressure x seeds")
+    ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--generate", action="store_true", help="rewrite the shipped SYNTHETIC data and exit")
+
+
+def main(argv=None):
+    args = study.arguments(__doc__, argv, add=_options, quick_help="(the settings are already small)")
+    if args.generate:
+        for effect in EFFECTS:
+            print(json.dumps({k: str(v) for k, v in write_data(effect).items()}))
+        return 0
+    out = Path(args.out or Path("results") / CASE)
+    seed = args.seed if args.seed is not None else 1
+    settings = Settings(args.samples or SETTINGS.n_samples, SETTINGS.max_steps, SETTINGS.predictive_draws)
+    if not args.confusion:
+        effect = "none" if args.control else args.effect
+        row = run_case(effect, seed, out, not args.pressure_only, settings, args, processes=args.processes,
+                       all_enrichments=args.all_enrichments)
+        print(json.dumps(row, default=float))
+        return 0
+    rows = []
+    for s in range(seed, seed + args.seeds):
+        for effect in EFFECTS:
+            for pp in (True, False):
+                gen = None if s == 1 else synthetic_curves(effect, s)
+                d = out / f"{EFFECTS[effect]['dataset']}_seed{s}_{'pp' if pp else 'p_only'}"
+                rows.append(run_case(effect, s, d, pp, settings, args, gen, args.processes, all_enrichments=True))
+                print(json.dumps(rows[-1], default=float), flush=True)
+    (out / "confusion.json").write_text(json.dumps(rows, indent=1, default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
