@@ -148,7 +148,8 @@ def report_run(out, args, post, obs, forward, summary):
     truth = SimsandTriaxial(forward.tests, {})([TRUE])[0]
     plot_curves(out / "curves.png", obs, forward, post, f"{method}, {label}: data, true-value and MAP curves",
                 reference=truth)
-    study.plot_marginals(post, out / "marginals.png", marks=references(args.noise))
+    study.plot_marginals(post, out / "marginals.png", marks=references(args.noise),
+                         title=f"{method}, {label}: posterior marginals")
     study.plot_stages(post, out / "stages.png")
     end = {f"{t.name} end of test (synthetic)": (obs[t.name].curves["q"].y[-1] / 3 + t.p0, obs[t.name].curves["e"].y[-1])
            for t in forward.tests}
