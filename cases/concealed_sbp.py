@@ -284,12 +284,18 @@ def design_limits(diag: dict, pore_pressure: bool) -> str:
                 notes.append(f"{c['name']}: its primary signature ({i['covariate']}, {i['meaning']}) needs curves "
                              "that are not recorded" + ("" if pore_pressure else " (the wall pore pressure)"))
     if diag["verdict"] == "structured mismatch" and len(named) != 1:
-        close = [n for n, v in lnb.items() if v is not None and v >= diagnose.STRONG_LOG_BAYES]
-        if len(close) > 1 and abs(lnb[close[0]] - lnb[close[1]]) < diagnose.STRONG_LOG_BAYES:
-            notes.append(f"the evidence does not separate {' and '.join(close)} (ln B {lnb[close[0]]:.1f} and "
-                         f"{lnb[close[1]]:.1f}, difference below {diagnose.STRONG_LOG_BAYES:g})")
-        notes.append("the records cannot tell the candidate physics apart: record the wall pore pressure and run "
-                     "more expansion rates")
+        strong = sorted(((v, n) for n, v in lnb.items() if v is not None and v >= diagnose.STRONG_LOG_BAYES),
+                        reverse=True)
+        if len(strong) > 1 and strong[0][0] - strong[1][0] < diagnose.STRONG_LOG_BAYES:
+            notes.append(f"the evidence does not separate {strong[0][1]} and {strong[1][1]} (ln B {strong[0][0]:.1f} "
+                         f"and {strong[1][0]:.1f}, difference below {diagnose.STRONG_LOG_BAYES:g})")
+        elif strong:
+            runner = max((v for n, v in lnb.items() if n != strong[0][1] and v is not None), default=None)
+            notes.append(f"the signatures name no candidate; the evidence favours {strong[0][1]} (ln B "
+                         f"{strong[0][0]:.1f}" + ("" if runner is None else f"; next {runner:.1f}") + ")")
+        if len(strong) != 1:
+            notes.append("the records cannot tell the candidate physics apart: record the wall pore pressure and "
+                         "run more expansion rates")
     return "; ".join(notes)
 
 
