@@ -214,14 +214,24 @@ def load_data(directory) -> inference.Observations:
 def covariates(like, map_curves: dict, tests=TESTS) -> dict:
     """Per-point covariates (names from physics_catalog.COVARIATES) for every recorded curve: those of
     ``cases.concealed_viscosity.covariates`` (strain rate, time since the start of shearing, strain level |eps_a|,
-    the MAP simulation's stress ratio q/p' and p') and the test conditions stress path direction, consolidation and
-    overconsolidation sigma'_p0(MAP)/sigma'_v0 (from ``map_curves[test]["overconsolidation"]``)."""
+    the MAP simulation's stress ratio q/p' and p'), the test conditions stress path direction, consolidation and
+    overconsolidation sigma'_p0(MAP)/sigma'_v0 (from ``map_curves[test]["overconsolidation"]``), and the post-peak
+    strain of each record (:func:`post_peak_strain`)."""
     cov = cv.covariates(like, map_curves, tests)
     extra = {"stress path direction": lambda t: t.direction, "consolidation": lambda t: t.consolidation,
-             "overconsolidation": lambda t: float(map_curves[t.name]["overconsolidation"])}
+             "overconsolidation": lambda t: float(map_curves[t.name]["overconsolidation"]),
+             "post-peak strain": lambda t: post_peak_strain(np.abs(t.strains), np.abs(
+                 3.0 * (like.observations[t.name].curves["p"].y - like.observations[t.name].curves["radial_stress"].y)))}
     for name, value in extra.items():
         cov[name] = {t.name: value(t) for t in tests}
     return cov
+
+
+def post_peak_strain(strain, deviator):
+    """|strain| beyond the strain of the largest recorded |q|, NaN up to that point (and everywhere when the record
+    peaks at its last point): the covariate is defined on the softening branch only."""
+    k = int(np.argmax(deviator))
+    return np.where(np.arange(strain.size) > k, strain - strain[k], np.nan)
 
 
 # ------------------------------------------------------------------------------------------------ the loop

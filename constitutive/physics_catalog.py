@@ -31,6 +31,8 @@ COVARIATES = {
     "strain rate": "applied strain rate of the test (1/s); a test condition, constant along a curve",
     "time": "time since the start of the test (s)",
     "strain level": "axial (or cavity) strain at the point",
+    "post-peak strain": "strain beyond the peak of the recorded deviator stress of the test (defined on the softening "
+                        "branch only: undefined before the peak and in records that peak at their last point)",
     "stress ratio": "q/p' at the point (simulated at the MAP)",
     "mean effective stress": "p' at the point (kPa, simulated at the MAP)",
     "overconsolidation": "overconsolidation ratio or sand state parameter at the point",
@@ -142,8 +144,10 @@ CATALOG = (
         "(a peak and post-peak strength loss in undrained shear, in compression and extension alike; a steep "
         "post-yield compression curve). The strength loss follows accumulated plastic strain, not the strain rate "
         "or the stress path direction.",
-        (_item("strain level", "primary", -1, "past the peak the recorded stresses fall below the simulation as "
-               "strain (and with it plastic strain) accumulates, in every test alike"),
+        (_item("post-peak strain", "primary", -1, "on the softening branch the recorded stresses fall further below "
+               "the simulation the more the soil is strained past its peak"),
+         _item("strain level", "supporting", 0, "the misfit changes with strain level in every test alike (above "
+               "the simulation around the peak, below it at large strain)"),
          _item("overconsolidation", "supporting", 0, "tests starting further inside the apparent yield surface "
                "destructure later and misfit differently")),
         {"destructuration": True},

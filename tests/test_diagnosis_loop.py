@@ -19,6 +19,9 @@ from inference.mismatch import relative_residuals, screen
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = {"viscous": False, "anisotropy": True}
+#: enrichment arguments taken by a forward model rather than the material class (partial drainage: the coupled SBP FE
+#: with the permeability free, see its catalog entry)
+FORWARD_MODEL_ARGUMENTS = {"coupled", "permeability"}
 
 
 # ------------------------------------------------------------------------------------------------ catalog
@@ -38,22 +41,23 @@ def test_catalog_entries_are_complete_and_well_formed():
             assert len(c.unavailable) > 20, f"{c.name}: an unavailable enrichment must say why"
         else:
             cls = getattr(constitutive, c.enrichment.model_class)
-            kwargs = inspect.signature(cls).parameters
-            assert set(c.enrichment.switches) <= set(kwargs), c.name
+            kwargs = set(inspect.signature(cls).parameters) | FORWARD_MODEL_ARGUMENTS
+            assert set(c.enrichment.switches) <= kwargs, c.name
             for p, (lo, hi) in c.enrichment.parameters.items():
                 assert p in kwargs and 0 < lo < hi, (c.name, p)
             assert set(c.enrichment.log_uniform) <= set(c.enrichment.parameters)
         json.dumps(c.as_data())  # plain data for inference/
-    # exactly the three ANICREEP switches are real enrichments now
-    assert {c.name for c in catalog.CATALOG if c.enrichment} == {"viscosity", "anisotropy", "destructuration"}
+    # the real enrichments now: three ANICREEP switches and the coupled SBP forward model
+    assert {c.name for c in catalog.CATALOG if c.enrichment} == {"viscosity", "partial drainage", "anisotropy",
+                                                                  "destructuration"}
 
 
 def test_catalog_enrichment_settings_and_refusals():
     switches, bounds, log_uniform = catalog.enriched_settings("viscosity", BASE, {"M": (0.8, 2.0)})
     assert switches == {"viscous": True, "anisotropy": True}
     assert bounds == {"M": (0.8, 2.0), "C_alpha_e": (0.001, 0.1)} and log_uniform == ("C_alpha_e",)
-    with pytest.raises(ValueError, match="enrichment not available: the lab-test drivers"):
-        catalog.enriched_settings("partial drainage", BASE, {})
+    with pytest.raises(ValueError, match="enrichment not available: ANICREEP has no Lode-angle switch"):
+        catalog.enriched_settings("Lode dependence", BASE, {})
     with pytest.raises(ValueError, match="already has it"):
         catalog.enriched_settings("anisotropy", BASE, {})
     with pytest.raises(ValueError, match="not in the catalog"):
@@ -87,6 +91,7 @@ def _planted(effect, seed):
     cov = {"strain rate": {f"T{i}": r for i, r in enumerate(RATES)},
            "time": {(f"T{i}", c): X / r for i, r in enumerate(RATES) for c in ("q", "p")},
            "strain level": {(f"T{i}", c): X for i in range(6) for c in ("q", "p")},
+           "post-peak strain": {(f"T{i}", c): np.where(X > 5.0, X - 5.0, np.nan) for i in range(6) for c in ("q", "p")},
            "mean effective stress": {f"T{i}": 100.0 * u for i, u in enumerate(unrelated)}}
     return like, sim, cov
 
@@ -122,8 +127,8 @@ def test_scoring_respects_the_direction_of_the_signature():
     assert not by["partial drainage"]["named"] and by["partial drainage"]["score"] > 0
 
 
-def test_scoring_names_a_strain_level_signature_as_destructuration():
-    # recorded falls below simulated as strain accumulates, in every test alike
+def test_scoring_names_a_post_peak_softening_signature_as_destructuration():
+    # recorded falls below simulated as strain accumulates (past a peak at 5 %), in every test alike
     report, ranked = _ranked(lambda rate, x: -0.06 * (x / 10.0) ** 2)
     assert report.verdict == "structured mismatch"
     assert ranked[0]["name"] == "destructuration" and ranked[0]["named"]
