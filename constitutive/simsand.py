@@ -214,7 +214,7 @@ class SIMSAND(MaterialModel):
     tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 1000), ``triaxial_integrator``
     ("compiled", default: :meth:`update_triaxial` and :meth:`triaxial_test` run the numba kernel of
     :mod:`constitutive._simsand_kernel`; "numpy": the vectorised numpy integrator in the triaxial space, kept as the
-    reference (test oracle) of the kernel, several times slower).
+    reference (test oracle) of the kernel, about ten times slower).
 
     State (dict of (n,) arrays): ``void_ratio`` e, ``void_ratio_initial`` e_0 (reference of e = e_0 - (1 + e_0)
     eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0), ``substep`` the last substep size proposed
