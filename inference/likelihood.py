@@ -67,7 +67,7 @@ class Likelihood:
             raise ValueError(f"weights name unknown tests {sorted(unknown)}; tests are {list(observations.tests)}")
         self.weights = {t: float(weights.get(t, 1.0)) for t in observations.tests}
         # points used per curve (Eq. 5 floor)
-        self.masks, self.excluded = {}, {}
+        self.masks, self.excluded, self._span, self._used = {}, {}, {}, {}
         for t in observations:
             for cname, c in t.curves.items():
                 ymax = np.max(np.abs(c.y))
@@ -76,6 +76,9 @@ class Likelihood:
                     raise ValueError(f"test {t.name}, curve {cname}: every recorded value is below the floor")
                 self.masks[t.name, cname] = mask
                 self.excluded[t.name, cname] = int(c.y.size - mask.sum())
+                # per-evaluation constants: recorded span with its coverage tolerance, the used recorded values
+                self._span[t.name, cname] = (c.x.min(), c.x.max(), 1e-9 * max(1.0, np.max(np.abs(c.x))))
+                self._used[t.name, cname] = c.y[mask]
         self.n_points = {t.name: int(sum(self.masks[t.name, c].sum() for c in t.curves)) for t in observations}
         self.names = None
 
@@ -114,21 +117,22 @@ class Likelihood:
                     raise ForwardModelError(f"forward model returned no curve {cname!r} for test {t.name!r}")
                 if isinstance(sim, tuple):
                     xs, ys = (np.asarray(v, dtype=float) for v in sim)
-                    if xs.size < 2 or not np.all(np.isfinite(xs)) or not np.all(np.isfinite(ys)):
+                    if xs.size < 2 or not (np.isfinite(xs).all() and np.isfinite(ys).all()):
                         raise ForwardModelError(f"test {t.name}, curve {cname}: simulated curve has NaN/inf")
-                    tol = 1e-9 * max(1.0, np.max(np.abs(c.x)))
-                    if xs.min() > c.x.min() + tol or xs.max() < c.x.max() - tol:
-                        raise ForwardModelError(
-                            f"test {t.name}, curve {cname}: simulation covers {c.x_name} in [{xs.min():g}, {xs.max():g}]"
-                            f" but the record spans [{c.x.min():g}, {c.x.max():g}]")
+                    lo, hi, tol = self._span[t.name, cname]
                     order = np.argsort(xs, kind="stable")
-                    values = np.interp(c.x, xs[order], ys[order])
+                    xs, ys = xs[order], ys[order]
+                    if xs[0] > lo + tol or xs[-1] < hi - tol:
+                        raise ForwardModelError(
+                            f"test {t.name}, curve {cname}: simulation covers {c.x_name} in [{xs[0]:g}, {xs[-1]:g}]"
+                            f" but the record spans [{lo:g}, {hi:g}]")
+                    values = np.interp(c.x, xs, ys)
                 else:
                     values = np.asarray(sim, dtype=float).ravel()
                     if values.shape != c.y.shape:
                         raise ForwardModelError(f"test {t.name}, curve {cname}: {values.size} simulated values for "
                                                 f"{c.y.size} recorded points")
-                if not np.all(np.isfinite(values)):
+                if not np.isfinite(values).all():
                     raise ForwardModelError(f"test {t.name}, curve {cname}: simulated values contain NaN/inf")
                 out[t.name, cname] = values
         return out
@@ -137,9 +141,12 @@ class Likelihood:
         """Eq. (5) per test from {(test, curve): values}."""
         jg = {}
         for t in self.observations:
-            obs = [t.curves[c].y[self.masks[t.name, c]] for c in t.curves]
-            sim = [simulated[t.name, c][self.masks[t.name, c]] for c in t.curves]
-            jg[t.name] = goodness_of_fit(obs, sim)
+            total = 0.0
+            for c in t.curves:
+                obs = self._used[t.name, c]
+                rel = (obs - simulated[t.name, c][self.masks[t.name, c]]) / obs
+                total += float(rel @ rel) / rel.size
+            jg[t.name] = total / len(t.curves)
         return jg
 
     def log_likelihood_from(self, result, sigma) -> float:
