@@ -29,7 +29,11 @@ class ForwardModelError(RuntimeError):
 
 def goodness_of_fit(observed, simulated) -> float:
     """Eq. (5): mean over curves of the mean squared relative error; arguments are lists of equal-length arrays."""
-    return float(np.mean([np.mean(((o - s) / o) ** 2) for o, s in zip(observed, simulated)]))
+    total = 0.0
+    for o, s in zip(observed, simulated):
+        rel = (o - s) / o
+        total += float(rel @ rel) / rel.size
+    return total / len(observed)
 
 
 def log_likelihood_test(j_g, n_points, sigma_eps):
@@ -139,15 +143,9 @@ class Likelihood:
 
     def goodness_of_fit(self, simulated: dict) -> dict:
         """Eq. (5) per test from {(test, curve): values}."""
-        jg = {}
-        for t in self.observations:
-            total = 0.0
-            for c in t.curves:
-                obs = self._used[t.name, c]
-                rel = (obs - simulated[t.name, c][self.masks[t.name, c]]) / obs
-                total += float(rel @ rel) / rel.size
-            jg[t.name] = total / len(t.curves)
-        return jg
+        return {t.name: goodness_of_fit([self._used[t.name, c] for c in t.curves],
+                                        [simulated[t.name, c][self.masks[t.name, c]] for c in t.curves])
+                for t in self.observations}
 
     def log_likelihood_from(self, result, sigma) -> float:
         """Eqs. (4) and (6) from one forward result."""
