@@ -29,7 +29,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import special, stats
 
-__all__ = ["Attribution", "attribute", "holm"]
+__all__ = ["Attribution", "attribute", "holm", "per_curve"]
 
 MAX_EXACT_TESTS = 7
 
@@ -67,7 +67,7 @@ def holm(pvalues):
     return out
 
 
-def _per_curve(name, spec, residuals):
+def per_curve(name, spec, residuals):
     """Covariate spec -> {(test, curve): array aligned with the residual}; keys (test, curve) or test; scalars broadcast."""
     if not isinstance(spec, dict):
         raise TypeError(f"covariate {name!r}: expected a dict keyed by (test, curve) or test, got {type(spec).__name__}")
@@ -205,7 +205,7 @@ def attribute(residuals: dict, covariates: dict, degree=3, n_shifts=1000, seed=0
         raise ValueError(f"n_shifts = {n_shifts} must be >= 1")
     results = []
     for name, spec in covariates.items():
-        cov = _per_curve(name, spec, residuals)
+        cov = per_curve(name, spec, residuals)
         rng = np.random.default_rng(seed)  # the same shifts for every covariate (common random numbers)
         varying = any(np.unique(v[np.isfinite(residuals[k]) & _valid(v)]).size > 1 for k, v in cov.items())
         if varying:

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from .covariates import _per_curve
+from .covariates import per_curve
 from .likelihood import Likelihood
 from .mismatch import POSITION, relative_residuals, screen
 from .observations import Curve, Observations, Test
@@ -97,7 +97,7 @@ def rank_candidates(report, residuals: dict, covariates: dict, candidates: list,
     alpha = rep["alpha"] if alpha is None else float(alpha)
     structured = rep["verdict"] == "structured mismatch"
     attribution = {a["name"]: a for a in rep["attribution"]}
-    expanded = {name: _per_curve(name, spec, residuals) for name, spec in covariates.items()}
+    expanded = {name: per_curve(name, spec, residuals) for name, spec in covariates.items()}
     ranked = []
     for c in candidates:
         _check_candidate(c)
@@ -190,7 +190,7 @@ def write_input(directory, likelihood, classes: list, covariates: dict, candidat
                              if k not in ("map_simulated", "sample_simulated", "sample_sigma")})
     cov_names = list(covariates)
     for n, name in enumerate(cov_names):
-        full = _per_curve(name, covariates[name], {k: likelihood.observations[k[0]].curves[k[1]].y for k in keys})
+        full = per_curve(name, covariates[name], {k: likelihood.observations[k[0]].curves[k[1]].y for k in keys})
         for i, k in enumerate(keys):
             if k in full:
                 arrays[_key(i, f"cov{n}")] = full[k]
