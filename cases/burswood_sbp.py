@@ -271,21 +271,8 @@ def preset_label(args, preset):
     return base if preset == PRESETS[base] else f"{base}, modified"
 
 
-def generating_values(observations):
-    """The parameters a synthetic record was generated from (its ``# synthetic_parameters:`` header), or None."""
-    found = {t.conditions.get("synthetic_parameters", "").split(" (")[0] for t in observations}
-    if len(found) != 1 or not next(iter(found)):
-        return None
-    try:
-        values = json.loads(next(iter(found)))
-    except json.JSONDecodeError:
-        return None
-    return values if set(values) == set(GENERATING) else None
-
-
-def report(out, args, post, summary, like, synthetic, bands_drawn, preset):
+def report(out, args, post, summary, like, synthetic, truth, bands_drawn, preset):
     names = [n for n in post.names if n != "sigma_eps"]
-    truth = generating_values(like.observations) if synthetic else None
     ref = {"generating (synthetic)": truth, **PAPER} if truth else dict(PAPER)
     lines = [f"# Burswood clay SBP: {study.method_name(args.method)} calibration of ANICREEP", ""]
     if synthetic:
@@ -319,9 +306,9 @@ def report(out, args, post, summary, like, synthetic, bands_drawn, preset):
     (Path(out) / "report.md").write_text("\n".join(lines) + "\n")
 
 
-def write_outputs(out, args, post, like, forward, preset, synthetic, seed):
+def write_outputs(out, args, post, like, forward, preset, synthetic, truth, seed):
+    """Every output of one run; ``truth`` the generating values of synthetic records (or None)."""
     out = Path(out)
-    truth = generating_values(like.observations) if synthetic else None
     summary = study.write_summary(out, CASE, args, seed, post, like, extra={
         "synthetic_recordings": synthetic, "preset": preset_label(args, preset), "settings_fe": asdict(preset),
         "fixed": forward.fixed, "site": forward.site, "generating": truth, "paper_table5": PAPER})
@@ -342,7 +329,7 @@ def write_outputs(out, args, post, like, forward, preset, synthetic, seed):
             res.plot(str(out / f"fields_{name}.png"))
         except Exception as exc:  # noqa: BLE001 - a missing OpenGL stack must not lose the calibration
             print(f"[burswood_sbp] field picture not written: {exc}", file=sys.stderr)
-    report(out, args, post, summary, like, synthetic, drawn, preset)
+    report(out, args, post, summary, like, synthetic, truth, drawn, preset)
     return summary
 
 
@@ -428,6 +415,7 @@ def main(argv=None):
     use_pore_pressure = not args.pressure_only and all(has_pore_pressure(p) for p in files.values())
     observations = load_recordings(files, pore_pressure=use_pore_pressure)
     synthetic = any("synthetic" in t.conditions for t in observations)
+    truth = study.generating_values(observations, GENERATING)
     forward = SBPForward(preset, fixed, rates=rates,
                          curves=("cavity_pressure", "pore_pressure") if use_pore_pressure else ("cavity_pressure",))
     forward.compile_material()
@@ -440,13 +428,12 @@ def main(argv=None):
                     min_steps=min(2, args.sweeps or 2), max_stages=args.max_stages, timeout=args.timeout)
 
     def finish(run_args, seed, out, post):
-        return write_outputs(out, run_args, post, like, forward, preset, synthetic, seed)
+        return write_outputs(out, run_args, post, like, forward, preset, synthetic, truth, seed)
 
     summaries = study.run_all(args, Path("results") / CASE, like, prior, args.samples or preset.n_samples, settings,
                               finish)
     if study.is_root() and len(summaries) > 1:
         base = Path(args.out or Path("results") / CASE)
-        truth = generating_values(observations) if synthetic else None
         table = study.runs_table(summaries, prior.names, {"generating": truth, **PAPER} if truth else PAPER)
         (base / "runs.md").write_text("# Burswood SBP: independent runs\n\n" + table + "\n")
     return 0

@@ -27,7 +27,7 @@ import inference
 from inference.executors import mpi_world
 
 __all__ = ["arguments", "is_root", "method_name", "calibrate", "run_all", "write_summary", "parameter_table",
-           "runs_table", "plot_marginals", "plot_stages", "run_directories", "pyplot"]
+           "runs_table", "plot_marginals", "plot_stages", "run_directories", "pyplot", "generating_values"]
 
 PROPOSALS = {"de": "de", "o": "gaussian"}
 
@@ -110,6 +110,22 @@ def run_all(args, default_out, like, prior, n_samples, settings, finish):
                               "n_forward_solves": post.n_forward_solves, "log_evidence": round(post.log_evidence, 3),
                               "map": {k: round(v, 4) for k, v in post.map.items()}}), flush=True)
     return summaries
+
+
+def generating_values(observations, names=None):
+    """The parameters synthetic records were generated from: the JSON object at the start of their
+    ``# synthetic_parameters:`` header (text after it is a note), equal in every test, or None (no such header,
+    tests that disagree, unreadable JSON, or other names than ``names`` when given)."""
+    found = {t.conditions.get("synthetic_parameters") for t in observations}
+    if len(found) != 1 or None in found:
+        return None
+    try:
+        values, _ = json.JSONDecoder().raw_decode(next(iter(found)).strip())
+    except json.JSONDecodeError:
+        return None
+    if not isinstance(values, dict) or (names is not None and set(values) != set(names)):
+        return None
+    return values
 
 
 def write_summary(out: Path, case: str, args, seed: int, post, like, extra=None) -> dict:

@@ -105,9 +105,11 @@ def test_small_calibration_serial_and_two_ranks_agree_and_move_toward_the_genera
                 "parameters", "sigma_eps", "log_evidence", "J_g_at_map"):
         assert key in summary
     assert summary["synthetic_recordings"] is True
+    assert summary["generating"] == sbp.GENERATING  # read back from the records' synthetic_parameters header
     for f in ("report.md", "curves.png", "marginals.png", "stages.png", "posterior.npz", "progress.log"):
         assert (serial / f).exists(), f
-    assert "SYNTHETIC" in (serial / "report.md").read_text()
+    report = (serial / "report.md").read_text()
+    assert "SYNTHETIC" in report and "Generating values inside the 95 % posterior interval" in report
     mpi = _run(tmp_path, tiny_records, "mpi", mpi=2)
     a, b = np.load(serial / "posterior.npz"), np.load(mpi / "posterior.npz")
     np.testing.assert_array_equal(a["stage_samples"], b["stage_samples"])
