@@ -257,11 +257,11 @@ def _increment(sa, sr, e, eps, v0, substep, l0, l1, held0, held1, prm, p_at, p_m
                max_substeps):
     """One increment of one point (SIMSAND._substeps): load (l0, l1) = the strain increment of a strain-controlled
     component, the stress increment (kPa) of a held one. Returns (sigma'_a, sigma'_r, e, eps_d^p, d eps_a, d eps_r,
-    next substep hint, plastic flag of the last substep, failure code)."""
+    next substep hint, failure code)."""
     dT = min(2.0 * substep, 1.0)
-    ea, er, plastic_end = 0.0, 0.0, False
+    ea = er = 0.0
     if l0 == 0.0 and l1 == 0.0:  # a zero increment changes nothing
-        return sa, sr, e, eps, ea, er, dT, plastic_end, 0
+        return sa, sr, e, eps, ea, er, dT, 0
     T = 0.0
     nsub = 0
     both = held0 and held1
@@ -277,14 +277,14 @@ def _increment(sa, sr, e, eps, v0, substep, l0, l1, held0, held1, prm, p_at, p_m
         if on_surface and not pl:  # unloading from the surface
             ds1a, ds1r, de1a, de1r, dlam1 = _rates(ev0, d0, d1, v0, False, held0, held1, csr)
         if pl and not ev0[5] > 0.0:
-            return sa, sr, e, eps, ea, er, dT, plastic_end, NO_UNIQUE_RESPONSE
+            return sa, sr, e, eps, ea, er, dT, NO_UNIQUE_RESPONSE
         if not _finite(de1a, de1r):
-            return sa, sr, e, eps, ea, er, dT, plastic_end, CONTROL_LOST
+            return sa, sr, e, eps, ea, er, dT, CONTROL_LOST
         # stage 2 at the Euler estimate
         ev1 = _evaluate(sa + ds1a, sr + ds1r, e + -v0 * (de1a + de1r * 2.0), eps + dlam1, d0, d1, prm, p_at, p_min)
         ds2a, ds2r, de2a, de2r, dlam2 = _rates(ev1, d0, d1, v0, pl, held0, held1, csr)
         if (held0 or held1) and not _finite(de2a, de2r) and _finite(ev1[3], ev1[4]):
-            return sa, sr, e, eps, ea, er, dT, plastic_end, CONTROL_LOST_WITHIN
+            return sa, sr, e, eps, ea, er, dT, CONTROL_LOST_WITHIN
         na = sa + 0.5 * (ds1a + ds2a)
         nr = sr + 0.5 * (ds1r + ds2r)
         dea = 0.5 * (de1a + de2a)
@@ -322,18 +322,17 @@ def _increment(sa, sr, e, eps, v0, substep, l0, l1, held0, held1, prm, p_at, p_m
             na, nr, e_new, eps_new, dea, der, bad = _drift(na, nr, e_new, eps_new, dea, der, v0, ev1, held0, held1,
                                                            prm, p_at, p_min, ftol, csr)
             if bad:
-                return sa, sr, e, eps, ea, er, dT, plastic_end, DRIFT_FAILED
+                return sa, sr, e, eps, ea, er, dT, DRIFT_FAILED
         low = ok and na + nr * 2.0 < 3.0 * p_min  # tension cutoff: isotropic p' = p_min for the rest
         if low:
             na = nr = p_min
         if ok and not (e_new > 0.0 and e_new < E_MAX_STIFFNESS and _finite(na, nr)):
-            return sa, sr, e, eps, ea, er, dT, plastic_end, STATE_INVALID
+            return sa, sr, e, eps, ea, er, dT, STATE_INVALID
         if ok:
             sa, sr, e, eps = na, nr, e_new, eps_new
             ea += dea
             er += der
             T += h * frac
-            plastic_end = pl
         if low:
             T = 1.0
         if cross:
@@ -344,9 +343,9 @@ def _increment(sa, sr, e, eps, v0, substep, l0, l1, held0, held1, prm, p_at, p_m
             dT = min(max(0.9 * np.sqrt(stol / _fmax(err, 1e-30)), 0.1), 2.0 if ok else 1.0) * h
         nsub += 1
         if (dT < 1e-12 and T < 1.0 - 1e-12) or nsub > max_substeps:
-            return sa, sr, e, eps, ea, er, dT, plastic_end, ERROR_CONTROL
+            return sa, sr, e, eps, ea, er, dT, ERROR_CONTROL
         if not T < 1.0 - 1e-12:
-            return sa, sr, e, eps, ea, er, min(dT, 1.0), plastic_end, 0
+            return sa, sr, e, eps, ea, er, min(dT, 1.0), 0
 
 
 @jit
@@ -357,7 +356,7 @@ def update_points(stress, e, eps, v0, substep, dload, held0, held1, active, prm,
     for i in range(stress.shape[0]):
         if active[i]:
             (stress_out[i, 0], stress_out[i, 1], e_out[i], eps_out[i], deps_out[i, 0], deps_out[i, 1],
-             substep_out[i], _pl, code_out[i]) = _increment(
+             substep_out[i], code_out[i]) = _increment(
                 stress[i, 0], stress[i, 1], e[i], eps[i], v0[i], substep[i], dload[i, 0], dload[i, 1], held0, held1,
                 prm[i], p_at, p_min, stol, ftol, csr, floor, max_substeps)
         else:
@@ -384,9 +383,9 @@ def triaxial_points(stress, e, eps, v0, substep, d_axial, substeps, drained, prm
             l0 = d_axial[j]
             l1 = 0.0 if drained else -0.5 * l0
             for _k in range(substeps):
-                sa, sr, ei, ki, dea, der, sub, _pl, code = _increment(sa, sr, ei, ki, v0[i], sub, l0, l1, False,
-                                                                    drained, prm[i], p_at, p_min, stol, ftol, csr,
-                                                                    floor, max_substeps)
+                sa, sr, ei, ki, dea, der, sub, code = _increment(sa, sr, ei, ki, v0[i], sub, l0, l1, False, drained,
+                                                                 prm[i], p_at, p_min, stol, ftol, csr, floor,
+                                                                 max_substeps)
                 ea += dea
                 er += der
                 if code:
