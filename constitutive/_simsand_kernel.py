@@ -73,8 +73,7 @@ def peak_terms(pe, e, eps_dp, sin3theta, prm, p_at):
 @jit
 def yield_value(eta, pe, e, eps_dp, sin3theta, prm, p_at):
     """(f, M_p): the yield function (IV) f = eta - M_p H."""
-    Mp = peak_terms(pe, e, eps_dp, sin3theta, prm, p_at)[5]
-    H = eps_dp / (prm[KP] + eps_dp)
+    _, _, _, H, _, Mp, _, _ = peak_terms(pe, e, eps_dp, sin3theta, prm, p_at)
     return eta - H * Mp, Mp
 
 
