@@ -46,8 +46,6 @@ def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5])
 
 
-
-
 @jit
 def _surface(sig, alp, M2, s, xi, g):
     """(F) through sig with fabric alp: fills s (deviator), xi = s - p' alp, g = df/dsigma'/(p'(M^2 - alpha^2)) (V);

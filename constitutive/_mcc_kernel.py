@@ -24,8 +24,6 @@ from ._jit import jit, next_substep
 PARAMETER_COLUMNS = ("M2", "lambda_", "kappa", "G_or_nu")
 
 
-
-
 @jit
 def _evaluate(y, dl, p_n, s_n, Pde, deps_v, pcn, a, b, M2, shear, constant_G, s_tr, n_tr):
     """State and residuals at (y, d lambda). Fills s_tr (trial deviator with the secant G_bar) and n_tr = dq_tr/ds_tr;
