@@ -32,6 +32,7 @@ import numpy as np
 from ._jit import STRAIN_TO_TENSOR as _T
 from ._jit import VOIGT_IDENTITY as _I
 from ._jit import VOIGT_WEIGHTS as _W
+from ._jit import all_finite as _all_finite
 from ._jit import expm1_over_x as _expm1_over_x
 from ._jit import jit, next_substep
 
@@ -248,14 +249,6 @@ def _lu_solve(A, piv, b):
         for j in range(i + 1, n):
             b[i] -= A[i, j] * b[j]
         b[i] /= A[i, i]
-
-
-@jit
-def _all_finite(a):
-    for v in a.flat:
-        if not np.isfinite(v):
-            return False
-    return True
 
 
 @jit(inline="always")  # one call site (update_points): compiled once, inside it

@@ -1,5 +1,5 @@
 """The one compilation policy of the constitutive kernels (numba), and the small pieces the kernels share
-(Voigt constants, the exponential-integration helper). Imported only by the kernel modules.
+(Voigt constants, the exponential-integration helper, the finiteness check). Imported only by the kernel modules.
 
 ``jit(func)`` compiles ``func`` in nopython mode on its first call with
   - ``error_model="numpy"``: floating-point division by zero and invalid operations give inf/nan as in numpy (a
@@ -45,6 +45,15 @@ def expm1_over_x(x):
         dphi = 1 / 2 + x * (2 / 6 + x * (3 / 24 + x * (4 / 120 + x * (5 / 720 + x * 6 / 5040))))
         return phi, dphi
     return math.expm1(x) / x, (math.exp(x) * (x - 1.0) + 1.0) / (x * x)
+
+
+@jit
+def all_finite(a):
+    """True when every entry of the array ``a`` is finite (stops at the first that is not)."""
+    for v in a.flat:
+        if not math.isfinite(v):
+            return False
+    return True
 
 
 @jit(inline="always")

@@ -17,6 +17,7 @@ import numpy as np
 from ._jit import STRAIN_TO_TENSOR as _T
 from ._jit import VOIGT_IDENTITY as _I
 from ._jit import VOIGT_WEIGHTS as _W
+from ._jit import all_finite as _all_finite
 from ._jit import expm1_over_x as _expm1_over_x
 from ._jit import jit, next_substep
 
@@ -141,11 +142,7 @@ def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o
             s_i = s_tr[i] / den
             tan_o[i, j] = (_I[i] * p_x * dx + g_den * _T[i] * ((1.0 if i == j else 0.0) - _I[i] * _I[j] / 3.0)
                            + (Pde[i] - 6.0 * dl * s_i) / den * Gb_x * dx - g_s * s_i * L)
-    ok = True
-    for i in range(6):
-        for j in range(6):
-            ok = ok and math.isfinite(tan_o[i, j])
-    return ok, pc
+    return _all_finite(tan_o), pc
 
 
 @jit
