@@ -298,14 +298,9 @@ class ANICREEP(MaterialModel):
             raise ValueError(f"{self.name}: time increment dt = {dt[~np.isfinite(dt) | (dt < 0.0)][0]} must be >= 0")
         new_stress, alpha, dvp, tangent = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6, 6))
         pm_ref, chi, vp_shear, ratio = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-        chi_n = state.get("chi")
-        if chi_n is None:  # a state made without the bonding key: only the model without destructuration accepts it
-            if self.destructuration:
-                raise KeyError(f"{self.name}: state has no 'chi' (bonding); make it with initial_state")
-            chi_n = np.zeros(n)
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
-            np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(chi_n, dtype=float),
+            np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(state["chi"], dtype=float),
             np.ascontiguousarray(dstrain), dt, self._point_parameters(n), self.viscous, self.tolerance,
             self.max_iterations, self.max_dz, self.max_substep_depth, new_stress, alpha, pm_ref, chi, dvp, vp_shear,
             ratio, tangent)
