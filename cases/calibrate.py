@@ -47,6 +47,7 @@ from inference.observations import _converted, read_csv_table
 from inference.priors import Bound
 
 from . import burswood_sbp, study
+from .study import generating_values
 
 __all__ = ["StudyError", "Settings", "LoopProblem", "calibrate_class", "run_loop", "class_name", "load_study",
            "load_observations", "StudyForward", "StudyProblem", "generate", "main"]
@@ -988,18 +989,6 @@ class StudyProblem(LoopProblem):
 
     def plot(self, path, like, classes, diag, label):
         plot_loop(path, like, classes, diag, label, self.synthetic)
-
-
-def generating_values(observations):
-    """The free-parameter values the records were generated from (``# synthetic_parameters:`` headers, equal in
-    every test), or None."""
-    found = {t.conditions.get("synthetic_parameters") for t in observations}
-    if len(found) != 1 or None in found:
-        return None
-    try:
-        return json.loads(next(iter(found)))
-    except json.JSONDecodeError:
-        return None
 
 
 # ====================================================================================================================
