@@ -50,7 +50,7 @@ from . import burswood_sbp, study
 from .study import generating_values
 
 __all__ = ["StudyError", "Settings", "LoopProblem", "calibrate_class", "run_loop", "class_name", "load_study",
-           "load_observations", "StudyForward", "StudyProblem", "generate", "main"]
+           "load_observations", "StudyForward", "StudyProblem", "generate", "write_records", "main"]
 
 DEFAULT_OUT = Path("results") / "calibrate"
 
@@ -1210,15 +1210,23 @@ def generate(path, noise=None, seed=None, directory=None) -> dict:
             header.append(f"synthetic_fe: {json.dumps(fe)}")
         target = Path(directory) / spec.file.name if directory else spec.file
         target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(".csv.tmp")
-        with tmp.open("w") as fh:
-            fh.writelines(f"# {h}\n" for h in header)
-            fh.write(",".join(columns) + "\n")
-            for x_value, *row in zip(*columns.values()):  # the abscissa exactly (shortest round trip)
-                fh.write(",".join([repr(float(x_value))] + [f"{v:.9g}" for v in row]) + "\n")
-        tmp.replace(target)
-        paths[spec.name] = target
+        paths[spec.name] = write_records(target, header, columns, exact=(_column(x_name, spec.type),))
     return paths
+
+
+def write_records(path, header, columns: dict, exact=()) -> Path:
+    """One CSV of records: ``# `` header lines, the column names, then the rows, 9 significant digits except the
+    columns named in ``exact`` (shortest round trip); written to ``<path>.tmp`` and moved into place."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    shortest = [c in exact for c in columns]
+    with tmp.open("w") as fh:
+        fh.writelines(f"# {h}\n" for h in header)
+        fh.write(",".join(columns) + "\n")
+        for row in zip(*columns.values()):
+            fh.write(",".join(repr(float(v)) if s else f"{v:.9g}" for s, v in zip(shortest, row)) + "\n")
+    tmp.replace(path)
+    return path
 
 
 # ====================================================================================================================

@@ -51,8 +51,8 @@ from constitutive import ANICREEP, labtests
 
 from . import concealed_viscosity as cv
 from . import study
-from .calibrate import Settings, calibrate_class, class_name, run_loop
-from .concealed_viscosity import FIXED, NOISE, PER_HOUR, LabForward, write_records
+from .calibrate import Settings, calibrate_class, class_name, run_loop, write_records
+from .concealed_viscosity import FIXED, NOISE, PER_HOUR, LabForward
 
 CASE = "concealed_lab"
 DATA = Path(__file__).parent / "data" / "concealed_programme"

@@ -37,8 +37,7 @@ from fem.oracles import consolidation_coefficient
 from inference import ForwardModelError, diagnose
 
 from . import burswood_sbp, study
-from .calibrate import LoopProblem, Settings, calibrate_class, class_name, run_loop
-from .concealed_viscosity import write_records
+from .calibrate import LoopProblem, Settings, calibrate_class, class_name, run_loop, write_records
 
 CASE = "concealed_sbp"
 DATA = Path(__file__).parent / "data" / "concealed_sbp"

@@ -43,7 +43,7 @@ from constitutive import ANICREEP, labtests
 from inference.likelihood import ForwardModelError
 
 from . import calibrate, study
-from .calibrate import LoopProblem, Settings
+from .calibrate import LoopProblem, Settings, write_records
 
 CASE = "concealed_viscosity"
 DATA = Path(__file__).parent / "data"
@@ -179,17 +179,6 @@ def write_data(directory, control: bool, seed: int = 1) -> dict:
         paths[t.name] = write_records(directory / f"{t.name}.csv", header, {
             "axial_strain_pct": 100.0 * t.strains, **{CURVE_UNITS[c]: curves[t.name][c] for c in t.curves}})
     return paths
-
-
-def write_records(path, header, columns: dict) -> Path:
-    """One CSV: ``# `` header lines, the column names, then the rows (9 significant digits)."""
-    path = Path(path)
-    with path.open("w") as fh:
-        fh.writelines(f"# {h}\n" for h in header)
-        fh.write(",".join(columns) + "\n")
-        for row in zip(*columns.values()):
-            fh.write(",".join(f"{v:.9g}" for v in row) + "\n")
-    return path
 
 
 def load_data(directory) -> inference.Observations:
