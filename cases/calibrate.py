@@ -136,12 +136,19 @@ def calibrate_class(obs, name, switches, bounds, log_uniform, args, out, seed, s
     prior = problem.prior(bounds, log_uniform)
     post = study.calibrate(like, prior, args, out, seed, settings.n_samples, executor=problem.executor(),
                            max_steps=settings.max_steps, progress=False)
-    calib_s = time.perf_counter() - t0
-    summary = study.write_summary(out, problem.case, args, seed, post, like, extra={
-        "model_class": name, "switches": switches, **problem.summary_extra(switches), "calibration_wall_s": calib_s})
-    cls, map_raw = class_record(post, like, problem, name, switches, seed, settings.predictive_draws, summary)
-    problem.outputs(args, seed, out, post, like, cls, map_raw)
+    cls, map_raw, _ = finish_class(post, like, problem, name, switches, args, out, seed, settings.predictive_draws,
+                                   time.perf_counter() - t0)
     return cls, post, like, map_raw
+
+
+def finish_class(post, like, problem, name, switches, args, out, seed, draws, wall_s):
+    """After one class's calibration: summary.json (with the class, its switches and ``wall_s``), the class dict
+    (:func:`class_record`) and the problem's outputs. Returns (class dict, MAP raw curves, summary)."""
+    summary = study.write_summary(out, problem.case, args, seed, post, like, extra={
+        "model_class": name, "switches": switches, **problem.summary_extra(switches), "calibration_wall_s": wall_s})
+    cls, map_raw = class_record(post, like, problem, name, switches, seed, draws, summary)
+    problem.outputs(args, seed, out, post, like, cls, map_raw)
+    return cls, map_raw, summary
 
 
 def class_record(post, like, problem, name, switches, seed, draws, summary):
@@ -1276,12 +1283,8 @@ def main(argv=None):
     prior = problem.prior(study_.free, study_.log_uniform)
 
     def finish(run_args, seed, out, post):
-        summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
-            "model_class": name, "switches": study_.switches, **problem.summary_extra(study_.switches),
-            "calibration_wall_s": post.wall_s})
-        cls, _ = class_record(post, like, problem, name, study_.switches, seed, settings.predictive_draws, summary)
-        write_outputs(out, run_args, post, like, cls, problem)
-        return summary
+        return finish_class(post, like, problem, name, study_.switches, run_args, out, seed,
+                            settings.predictive_draws, post.wall_s)[2]
 
     study.run_all(args, default_out, like, prior, settings.n_samples, {"max_steps": settings.max_steps}, finish)
     return 0
