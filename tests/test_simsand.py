@@ -386,6 +386,20 @@ def test_uncontrollable_drained_path_raises_integration_error_naming_the_point()
     assert info.value.point == 1
 
 
+def test_raised_failure_names_the_point_that_fails_first():
+    """With on_failure="raise" the IntegrationError names the point whose curve fails at the earliest target (ties:
+    the lowest index), as the NaN onsets of on_failure="nan" show; here that is not the lowest failed index."""
+    params = sample_prior(SYNTHETIC_BOUNDS, 12, seed=4)
+    params = {k: (np.append(v, v[2]) if np.ndim(v) else v) for k, v in params.items()}  # point 12 repeats point 2
+    ea = np.linspace(0.0025, 0.25, 100)
+    c = SIMSAND(**params).triaxial_test(0.6, 800.0, ea, on_failure="nan")
+    onset = np.where(c["failed"], np.argmax(np.isnan(c["q"]), axis=1), ea.size)
+    assert c["failed"][0] and np.flatnonzero(onset == onset.min()).tolist() == [2, 12]
+    with pytest.raises(IntegrationError) as info:
+        SIMSAND(**params).triaxial_test(0.6, 800.0, ea)
+    assert info.value.point == 2
+
+
 def test_undrained_loose_liquefies_to_the_tension_cutoff_without_failure():
     """Very loose undrained sample: p' collapses (static liquefaction) and is held at p_min >= 0 without error."""
     model = SIMSAND(**dict(TRUE, e_ref=0.75, n_p=4.0, A_d=2.0))
