@@ -715,7 +715,7 @@ class SIMSAND(MaterialModel):
                                       self._kernel_params(n), *self._kernel_options(), rec, fail_at, code)
             failed = code > 0
             if on_failure == "raise" and np.any(failed):
-                i = int(np.lexsort((np.arange(n), np.where(failed, fail_at, targets.size)))[0])
+                i = int(np.argmin(np.where(failed, fail_at, targets.size)))  # earliest target, then lowest index
                 raise IntegrationError(i, self.failure_reason(code[i]))
         eps_a, eps_r, sig_a, sig_r, e = rec
         return {"axial_strain": eps_a, "radial_strain": eps_r, "volumetric_strain": eps_a + 2.0 * eps_r,
