@@ -397,10 +397,10 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
 def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth,
                   stress_out, alpha_out, pm_out, chi_out, dvp_out, vp_shear_out, ratio_out, tangent_out):
     """Integrate one increment at every point (arrays over n points: stress, alpha (n, 6), pm_ref (n,), chi (n,) the
-    bonding (0 without destructuration), deps (n, 6), dt (n,), prm (n, 10) in the order PARAMETER_COLUMNS). A point that fails is split into halves
-    (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays (dvp_out the viscoplastic strain increment,
-    vp_shear_out its eps_d^vp = sqrt(2/3 e^vp:e^vp)); returns the index of the first point that
-    failed at the deepest level, or -1."""
+    bonding (0 without destructuration), deps (n, 6), dt (n,), prm (n, 10) in the order PARAMETER_COLUMNS). A point
+    that fails is split into halves (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays (dvp_out
+    the viscoplastic strain increment, vp_shear_out its eps_d^vp = sqrt(2/3 e^vp:e^vp)); returns the index of the
+    first point that failed at the deepest level, or -1."""
     n = stress.shape[0]
     ws = np.zeros((38, _NX))  # scratch rows: 0-31 _evaluate, 7 and 32-37 _local_solve
     X, Xn, dX, R, rhs = np.zeros(_NX), np.zeros(_NX), np.zeros(_NX), np.zeros(_NX), np.zeros(_NX)
