@@ -30,7 +30,6 @@ from pathlib import Path
 
 import numpy as np
 
-import fem
 import inference
 from constitutive import ANICREEP, physics_catalog
 from fem.oracles import consolidation_coefficient
@@ -42,8 +41,7 @@ from .calibrate import LoopProblem, Settings, calibrate_class, class_name, run_l
 CASE = "concealed_sbp"
 DATA = Path(__file__).parent / "data" / "concealed_sbp"
 #: coarse FE (same for data and calibration) and the sampler size
-PRESET = burswood_sbp.Preset(radial_cells=30, layers=1, increments=30, outer="field", outer_radius_a0=200.0,
-                             n_samples=48, max_steps=3)
+PRESET = burswood_sbp.Preset(radial_cells=30, layers=1, increments=30, outer="field", outer_radius_a0=200.0)
 SETTINGS = Settings(n_samples=48, max_steps=3, predictive_draws=16)
 RATES = burswood_sbp.RATES
 SITE = burswood_sbp.SITE
@@ -77,19 +75,12 @@ class Forward(burswood_sbp.SBPForward):
     def __init__(self, switches: dict, permeability: float, curves=CURVES, preset=PRESET):
         super().__init__(preset, rates=RATES, curves=curves)
         self.switches = dict(switches)
+        self.model_switches = {k: v for k, v in self.switches.items() if k not in FE_SWITCHES}
         self.permeability = float(permeability)
 
     def material(self, params):
-        f = self.fixed
         values = {k: v for k, v in params.items() if k != "permeability"}
-        switches = {k: v for k, v in self.switches.items() if k not in FE_SWITCHES}
-        return ANICREEP(lambda_=f["lambda_"], kappa=f["kappa"], nu=f["nu"], e0=f["e0"], tau=f["tau"], **switches,
-                        **values, vertical_axis=2)
-
-    def compile_material(self):
-        model = ANICREEP(**{k: v for k, v in FIXED.items()}, **GENERATING, C_alpha_e=0.02, vertical_axis=2)
-        stress = fem.Geostatic(SITE["sigma_v0"], SITE["K0"], SITE["u0"]).effective_stress(1)
-        model.update(stress, model.initial_state(stress), np.zeros((1, 6)), 1.0)
+        return ANICREEP(**self.fixed, **self.model_switches, **values, vertical_axis=2)
 
     def results(self, params, save_fields="none") -> dict:
         material = self.material(params)
@@ -198,7 +189,8 @@ class SBPProblem(LoopProblem):
         return inference.default_executor("dynamic", self.processes)
 
     def summary_extra(self, switches):
-        return {"k_assumed": self.k_assumed, "curves": list(self.curves), "fe": PRESET.__dict__}
+        return {"k_assumed": self.k_assumed, "curves": list(self.curves),
+                "fe": {k: getattr(PRESET, k) for k in burswood_sbp.FE_FIELDS}}
 
     def description(self, label, base_name):
         return (f"**SYNTHETIC data** ({label}). Two SBP expansions (0.167 %/s, 0.0185 %/s); base class {base_name} "
@@ -306,8 +298,7 @@ def run_case(effect: str, seed: int, out: Path, pore_pressure=True, settings=SET
     t0 = time.perf_counter()
     out = Path(out)
     label = f"data set {EFFECTS[effect]['dataset']}, seed {seed}, {'with' if pore_pressure else 'without'} pore pressure"
-    curves = generated if generated is not None else None
-    obs = (observations_from(curves, pore_pressure, "yes") if curves is not None
+    obs = (observations_from(generated, pore_pressure, "yes") if generated is not None
            else load_data(effect, pore_pressure))
     problem = SBPProblem(EFFECTS[effect]["k_assumed"], pore_pressure, processes)
     args = args or study.arguments(__doc__, [])
@@ -360,16 +351,15 @@ def main(argv=None):
             print(json.dumps({k: str(v) for k, v in write_data(effect).items()}))
         return 0
     out = Path(args.out or Path("results") / CASE)
-    seed = args.seed if args.seed is not None else 1
     settings = Settings(args.samples or SETTINGS.n_samples, SETTINGS.max_steps, SETTINGS.predictive_draws)
     if not args.confusion:
         effect = "none" if args.control else args.effect
-        row = run_case(effect, seed, out, not args.pressure_only, settings, args, processes=args.processes,
+        row = run_case(effect, args.seed, out, not args.pressure_only, settings, args, processes=args.processes,
                        all_enrichments=args.all_enrichments)
         print(json.dumps(row, default=float))
         return 0
     rows = []
-    for s in range(seed, seed + args.seeds):
+    for s in range(args.seed, args.seed + args.seeds):
         for effect in EFFECTS:
             for pp in (True, False):
                 gen = None if s == 1 else synthetic_curves(effect, s)
