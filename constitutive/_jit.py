@@ -10,6 +10,11 @@
     writable, in numba's user-wide cache directory (``NUMBA_CACHE_DIR`` when set). Processes (forked workers, MPI
     ranks) share that cache; numba writes it atomically. If no cache location is usable, the kernel is compiled
     in memory in every process instead (slower start, same results).
+    Numba invalidates a cached function only when its OWN source file changes (a documented numba limitation): the
+    helpers and constants of this module, and ``simsand.E_MAX_STIFFNESS`` read by ``_simsand_kernel``, are frozen
+    into the cached kernels of the other files. After editing one of them, delete the kernels' cache files
+    (``constitutive/__pycache__/*.nbi`` and ``*.nbc``, or those under ``NUMBA_CACHE_DIR``) or touch the kernel
+    modules; otherwise a process keeps running the old code.
 """
 from __future__ import annotations
 
