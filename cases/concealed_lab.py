@@ -52,7 +52,7 @@ from constitutive import ANICREEP, labtests
 from . import concealed_viscosity as cv
 from . import study
 from .calibrate import Settings, calibrate_class, class_name, run_loop, write_records
-from .concealed_viscosity import FIXED, NOISE, PER_HOUR, LabForward
+from .concealed_viscosity import FIXED, NOISE, PER_HOUR, LabForward  # noqa: F401 - LabForward: part of this interface
 
 CASE = "concealed_lab"
 DATA = Path(__file__).parent / "data" / "concealed_programme"
@@ -236,20 +236,19 @@ def post_peak_strain(strain, deviator):
 
 # ------------------------------------------------------------------------------------------------ the loop
 class LabProblem(cv._Problem):
-    """The loop problem of cases.concealed_viscosity (model, sigma_eps prior, summary) with this case's programme,
-    base class, covariates, description and figure."""
+    """The loop problem of cases.concealed_viscosity (model, sigma_eps prior, summary, forward model) with this case's
+    programme and simulation, base class, covariates, description and figure."""
 
     case = CASE
     base_switches = BASE_SWITCHES
     base_bounds = BASE_BOUNDS
-
-    def forward(self, switches):
-        return LabForward(TESTS, switches, simulate)
+    tests = TESTS
+    simulate = staticmethod(simulate)
 
     def map_curves(self, params, switches):
-        raw, _ = simulate(TESTS, {k: np.array([v]) for k, v in params.items()}, switches)
-        return {t.name: {**{c: v[0] for c, v in raw[t.name].items()},
-                         "overconsolidation": params["sigma_p0"] / t.sigma_v0} for t in TESTS}
+        """The MAP curves with each test's overconsolidation sigma'_p0 / sigma'_v0 (a covariate)."""
+        raw = super().map_curves(params, switches)
+        return {t.name: {**raw[t.name], "overconsolidation": params["sigma_p0"] / t.sigma_v0} for t in TESTS}
 
     def covariates(self, like, map_curves):
         return covariates(like, map_curves)

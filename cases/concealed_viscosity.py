@@ -218,19 +218,22 @@ PRESETS = {"paper": Settings(400, 8, 100), "quick": Settings(200, 5, 60)}
 
 
 class _Problem(LoopProblem):
-    """This case's pieces of the shared loop (cases.calibrate.calibrate_class / run_loop)."""
+    """This case's pieces of the shared loop (cases.calibrate.calibrate_class / run_loop): the programme ``tests``
+    run by ``simulate`` (another lab case sets its own)."""
 
     case = CASE
     model = "ANICREEP"
     base_switches = BASE_SWITCHES
     base_bounds = BASE_BOUNDS
     sigma_bounds = SIGMA_BOUNDS
+    tests = TESTS
+    simulate = staticmethod(simulate)
 
     def forward(self, switches):
-        return LabForward(TESTS, switches)
+        return LabForward(self.tests, switches, self.simulate)
 
     def map_curves(self, params, switches):
-        raw, _ = simulate(TESTS, {k: np.array([v]) for k, v in params.items()}, switches)
+        raw, _ = self.simulate(self.tests, {k: np.array([v]) for k, v in params.items()}, switches)
         return {t: {c: v[0] for c, v in cs.items()} for t, cs in raw.items()}
 
     def covariates(self, like, map_curves):
