@@ -282,6 +282,8 @@ COLUMNS = {
     "sbp": {"cavity_strain": ("%", "x"), "cavity_pressure": ("kPa", "required curve"),
             "pore_pressure": ("kPa", "curve"), "time": ("s", "time")},
 }
+#: the abscissa quantity of each test type
+X_COLUMN = {kind: next(q for q, (_, role) in cols.items() if role == "x") for kind, cols in COLUMNS.items()}
 #: CSV quantity -> curve name (the catalog's stress-curve names: sigma'_v is "axial_stress")
 CURVE_OF = {"sigma_v": "axial_stress"}
 DRAINED_ONLY = ("volumetric_strain", "void_ratio")
@@ -689,7 +691,7 @@ def _check_table(spec: TestSpec, table: dict):
         if role in ("x", "required curve") and q not in table:
             raise DataError(f"{path}: missing column {q!r} ({unit}) of a {spec.type} test; found {list(table)}")
     values = {q: _converted(path, q, u, v, columns[q][0]) for q, (u, v) in table.items()}
-    x_name = next(q for q, (_, role) in columns.items() if role == "x")
+    x_name = X_COLUMN[spec.type]
     x = values[x_name]
     extension = spec.type == "triaxial" and spec.direction == "extension"
     if extension and x[0] > 0:
@@ -741,7 +743,7 @@ def load_test(spec: TestSpec) -> tuple:
     meta, table = read_csv_table(spec.file)
     values = _check_table(spec, table)
     cols = COLUMNS[spec.type]
-    x_name = next(q for q, (_, role) in cols.items() if role == "x")
+    x_name = X_COLUMN[spec.type]
     present = [q for q, (_, role) in cols.items() if "curve" in role and q in values]
     if spec.curves is not None:
         for c in spec.curves:
@@ -929,7 +931,6 @@ class StudyProblem(LoopProblem):
         self.sigma_kind = study.sigma_kind
         self.base_dir = "."
         self.preset = study.preset(quick)
-        self.quick = quick
         self.processes, self.dispatch = processes, dispatch
         self.synthetic = any("synthetic" in t.conditions for t in observations)
         self.generating = generating_values(observations)
@@ -1197,7 +1198,7 @@ def generate(path, noise=None, seed=None, directory=None) -> dict:
     for spec in study.tests:
         t = fake[spec.name]
         x = next(iter(t.curves.values())).x
-        x_name = next(q for q, (_, role) in COLUMNS[spec.type].items() if role == "x")
+        x_name = X_COLUMN[spec.type]
         columns = {_column(x_name, spec.type): x}
         for q in generated_quantities(spec):
             sim = result[spec.name][CURVE_OF.get(q, q)]
