@@ -225,25 +225,21 @@ class ANICREEP(MaterialModel):
         if self._shape and self._shape[0] not in (1, n):
             raise ValueError(f"{self.name}: parameters are given for {self._shape[0]} points but {what} has {n}")
 
-    def _point_parameters(self, n):
-        """Everything the local solver needs, as a C-contiguous (n, 10) array in the column order of
-        ``_anicreep_kernel.PARAMETER_COLUMNS`` (cached per n: the model is immutable)."""
-        cache = self.__dict__.setdefault("_prm_cache", {})
-        if n not in cache:
-            prm = {
-                "M2": self.M**2,
-                "c_e": (1.0 + self.e0) / self.kappa,                  # (E)
-                "c_p": (1.0 + self.e0) / (self.lambda_ - self.kappa),  # (H)
-                "r_G": 1.5 * (1.0 - 2.0 * self.nu) / (1.0 + self.nu),  # G/K
-                "omega": self.omega, "omega_d": self.omega_d,
-                "inv_beta": 1.0 / self.beta if self.viscous else 0.0,
-                "mu": self.mu if self.viscous else 1.0,
-                "xi": self.xi if self.destructuration else 0.0,                  # (D)
-                "xi_d": self.xi_d if self.destructuration else 0.0,
-            }
-            cache[n] = np.ascontiguousarray(np.column_stack(
-                [np.broadcast_to(np.asarray(prm[k], dtype=float), (n,)) for k in _kernel().PARAMETER_COLUMNS]))
-        return cache[n]
+    def _kernel_columns(self, n):
+        """Everything the local solver needs, in the column order of ``_anicreep_kernel.PARAMETER_COLUMNS``
+        (``kernel_parameters``)."""
+        prm = {
+            "M2": self.M**2,
+            "c_e": (1.0 + self.e0) / self.kappa,                  # (E)
+            "c_p": (1.0 + self.e0) / (self.lambda_ - self.kappa),  # (H)
+            "r_G": 1.5 * (1.0 - 2.0 * self.nu) / (1.0 + self.nu),  # G/K
+            "omega": self.omega, "omega_d": self.omega_d,
+            "inv_beta": 1.0 / self.beta if self.viscous else 0.0,
+            "mu": self.mu if self.viscous else 1.0,
+            "xi": self.xi if self.destructuration else 0.0,                  # (D)
+            "xi_d": self.xi_d if self.destructuration else 0.0,
+        }
+        return [prm[k] for k in _kernel().PARAMETER_COLUMNS]
 
     def initial_fabric(self, n):
         """alpha_d = alpha_K0 (e_v e_v - I/3) for the vertical axis, (n, 6) stress-like Voigt."""
@@ -279,7 +275,7 @@ class ANICREEP(MaterialModel):
         alpha = self.initial_fabric(n)
         pm_ref = self.reference_size(n)
         pmd = _kernel().surface_size_points(np.ascontiguousarray(stress0), alpha,
-                                            np.ascontiguousarray(self._point_parameters(n)[:, 0]))
+                                            np.ascontiguousarray(self.kernel_parameters(n)[:, 0]))
         chi = np.broadcast_to(self.chi0 if self.destructuration else 0.0, (n,)).astype(float)
         return {"alpha": alpha.copy(), "pm_ref": pm_ref.copy(), "void_ratio": e, "vp_strain": np.zeros((n, 6)),
                 "vp_shear": np.zeros(n), "overstress": pmd / pm_ref, "chi": chi}
@@ -301,7 +297,7 @@ class ANICREEP(MaterialModel):
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
             np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(state["chi"], dtype=float),
-            np.ascontiguousarray(dstrain), dt, self._point_parameters(n), self.viscous, self.tolerance,
+            np.ascontiguousarray(dstrain), dt, self.kernel_parameters(n), self.viscous, self.tolerance,
             self.max_iterations, self.max_dz, self.max_substep_depth, new_stress, alpha, pm_ref, chi, dvp, vp_shear,
             ratio, tangent)
         if failed >= 0:

@@ -86,6 +86,19 @@ class MaterialModel:
     def update(self, stress, state: dict, dstrain, dt: float):
         raise NotImplementedError
 
+    def kernel_parameters(self, n):
+        """(n, ncol) C-contiguous per-point parameter rows for a compiled kernel, built once per n and cached (the
+        model is immutable). The columns, in the kernel's order, come from ``_kernel_columns(n)``: a sequence of
+        scalars or (n,) arrays."""
+        cache = self.__dict__.setdefault("_kernel_parameter_cache", {})
+        if n not in cache:
+            cache[n] = np.ascontiguousarray(np.column_stack(
+                [np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in self._kernel_columns(n)]))
+        return cache[n]
+
+    def _kernel_columns(self, n):
+        raise NotImplementedError(f"{self.name} has no compiled kernel")
+
     def parameters(self) -> dict:
         """The parameter record as a dict (names as in REFERENCE.md)."""
         return {k: getattr(self, k) for k in self.parameter_names}

@@ -110,15 +110,9 @@ class ModifiedCamClay(MaterialModel):
         return {"pc": pc, "void_ratio": e0, "plastic_strain": np.zeros((n, 6))}
 
     # ----------------------------------------------------------------- update
-    def _point_parameters(self, n):
-        """(n, 4) C-contiguous array in the column order of ``_mcc_kernel.PARAMETER_COLUMNS`` (cached per n)."""
-        cache = self.__dict__.setdefault("_prm_cache", {})
-        if n not in cache:
-            shear = self.G if self.G is not None else self.nu
-            cache[n] = np.ascontiguousarray(np.column_stack(
-                [np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in (self.M**2, self.lambda_, self.kappa,
-                                                                              shear)]))
-        return cache[n]
+    def _kernel_columns(self, n):
+        """Columns of ``_mcc_kernel.PARAMETER_COLUMNS`` (``kernel_parameters``): M^2, lambda, kappa, G or nu."""
+        return [self.M**2, self.lambda_, self.kappa, self.G if self.G is not None else self.nu]
 
     def update(self, stress, state, dstrain, dt):
         """One increment of strain ``dstrain`` (n, 6); ``dt`` is not used (rate independent). Returns the new
@@ -130,7 +124,7 @@ class ModifiedCamClay(MaterialModel):
         new_stress, pc, deps_p, tangent = np.empty((n, 6)), np.empty(n), np.empty((n, 6)), np.empty((n, 6, 6))
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["pc"], dtype=float), e,
-            np.ascontiguousarray(dstrain), self._point_parameters(n), self.G is not None, self.tolerance,
+            np.ascontiguousarray(dstrain), self.kernel_parameters(n), self.G is not None, self.tolerance,
             self.max_iterations, self.max_substep_depth, new_stress, pc, deps_p, tangent)
         if failed >= 0:
             raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "

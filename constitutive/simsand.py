@@ -638,12 +638,9 @@ class SIMSAND(MaterialModel):
         return (self.p_at, self.p_min, self.stol, self.ftol, CONTROL_STIFFNESS_RATIO, STRESS_ERROR_FLOOR * self.p_at,
                 self.max_substeps)
 
-    def _kernel_params(self, n):
-        """(n, ncol) C-contiguous parameter rows for the compiled integrator (cached per n: the model is immutable)."""
-        cache = self.__dict__.setdefault("_prm_cache", {})
-        if n not in cache:
-            cache[n] = np.ascontiguousarray(self._point_params(n).T)
-        return cache[n]
+    def _kernel_columns(self, n):
+        """Rows of ``_point_params`` as the columns of the compiled integrator (``kernel_parameters``)."""
+        return self._point_params(n)
 
     def update_triaxial(self, stress, state, dload, stress_control=(False, True), raise_errors=True, active=None):
         """Fast path for axisymmetric triaxial states (the same equations and integrator in two components).
@@ -670,7 +667,7 @@ class SIMSAND(MaterialModel):
         _kernel().update_points(
             np.ascontiguousarray(stress), *self._kernel_state(state, n), np.ascontiguousarray(dload), bool(held[0]),
             bool(held[1]), np.ones(n, dtype=bool) if active is None else np.asarray(active, dtype=bool),
-            self._kernel_params(n), *self._kernel_options(), sig, e, eps, deps, sub, code)
+            self.kernel_parameters(n), *self._kernel_options(), sig, e, eps, deps, sub, code)
         failed = code > 0
         if raise_errors and np.any(failed):
             i = int(np.argmax(failed))
@@ -712,7 +709,7 @@ class SIMSAND(MaterialModel):
             rec, fail_at, code = np.empty((5, n, targets.size)), np.empty(n, dtype=np.int64), \
                 np.empty(n, dtype=np.int64)
             _kernel().triaxial_points(sig, *self._kernel_state(state, n), d_axial, int(substeps), bool(drained),
-                                      self._kernel_params(n), *self._kernel_options(), rec, fail_at, code)
+                                      self.kernel_parameters(n), *self._kernel_options(), rec, fail_at, code)
             failed = code > 0
             if on_failure == "raise" and np.any(failed):
                 i = int(np.argmin(np.where(failed, fail_at, targets.size)))  # earliest target, then lowest index

@@ -413,7 +413,7 @@ def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous,
     from constitutive import _anicreep_kernel as K
     m, sig, st, rng = _loaded_states(viscous, destructuration)
     n = sig.shape[0]
-    prm = m._point_parameters(n)
+    prm = m.kernel_parameters(n)
     R, J, ws = np.zeros(13), np.zeros((13, 13)), np.zeros((38, 13))
     worst_r = worst_j = 0.0
     for i in range(n):
