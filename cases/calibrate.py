@@ -105,6 +105,11 @@ class LoopProblem:
         """The switches the catalog's ``present_when`` is compared with."""
         return switches
 
+    def also_enrich(self, diag: dict) -> list:
+        """Further candidates (names, in this order) whose enriched class the loop calibrates after the best-ranked
+        named one, from the first diagnosis ``diag``; none by default."""
+        return []
+
     def executor(self):
         return inference.SerialExecutor()
 
@@ -185,21 +190,23 @@ def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str, pr
     t0 = time.perf_counter()
     first = diagnose.diagnose_directory(out)
     screen_s = time.perf_counter() - t0
-    skipped = []
+    skipped, chosen = [], []
     for cand in first["candidates"]:
         if not cand["named"]:
             continue
         if cand["enrichment"] is None or cand["enrichment"]["model_class"] != problem.model:
             skipped.append(cand["name"])
             continue
-        switches, bounds, log_uniform = physics_catalog.enriched_settings(cand["name"], base_switches,
-                                                                          problem.base_bounds)
+        chosen.append(cand["name"])
+        break
+    chosen += [name for name in problem.also_enrich(first) if name not in chosen]
+    for name in chosen:
+        switches, bounds, log_uniform = physics_catalog.enriched_settings(name, base_switches, problem.base_bounds)
         enriched, _, _, _ = calibrate_class(obs, class_name(switches, problem.model), switches, bounds,
                                             tuple(problem.base_log_uniform) + tuple(log_uniform), args,
-                                            out / f"enriched_{cand['name'].replace(' ', '_')}", seed, settings, problem)
-        enriched.update(role="enriched", candidate=cand["name"])
+                                            out / f"enriched_{name.replace(' ', '_')}", seed, settings, problem)
+        enriched.update(role="enriched", candidate=name)
         classes.append(enriched)
-        break
     if len(classes) > 1:
         diagnose.write_input(out, like, classes, cov, candidates, description=description)
     final = diagnose.diagnose_directory(out)

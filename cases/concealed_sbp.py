@@ -31,12 +31,12 @@ from pathlib import Path
 import numpy as np
 
 import inference
-from constitutive import ANICREEP, physics_catalog
+from constitutive import ANICREEP
 from fem.oracles import consolidation_coefficient
 from inference import ForwardModelError, diagnose
 
 from . import burswood_sbp, study
-from .calibrate import LoopProblem, Settings, calibrate_class, class_name, run_loop, write_records
+from .calibrate import LoopProblem, Settings, class_name, run_loop, write_records
 
 CASE = "concealed_sbp"
 DATA = Path(__file__).parent / "data" / "concealed_sbp"
@@ -171,10 +171,11 @@ class SBPProblem(LoopProblem):
     sigma_bounds = SIGMA_BOUNDS
     base_dir = "base"
 
-    def __init__(self, k_assumed: float, pore_pressure: bool, processes=None):
+    def __init__(self, k_assumed: float, pore_pressure: bool, processes=None, all_enrichments=False):
         self.k_assumed = float(k_assumed)
         self.curves = CURVES if pore_pressure else CURVES[:1]
         self.processes = processes
+        self.all_enrichments = all_enrichments
 
     def forward(self, switches):
         return Forward(switches, self.k_assumed, self.curves)
@@ -184,6 +185,11 @@ class SBPProblem(LoopProblem):
 
     def catalog_switches(self, switches):
         return {"coupled": False, **switches}
+
+    def also_enrich(self, diag):
+        """Every other enrichable candidate that is named or, with ``all_enrichments``, whenever the base misfits."""
+        return [c["name"] for c in diag["candidates"] if c["name"] in ENRICHABLE
+                and (c["named"] or (self.all_enrichments and diag["verdict"] == "structured mismatch"))]
 
     def executor(self):
         return inference.default_executor("dynamic", self.processes)
@@ -292,31 +298,17 @@ def design_limits(diag: dict, pore_pressure: bool) -> str:
 
 def run_case(effect: str, seed: int, out: Path, pore_pressure=True, settings=SETTINGS, args=None, generated=None,
              processes=None, all_enrichments=False) -> dict:
-    """The loop on one data set: calibrate the base class, diagnose, calibrate the enriched class of the best named
-    candidate (cases.calibrate.run_loop) and, with ``all_enrichments`` (or when several are named), every other
-    enrichable candidate; rewrite the diagnosis with every class. Returns a row for the confusion table."""
+    """The loop on one data set (cases.calibrate.run_loop): calibrate the base class, diagnose, calibrate the enriched
+    class of the best named candidate and, with ``all_enrichments`` (or when several are named), every other
+    enrichable candidate (:meth:`SBPProblem.also_enrich`); the diagnosis compares every class. Returns a row for the
+    confusion table."""
     t0 = time.perf_counter()
     out = Path(out)
     label = f"data set {EFFECTS[effect]['dataset']}, seed {seed}, {'with' if pore_pressure else 'without'} pore pressure"
     obs = (observations_from(generated, pore_pressure, "yes") if generated is not None
            else load_data(effect, pore_pressure))
-    problem = SBPProblem(EFFECTS[effect]["k_assumed"], pore_pressure, processes)
-    args = args or study.arguments(__doc__, [])
-    diag = run_loop(obs, args, out, seed, settings, label, problem)
-    done = {c["candidate"] for c in diag["classes"] if c["role"] == "enriched"}
-    extra = [c["name"] for c in diag["candidates"] if c["name"] in ENRICHABLE and c["name"] not in done
-             and (c["named"] or (all_enrichments and diag["verdict"] == "structured mismatch"))]
-    if extra:
-        meta, like, classes, cov = diagnose.read_input(out)
-        for name in extra:
-            switches, bounds, log_uniform = physics_catalog.enriched_settings(name, BASE_SWITCHES, BASE_BOUNDS)
-            cls, _, _, _ = calibrate_class(obs, class_name(switches), switches, bounds, tuple(log_uniform), args,
-                                           out / f"enriched_{name.replace(' ', '_')}", seed, settings, problem)
-            cls.update(role="enriched", candidate=name)
-            classes.append(cls)
-        diagnose.write_input(out, like, classes, cov, meta["candidates"], description=meta["description"])
-        diag = diagnose.diagnose_directory(out)
-        problem.plot(out / "diagnosis.png", like, classes, diag, label)
+    problem = SBPProblem(EFFECTS[effect]["k_assumed"], pore_pressure, processes, all_enrichments)
+    diag = run_loop(obs, args or study.arguments(__doc__, []), out, seed, settings, label, problem)
     limits = design_limits(diag, pore_pressure)
     row = {"effect": effect, "dataset": EFFECTS[effect]["dataset"], "seed": seed, "pore_pressure": pore_pressure,
            "verdict": diag["verdict"], "named": [c["name"] for c in diag["candidates"] if c["named"]],
