@@ -182,15 +182,7 @@ def generate_recordings(directory=DATA, params=None, noise=RECORD_NOISE, seed=20
             f"synthetic_fe: {json.dumps({k: v for k, v in asdict(preset).items() if k in FE_FIELDS})}",
             f"synthetic_noise: multiplicative c ~ N(1, {noise}^2) per point on pressures (Eq. 1), seed {seed}",
             f"test: {name}", f"strain_rate_per_s: {forward.rates[name]}", "depth_m: 5.25"]
-        path = directory / f"sbp_{name}.csv"
-        tmp = path.with_suffix(".csv.tmp")
-        with tmp.open("w") as fh:
-            fh.writelines(f"# {h}\n" for h in header)
-            fh.write(",".join(columns) + "\n")
-            for row in zip(*columns.values()):
-                fh.write(",".join(f"{v:.9g}" for v in row) + "\n")
-        tmp.replace(path)
-        paths[name] = path
+        paths[name] = study.write_records(directory / f"sbp_{name}.csv", header, columns)
     return paths
 
 

@@ -47,10 +47,10 @@ from inference.observations import _converted, read_csv_table
 from inference.priors import Bound
 
 from . import burswood_sbp, study
-from .study import generating_values
+from .study import generating_values, write_records
 
 __all__ = ["StudyError", "Settings", "LoopProblem", "calibrate_class", "run_loop", "class_name", "load_study",
-           "load_observations", "StudyForward", "StudyProblem", "generate", "write_records", "main"]
+           "load_observations", "StudyForward", "StudyProblem", "generate", "main"]
 
 DEFAULT_OUT = Path("results") / "calibrate"
 
@@ -1227,21 +1227,6 @@ def generate(path, noise=None, seed=None, directory=None) -> dict:
         target.parent.mkdir(parents=True, exist_ok=True)
         paths[spec.name] = write_records(target, header, columns, exact=(_column(x_name, spec.type),))
     return paths
-
-
-def write_records(path, header, columns: dict, exact=()) -> Path:
-    """One CSV of records: ``# `` header lines, the column names, then the rows, 9 significant digits except the
-    columns named in ``exact`` (shortest round trip); written to ``<path>.tmp`` and moved into place."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    shortest = [c in exact for c in columns]
-    with tmp.open("w") as fh:
-        fh.writelines(f"# {h}\n" for h in header)
-        fh.write(",".join(columns) + "\n")
-        for row in zip(*columns.values()):
-            fh.write(",".join(repr(float(v)) if s else f"{v:.9g}" for s, v in zip(shortest, row)) + "\n")
-    tmp.replace(path)
-    return path
 
 
 # ====================================================================================================================

@@ -51,7 +51,8 @@ from constitutive import ANICREEP, labtests
 
 from . import concealed_viscosity as cv
 from . import study
-from .calibrate import Settings, calibrate_class, class_name, run_loop, write_records
+from .calibrate import Settings, calibrate_class, class_name, run_loop
+from .study import write_records
 from .concealed_viscosity import FIXED, NOISE, PER_HOUR, LabForward  # noqa: F401 - LabForward: part of this interface
 
 CASE = "concealed_lab"

@@ -36,7 +36,8 @@ from fem.oracles import consolidation_coefficient
 from inference import ForwardModelError, diagnose
 
 from . import burswood_sbp, study
-from .calibrate import LoopProblem, Settings, class_name, run_loop, write_records
+from .calibrate import LoopProblem, Settings, class_name, run_loop
+from .study import write_records
 
 CASE = "concealed_sbp"
 DATA = Path(__file__).parent / "data" / "concealed_sbp"

@@ -43,7 +43,8 @@ from constitutive import ANICREEP, labtests
 from inference.likelihood import ForwardModelError
 
 from . import calibrate, study
-from .calibrate import LoopProblem, Settings, write_records
+from .calibrate import LoopProblem, Settings
+from .study import write_records
 
 CASE = "concealed_viscosity"
 DATA = Path(__file__).parent / "data"

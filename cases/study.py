@@ -27,7 +27,7 @@ import inference
 from inference.executors import mpi_world
 
 __all__ = ["arguments", "is_root", "method_name", "calibrate", "run_all", "write_summary", "parameter_table",
-           "runs_table", "plot_marginals", "plot_stages", "run_directories", "pyplot", "generating_values"]
+           "runs_table", "plot_marginals", "plot_stages", "run_directories", "pyplot", "generating_values", "write_records"]
 
 PROPOSALS = {"de": "de", "o": "gaussian"}
 
@@ -110,6 +110,21 @@ def run_all(args, default_out, like, prior, n_samples, settings, finish):
                               "n_forward_solves": post.n_forward_solves, "log_evidence": round(post.log_evidence, 3),
                               "map": {k: round(v, 4) for k, v in post.map.items()}}), flush=True)
     return summaries
+
+
+def write_records(path, header, columns: dict, exact=()) -> Path:
+    """One CSV of records: ``# `` header lines, the column names, then the rows, 9 significant digits except the
+    columns named in ``exact`` (shortest round trip); written to ``<path>.tmp`` and moved into place."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    shortest = [c in exact for c in columns]
+    with tmp.open("w") as fh:
+        fh.writelines(f"# {h}\n" for h in header)
+        fh.write(",".join(columns) + "\n")
+        for row in zip(*columns.values()):
+            fh.write(",".join(repr(float(v)) if s else f"{v:.9g}" for s, v in zip(shortest, row)) + "\n")
+    tmp.replace(path)
+    return path
 
 
 def generating_values(observations, names=None):
