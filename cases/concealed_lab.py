@@ -53,7 +53,7 @@ from . import concealed_viscosity as cv
 from . import study
 from .calibrate import Settings, calibrate_class, class_name, run_loop
 from .study import write_records
-from .concealed_viscosity import FIXED, NOISE, PER_HOUR, LabForward  # noqa: F401 - LabForward: part of this interface
+from .concealed_viscosity import FIXED, NOISE, PER_HOUR
 
 CASE = "concealed_lab"
 DATA = Path(__file__).parent / "data" / "concealed_programme"

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 import inference
-from constitutive import ANICREEP
+from constitutive import ANICREEP, physics_catalog
 from fem.oracles import consolidation_coefficient
 from inference import ForwardModelError, diagnose
 
@@ -63,8 +63,9 @@ EFFECTS = {
     "partial drainage": {"switches": {}, "values": {}, "k_true": 1.0e-7, "k_assumed": 1.0e-9, "dataset": "set_2"},
     "none": {"switches": {}, "values": {}, "k_true": 3.3e-9, "k_assumed": 3.3e-9, "dataset": "set_3"},
 }
-#: switches that are not ANICREEP arguments (the catalog's "coupled": permeability calibrated in the FE)
-FE_SWITCHES = ("coupled",)
+#: switches and parameters that go to the FE rather than ANICREEP (the catalog's "coupled": permeability calibrated
+#: in the FE)
+FE_ARGUMENTS = tuple(physics_catalog.candidate("partial drainage").enrichment.forward_arguments)
 
 
 # ------------------------------------------------------------------------------------------------ forward model
@@ -76,11 +77,11 @@ class Forward(burswood_sbp.SBPForward):
     def __init__(self, switches: dict, permeability: float, curves=CURVES, preset=PRESET):
         super().__init__(preset, rates=RATES, curves=curves)
         self.switches = dict(switches)
-        self.model_switches = {k: v for k, v in self.switches.items() if k not in FE_SWITCHES}
+        self.model_switches = {k: v for k, v in self.switches.items() if k not in FE_ARGUMENTS}
         self.permeability = float(permeability)
 
     def material(self, params):
-        values = {k: v for k, v in params.items() if k != "permeability"}
+        values = {k: v for k, v in params.items() if k not in FE_ARGUMENTS}
         return ANICREEP(**self.fixed, **self.model_switches, **values, vertical_axis=2)
 
     def results(self, params, save_fields="none") -> dict:

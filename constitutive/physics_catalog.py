@@ -57,12 +57,15 @@ def _item(covariate, role, direction, meaning, curves=STRESS_CURVES):
 class Enrichment:
     """How to add the physics: construct ``model_class`` with the base model's arguments plus ``switches`` (the
     physics switch and any constructor argument the enrichment holds fixed), and free ``parameters``
-    {name: (lower, upper)} (log-uniform prior for the names in ``log_uniform``)."""
+    {name: (lower, upper)} (log-uniform prior for the names in ``log_uniform``). ``forward_arguments``: the names
+    among switches and parameters that go to the forward model instead of ``model_class`` (e.g. the permeability
+    of the coupled FE)."""
 
     model_class: str
     switches: dict
     parameters: dict
     log_uniform: tuple = ()
+    forward_arguments: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -87,7 +90,8 @@ class Candidate:
                 "present_when": dict(self.present_when),
                 "enrichment": None if e is None else {"model_class": e.model_class, "switches": dict(e.switches),
                                                       "parameters": {k: list(v) for k, v in e.parameters.items()},
-                                                      "log_uniform": list(e.log_uniform)},
+                                                      "log_uniform": list(e.log_uniform),
+                                                      "forward_arguments": list(e.forward_arguments)},
                 "unavailable": self.unavailable}
 
 
@@ -119,7 +123,8 @@ CATALOG = (
         # SBP scale only: the coupled FE (fem.pressuremeter, cases.concealed_sbp) re-solved with the permeability of
         # each particle (fem.Solver.solve(permeability=...)); "coupled" is a forward-model switch, not an ANICREEP
         # argument. k log-uniform over five decades (clays 1e-11 to silts 1e-6 m/s).
-        Enrichment("ANICREEP", {"coupled": True}, {"permeability": (1e-11, 1e-6)}, ("permeability",)),
+        Enrichment("ANICREEP", {"coupled": True}, {"permeability": (1e-11, 1e-6)}, ("permeability",),
+                   forward_arguments=("coupled", "permeability")),
         "the lab-test drivers (constitutive.labtests) treat a specimen as one material point, drained or undrained; "
         "the enrichment (permeability free, m/s) exists only for forward models that solve consolidation (the SBP "
         "FE in fem/, switch 'coupled')"),

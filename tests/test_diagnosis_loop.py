@@ -19,11 +19,6 @@ from inference.mismatch import relative_residuals, screen
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = {"viscous": False, "anisotropy": True}
-#: enrichment arguments taken by a forward model rather than the material class (partial drainage: the coupled SBP FE
-#: with the permeability free, see its catalog entry)
-FORWARD_MODEL_ARGUMENTS = {"coupled", "permeability"}
-
-
 # ------------------------------------------------------------------------------------------------ catalog
 def test_catalog_entries_are_complete_and_well_formed():
     names = [c.name for c in catalog.CATALOG]
@@ -41,7 +36,7 @@ def test_catalog_entries_are_complete_and_well_formed():
             assert len(c.unavailable) > 20, f"{c.name}: an unavailable enrichment must say why"
         else:
             cls = getattr(constitutive, c.enrichment.model_class)
-            kwargs = set(inspect.signature(cls).parameters) | FORWARD_MODEL_ARGUMENTS
+            kwargs = set(inspect.signature(cls).parameters) | set(c.enrichment.forward_arguments)
             assert set(c.enrichment.switches) <= kwargs, c.name
             for p, (lo, hi) in c.enrichment.parameters.items():
                 assert p in kwargs and 0 < lo < hi, (c.name, p)
@@ -313,7 +308,7 @@ def _named_at_best_fit(effect):
     from scipy.optimize import least_squares
 
     obs = lab.load_data(lab.DATA / lab.EFFECTS[effect]["dataset"])
-    like = inference.Likelihood(obs, lab.LabForward(lab.TESTS, lab.BASE_SWITCHES), batch=True)
+    like = inference.Likelihood(obs, lab.PROBLEM.forward(lab.BASE_SWITCHES), batch=True)
     recorded = {(t.name, c): curve.y for t in obs for c, curve in t.curves.items()}
 
     def log_ratio(theta):
