@@ -78,7 +78,9 @@ def conditions_of(test: inference.Test) -> TriaxialTest:
 
 class SimsandTriaxial:
     """Batched forward model for :class:`inference.Likelihood` (``batch=True``): a list of parameter dicts (the free
-    parameters) -> a list of ``{test: {curve: (eps_a_pct, values)}}`` (an exception in place of a failed particle).
+    parameters) -> a list of ``{test: {curve: (eps_a_pct, values)}}`` (an exception in place of a failed particle);
+    the sampler's path is :meth:`simulate_arrays` (the likelihood's array protocol: the whole batch as arrays, no
+    per-particle objects).
 
     tests: TriaxialTest list; fixed: SIMSAND parameters not identified (merged under each particle's dict);
     grid_pct: simulate at these axial strains (%) and let the likelihood interpolate to the recorded ones (the
@@ -106,23 +108,29 @@ class SimsandTriaxial:
     def parameters(self, params: dict) -> dict:
         """Full SIMSAND parameter dict: ``fixed`` updated with ``params`` (a sample's error parameter sigma_eps,
         if present, is not a SIMSAND parameter and is left out)."""
-        params = {k: v for k, v in params.items() if k != "sigma_eps"}
+        return self._complete({k: v for k, v in params.items() if k != "sigma_eps"})
+
+    def _complete(self, free: dict) -> dict:
         full = dict(self.fixed)
-        full.update(params)
+        full.update(free)
         missing = set(SIMSAND.parameter_names) - set(full)
         if missing:
             raise ValueError(f"SIMSAND parameters neither free nor fixed: {sorted(missing)}")
         return full
 
     def simulate(self, batch):
-        """Raw curves: {test: {curve: (m, n_grid + 1)}} with the initial point first, plus {test: failed (m,)} and
-        {test: grid_pct}."""
-        m = len(batch)
+        """Raw curves of a list of parameter dicts: {test: {curve: (m, n_grid + 1)}} with the initial point first,
+        plus {test: failed (m,)} and {test: grid_pct}."""
         full = [self.parameters(p) for p in batch]
+        return self._simulate({k: np.array([f[k] for f in full], dtype=float) for k in SIMSAND.parameter_names},
+                              len(batch))
+
+    def _simulate(self, columns, m):
+        """:meth:`simulate` from one array (m,) (or a scalar) per SIMSAND parameter."""
         curves, failed, grids = {}, {}, {}
         for drained, specs, grid in self.groups:
             T = len(specs)
-            params = {k: np.repeat(np.array([f[k] for f in full], dtype=float), T) for k in SIMSAND.parameter_names}
+            params = {k: np.repeat(np.broadcast_to(np.asarray(v, dtype=float), (m,)), T) for k, v in columns.items()}
             model = SIMSAND(**params, **self.model_options)
             e0 = np.tile([t.e0 for t in specs], m)
             p0 = np.tile([t.p0 for t in specs], m)
@@ -137,22 +145,42 @@ class SimsandTriaxial:
                 grids[t.name] = np.concatenate([[0.0], grid])
         return curves, failed, grids
 
+    def _failure(self, curves, failed, grids, i):
+        """The reason particle i failed (None if it did not): the failing tests and the last strain reached."""
+        bad = [t.name for t in self.tests if failed[t.name][i]]
+        if not bad:
+            return None
+        t = bad[0]
+        reached = grids[t][np.flatnonzero(np.isfinite(curves[t]["q"][i]))[-1]]
+        return (f"SIMSAND triaxial integration failed in test(s) {bad}: {t} stopped after eps_a = {reached:g} % "
+                f"(drained path lost control or local integration failed)")
+
     def __call__(self, batch):
         curves, failed, grids = self.simulate(batch)
         results = []
         for i in range(len(batch)):
-            bad = [t.name for t in self.tests if failed[t.name][i]]
-            if bad:
-                t = bad[0]
-                q = curves[t]["q"][i]
-                reached = grids[t][np.flatnonzero(np.isfinite(q))[-1]]
-                results.append(ForwardModelError(
-                    f"SIMSAND triaxial integration failed in test(s) {bad}: {t} stopped after eps_a = {reached:g} % "
-                    f"(drained path lost control or local integration failed)"))
+            reason = self._failure(curves, failed, grids, i)
+            if reason is not None:
+                results.append(ForwardModelError(reason))
                 continue
             results.append({t.name: {k: (grids[t.name], v[i]) for k, v in curves[t.name].items()}
                             for t in self.tests})
         return results
+
+    def simulate_arrays(self, names, values):
+        """The array protocol of :class:`inference.Likelihood`: free parameter ``names`` and their ``values``
+        (m, k) -> ({test: {curve: (grid_pct, (m, n_grid + 1))}}, [None or the failure reason per particle])."""
+        values = np.asarray(values, dtype=float)
+        m = len(values)
+        columns = self._complete({n: values[:, k] for k, n in enumerate(names) if n != "sigma_eps"})
+        curves, failed, grids = self._simulate({k: columns[k] for k in SIMSAND.parameter_names}, m)
+        any_failed = np.zeros(m, dtype=bool)
+        for f in failed.values():
+            any_failed |= f
+        reasons = [None] * m
+        for i in np.flatnonzero(any_failed):
+            reasons[i] = self._failure(curves, failed, grids, i)
+        return {t.name: {k: (grids[t.name], v) for k, v in curves[t.name].items()} for t in self.tests}, reasons
 
 
 def predictive(forward: SimsandTriaxial, post, n_draws=200, seed=0):

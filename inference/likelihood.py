@@ -13,6 +13,15 @@ A forward model maps a parameter dict (soil parameters, without sigma_eps) to si
 ``{test: {curve: y_at_observed_x}}`` or ``{test: {curve: (x_sim, y_sim)}}``, the latter interpolated linearly to the
 recorded abscissae (the simulation must cover them). With ``batch=True`` the forward model takes a list of parameter
 dicts and returns a list of such results (an Exception instance in place of a failed one).
+
+Array protocol (optional, for batch forward models, used by :meth:`Likelihood.evaluate_many`): a forward model with
+a method ``simulate_arrays(names, values)`` takes the soil parameter names (a tuple, the prior's order without the
+error parameter) and their values ``(m, k)`` and returns ``(curves, reasons)``: ``curves`` is
+``{test: {curve: (x_sim (n,), y (m, n))}}`` (one abscissa for the whole batch) or ``{test: {curve: y (m, n_rec)}}``
+(at the recorded abscissae), ``reasons`` a list of m entries, None or the message of a failed parameter set (its rows
+are then ignored). The whole batch is then interpolated and scored by Eq. (5) in numpy expressions over the batch,
+with no per-particle Python objects; the per-particle path (dict results) runs through the same interpolation and
+the same :func:`goodness_of_fit`, so both give the same bits.
 """
 from __future__ import annotations
 
@@ -27,13 +36,19 @@ class ForwardModelError(RuntimeError):
     """The forward model gave no usable curves for this parameter vector (reason in the message)."""
 
 
-def goodness_of_fit(observed, simulated) -> float:
-    """Eq. (5): mean over curves of the mean squared relative error; arguments are lists of equal-length arrays."""
+def goodness_of_fit(observed, simulated):
+    """Eq. (5): mean over curves of the mean squared relative error.
+
+    observed: list of recorded value arrays (n_j,); simulated: the list of the matching simulated arrays, each (n_j,)
+    (returns a float) or (m, n_j) for a batch of m parameter sets (returns J_g per set, (m,)).
+    The squares are summed in point order (a cumulative sum): numpy's sum and dot order their additions differently
+    for a vector and for the rows of a matrix, and one parameter set must get the same bits whatever batch it is in."""
     total = 0.0
     for o, s in zip(observed, simulated):
         rel = (o - s) / o
-        total += float(rel @ rel) / rel.size
-    return total / len(observed)
+        total = total + np.cumsum(rel * rel, axis=-1)[..., -1] / rel.shape[-1]
+    total = total / len(observed)
+    return float(total) if np.ndim(total) == 0 else total
 
 
 def log_likelihood_test(j_g, n_points, sigma_eps):
@@ -84,7 +99,9 @@ class Likelihood:
                 self._span[t.name, cname] = (c.x.min(), c.x.max(), 1e-9 * max(1.0, np.max(np.abs(c.x))))
                 self._used[t.name, cname] = c.y[mask]
         self.n_points = {t.name: int(sum(self.masks[t.name, c].sum() for c in t.curves)) for t in observations}
+        self._plans = {}  # (test, curve) -> (simulation abscissa bytes, interpolation plan), the last one seen
         self.names = None
+        self._soil_names, self._soil_columns, self._sigma_column = None, None, None
 
     # ----------------------------------------------------------------- binding to a prior's parameter order
     def bind(self, names):
@@ -93,6 +110,9 @@ class Likelihood:
         if isinstance(self.sigma, str) and self.sigma not in names:
             raise ValueError(f"the prior has no error parameter {self.sigma!r}: add it or pass sigma=<float>")
         self.names = names
+        self._soil_columns = [k for k, n in enumerate(names) if not (isinstance(self.sigma, str) and n == self.sigma)]
+        self._soil_names = tuple(names[k] for k in self._soil_columns)
+        self._sigma_column = names.index(self.sigma) if isinstance(self.sigma, str) else None
         return self
 
     def split(self, theta):
@@ -106,53 +126,117 @@ class Likelihood:
     def fingerprint(self) -> str:
         return f"{self.observations.fingerprint()}|w={sorted(self.weights.items())}|floor={self.floor}|s={self.sigma}"
 
-    # ----------------------------------------------------------------- evaluation
-    def simulated_at_observations(self, result) -> dict:
-        """Forward result -> {(test, curve): simulated values at the recorded abscissae}; ForwardModelError if unusable."""
-        if isinstance(result, Exception):
-            raise result
-        out = {}
+    # ----------------------------------------------------------------- simulated curves at the recorded abscissae
+    def _interpolation(self, test, cname, xs):
+        """How to read a curve simulated at abscissae ``xs`` at the recorded ones with np.interp's arithmetic:
+        (order of xs, node index j per recorded x, recorded points strictly between two nodes, their x - xs[j],
+        xs[j+1] - xs[j]). Cached for the last xs of each curve (a batch forward model uses one grid throughout).
+        ForwardModelError if xs is too short, not finite, or does not cover the record."""
+        key = xs.tobytes()
+        cached = self._plans.get((test, cname))
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        if xs.size < 2 or not np.isfinite(xs).all():
+            raise ForwardModelError(f"test {test}, curve {cname}: simulated curve has NaN/inf")
+        c = self.observations[test].curves[cname]
+        lo, hi, tol = self._span[test, cname]
+        order = np.argsort(xs, kind="stable")
+        xs = xs[order]
+        if xs[0] > lo + tol or xs[-1] < hi - tol:
+            raise ForwardModelError(f"test {test}, curve {cname}: simulation covers {c.x_name} in [{xs[0]:g}, "
+                                    f"{xs[-1]:g}] but the record spans [{lo:g}, {hi:g}]")
+        # np.interp: the end value at and beyond either end, the node value on a node, else
+        # y[j] + slope * (x - xs[j]) with slope = (y[j+1] - y[j]) / (xs[j+1] - xs[j]) and xs[j] <= x < xs[j+1]
+        j = np.clip(np.searchsorted(xs, c.x, side="right") - 1, 0, xs.size - 1)
+        between = np.flatnonzero((c.x > xs[0]) & (c.x < xs[-1]) & (c.x != xs[j]))
+        jb = j[between]
+        plan = (None if np.array_equal(order, np.arange(xs.size)) else order, j, between, jb,
+                c.x[between] - xs[jb], xs[jb + 1] - xs[jb])
+        self._plans[test, cname] = (key, plan)
+        return plan
+
+    def _rows_at_records(self, test, cname, sim, m):
+        """One simulated curve of m parameter sets -> (values (m, n_recorded) at the recorded abscissae, rows whose
+        simulated values are not finite (m,), the reason for those rows). ``sim``: (x_sim, y) with y (n,) or (m, n),
+        or y at the recorded abscissae ((n_recorded,) or (m, n_recorded)). ForwardModelError for what makes the curve
+        unusable for every row (missing, wrong size, abscissa not covering the record)."""
+        if sim is None:
+            raise ForwardModelError(f"forward model returned no curve {cname!r} for test {test!r}")
+        n_rec = self.observations[test].curves[cname].y.size
+        if isinstance(sim, tuple):
+            xs, ys = (np.asarray(v, dtype=float) for v in sim)
+            if ys.size != m * xs.size:
+                raise ForwardModelError(f"test {test}, curve {cname}: {ys.size} simulated values for {xs.size} "
+                                        f"abscissae" + (f" x {m} parameter sets" if m > 1 else ""))
+            ys = ys.reshape(m, xs.size)
+            order, j, between, jb, dx, width = self._interpolation(test, cname, xs.ravel())
+            if order is not None:
+                ys = ys[:, order]
+            values = ys[:, j]
+            if between.size:
+                y0 = ys[:, jb]
+                values[:, between] = (ys[:, jb + 1] - y0) / width * dx + y0
+            bad = ~np.isfinite(ys).all(axis=1)
+            message = f"test {test}, curve {cname}: simulated curve has NaN/inf"
+        else:
+            values = np.asarray(sim, dtype=float)
+            if values.size != m * n_rec:
+                raise ForwardModelError(f"test {test}, curve {cname}: {values.size} simulated values for "
+                                        + (f"{m} x " if m > 1 else "") + f"{n_rec} recorded points")
+            values = values.reshape(m, n_rec)
+            bad = np.zeros(m, dtype=bool)
+            message = None
+        unusable = ~np.isfinite(values).all(axis=1) & ~bad
+        if unusable.any():
+            bad = bad | unusable
+            message = message or f"test {test}, curve {cname}: simulated values contain NaN/inf"
+        return values, bad, message
+
+    def _simulated_batch(self, result, m):
+        """{test: {curve: ...}} of m parameter sets -> ({(test, curve): (m, n_recorded)}, [(bad rows, reason)])."""
+        out, failures = {}, []
         for t in self.observations:
             if t.name not in result:
                 raise ForwardModelError(f"forward model returned no test {t.name!r}")
-            for cname, c in t.curves.items():
-                sim = result[t.name].get(cname) if hasattr(result[t.name], "get") else None
-                if sim is None:
-                    raise ForwardModelError(f"forward model returned no curve {cname!r} for test {t.name!r}")
-                if isinstance(sim, tuple):
-                    xs, ys = (np.asarray(v, dtype=float) for v in sim)
-                    if xs.size < 2 or not (np.isfinite(xs).all() and np.isfinite(ys).all()):
-                        raise ForwardModelError(f"test {t.name}, curve {cname}: simulated curve has NaN/inf")
-                    lo, hi, tol = self._span[t.name, cname]
-                    order = np.argsort(xs, kind="stable")
-                    xs, ys = xs[order], ys[order]
-                    if xs[0] > lo + tol or xs[-1] < hi - tol:
-                        raise ForwardModelError(
-                            f"test {t.name}, curve {cname}: simulation covers {c.x_name} in [{xs[0]:g}, {xs[-1]:g}]"
-                            f" but the record spans [{lo:g}, {hi:g}]")
-                    values = np.interp(c.x, xs, ys)
-                else:
-                    values = np.asarray(sim, dtype=float).ravel()
-                    if values.shape != c.y.shape:
-                        raise ForwardModelError(f"test {t.name}, curve {cname}: {values.size} simulated values for "
-                                                f"{c.y.size} recorded points")
-                if not np.isfinite(values).all():
-                    raise ForwardModelError(f"test {t.name}, curve {cname}: simulated values contain NaN/inf")
-                out[t.name, cname] = values
+            curves = result[t.name]
+            for cname in t.curves:
+                sim = curves.get(cname) if hasattr(curves, "get") else None
+                out[t.name, cname], bad, message = self._rows_at_records(t.name, cname, sim, m)
+                if bad.any():
+                    failures.append((bad, message))
+        return out, failures
+
+    def _simulated_one(self, result) -> dict:
+        """One forward result -> {(test, curve): (1, n_recorded)}; ForwardModelError if unusable."""
+        if isinstance(result, Exception):
+            raise result
+        out, failures = self._simulated_batch(result, 1)
+        if failures:
+            raise ForwardModelError(failures[0][1])
         return out
 
+    def simulated_at_observations(self, result) -> dict:
+        """Forward result -> {(test, curve): simulated values at the recorded abscissae}; ForwardModelError if unusable."""
+        return {key: values[0] for key, values in self._simulated_one(result).items()}
+
+    # ----------------------------------------------------------------- evaluation
     def goodness_of_fit(self, simulated: dict) -> dict:
-        """Eq. (5) per test from {(test, curve): values}."""
+        """Eq. (5) per test from {(test, curve): values}, values (n_recorded,) or (m, n_recorded) for m parameter
+        sets (J_g then (m,) per test)."""
         return {t.name: goodness_of_fit([self._used[t.name, c] for c in t.curves],
-                                        [simulated[t.name, c][self.masks[t.name, c]] for c in t.curves])
+                                        [simulated[t.name, c][..., self.masks[t.name, c]] for c in t.curves])
                 for t in self.observations}
 
+    def _log_likelihood(self, simulated, sigma):
+        """Eqs. (4)-(6) for m parameter sets from {(test, curve): (m, n_recorded)} and sigma (m,)."""
+        jg = self.goodness_of_fit(simulated)
+        return sum(self.weights[t] * log_likelihood_test(jg[t], self.n_points[t], sigma) for t in jg)
+
     def log_likelihood_from(self, result, sigma) -> float:
-        """Eqs. (4) and (6) from one forward result."""
+        """Eqs. (4) and (6) from one forward result (computed as a batch of one: the same bits as in any batch)."""
         if not sigma > 0:
             raise ForwardModelError(f"sigma_eps = {sigma} must be > 0")
-        jg = self.goodness_of_fit(self.simulated_at_observations(result))
-        return float(sum(self.weights[t] * log_likelihood_test(jg[t], self.n_points[t], sigma) for t in jg))
+        return float(self._log_likelihood(self._simulated_one(result), np.array([float(sigma)]))[0])
 
     def _forward_one(self, params):
         return self.forward([params])[0] if self.batch else self.forward(params)
@@ -162,8 +246,20 @@ class Likelihood:
         return self.log_likelihood_from(self._forward_one(params), sigma)
 
     def evaluate_many(self, thetas):
-        """Batch evaluation: (values (m,), reasons list) with -inf and a reason for each failed parameter set."""
-        thetas = np.atleast_2d(thetas)
+        """Batch evaluation: (values (m,), reasons list) with -inf and a reason for each failed parameter set.
+
+        A batch forward model with ``simulate_arrays`` (module docstring) is evaluated as arrays over the batch;
+        should that call fail as a whole, every parameter set is evaluated on its own to name the culprits."""
+        thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
+        if self.batch and hasattr(self.forward, "simulate_arrays"):
+            if self.names is None:
+                raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
+            try:
+                curves, failed = self.forward.simulate_arrays(self._soil_names, thetas[:, self._soil_columns])
+            except Exception:
+                pass
+            else:
+                return self._evaluate_arrays(thetas, curves, failed)
         split = [self.split(th) for th in thetas]
         values = np.full(len(thetas), -np.inf)
         reasons = [None] * len(thetas)
@@ -182,6 +278,26 @@ class Likelihood:
                 values[i] = self.log_likelihood_from(res, sigma)
             except Exception as exc:
                 reasons[i] = f"{type(exc).__name__}: {exc}"
+        return values, reasons
+
+    def _evaluate_arrays(self, thetas, curves, failed):
+        """Eqs. (4)-(6) for a batch from ``simulate_arrays``' result: the same reasons, in the same precedence, as
+        the per-particle path (sigma_eps, then the forward model's failure, then the first unusable curve)."""
+        m = len(thetas)
+        sigma = thetas[:, self._sigma_column] if self._sigma_column is not None else np.full(m, float(self.sigma))
+        error = ForwardModelError.__name__
+        reasons = [f"{error}: sigma_eps = {s} must be > 0" if not s > 0 else
+                   (None if r is None else f"{error}: {r}") for s, r in zip(sigma.tolist(), failed)]
+        try:
+            simulated, failures = self._simulated_batch(curves, m)
+        except ForwardModelError as exc:  # unusable for every parameter set
+            return np.full(m, -np.inf), [r or f"{error}: {exc}" for r in reasons]
+        for bad, message in failures:
+            for i in np.flatnonzero(bad):
+                reasons[i] = reasons[i] or f"{error}: {message}"
+        with np.errstate(all="ignore"):  # failed rows are computed with their NaNs and then discarded
+            values = self._log_likelihood(simulated, sigma)
+        values[[r is not None for r in reasons]] = -np.inf
         return values, reasons
 
     # ----------------------------------------------------------------- diagnostics
