@@ -22,6 +22,21 @@ against complex-step differentiation of an independent numpy residual). Newton w
 ``max_dz`` and backtracking on |R|^2; a point that fails is sub-stepped (halves, recursively up to ``max_depth``
 levels, in the order of a depth-first bisection). The consistent tangent is dsigma'/d(d eps) = [J^-1 dR/d(d eps)]
 from the converged LU factors (implicit-function theorem); for a sub-stepped point it is the last sub-step's.
+
+Components in play. Every rate in (E), (F), (V), (R), (H) is a linear combination of s, alpha_d and d eps, so shear
+components that are zero in sigma', alpha_d and d eps at the start of an increment stay zero, and the residuals in
+them decouple (p', M^2 - alpha^2, xi:xi, xi:alpha_d and d eps_d^vp depend on them only quadratically). Each point is
+therefore integrated in the fewest leading Voigt components that carry everything: nc = 3 (no shear: triaxial and
+oedometer tests), 4 (gamma_23 = gamma_31 = 0: the axisymmetric FE) or 6, with 2 nc + 1 unknowns X = (sigma'[:nc],
+alpha_d[:nc], z) instead of 13. Same arithmetic on the components kept (the dropped ones only ever added exact
+zeros). The tangent's rows and columns of a dropped shear component k are zero off the diagonal; its diagonal
+follows from the decoupled 2 x 2 linearization of R_sigma,k and R_alpha,k (g_k = 3 xi_k/(p' Ma), xi_k = sigma'_k -
+p' alpha_k):
+
+    D_kk = G_bar / (1 + 6 G_bar d lambda (1 - p' a)/(p' Ma)),
+    a = omega (3 <d eps_v^vp>/4 + omega_d d eps_d^vp/3) / (p' (1 + omega (<d eps_v^vp> + omega_d d eps_d^vp)))
+
+(the dalpha_k/dsigma'_k of R_alpha). ``reduce=False`` in ``update_points`` integrates all 6 (the tests' oracle).
 """
 from __future__ import annotations
 
@@ -36,46 +51,60 @@ from ._jit import all_finite as _all_finite
 from ._jit import expm1_over_x as _expm1_over_x
 from ._jit import jit, next_substep
 
-_NX = 13                                        # unknowns per point
+MAX_NX = 13                                     # unknowns per point with all 6 components (2 nc + 1)
 #: columns of the per-point parameter array ``prm``
 PARAMETER_COLUMNS = ("M2", "c_e", "c_p", "r_G", "omega", "omega_d", "inv_beta", "mu", "xi", "xi_d")
 
 
 @jit
-def _dot(a, b):
-    """a:b of two stress-like Voigt vectors."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5])
+def _dot(a, b, nc):
+    """a:b of two stress-like Voigt vectors (the first nc components)."""
+    shear = 0.0
+    for k in range(3, nc):
+        shear += a[k] * b[k]
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + 2.0 * shear
 
 
 @jit
-def _surface(sig, alp, M2, s, xi, g):
+def components_in_play(stress, alpha, deps):
+    """3, 4 or 6: the leading Voigt components that carry every non-zero shear of one point (module docstring)."""
+    if stress[4] != 0.0 or stress[5] != 0.0 or alpha[4] != 0.0 or alpha[5] != 0.0 or deps[4] != 0.0 \
+            or deps[5] != 0.0:
+        return 6
+    if stress[3] != 0.0 or alpha[3] != 0.0 or deps[3] != 0.0:
+        return 4
+    return 3
+
+
+@jit
+def _surface(sig, alp, M2, s, xi, g, nc):
     """(F) through sig with fabric alp: fills s (deviator), xi = s - p' alp, g = df/dsigma'/(p'(M^2 - alpha^2)) (V);
     returns p', M^2 - alpha^2, p'_m^d and E = xi:alp + (M^2 - alpha^2)(p'_m^d - 2p')/3 (g = (3 xi - E I)/(p' Ma))."""
     p = (sig[0] + sig[1] + sig[2]) / 3.0
-    for k in range(6):
+    for k in range(nc):
         s[k] = sig[k] - p * _I[k]
         xi[k] = s[k] - p * alp[k]
-    Ma = M2 - 1.5 * _dot(alp, alp)
-    pmd = p + 1.5 * _dot(xi, xi) / (Ma * p)
-    E = _dot(xi, alp) + Ma * (pmd - 2.0 * p) / 3.0
-    for k in range(6):
+    Ma = M2 - 1.5 * _dot(alp, alp, nc)
+    pmd = p + 1.5 * _dot(xi, xi, nc) / (Ma * p)
+    E = _dot(xi, alp, nc) + Ma * (pmd - 2.0 * p) / 3.0
+    for k in range(nc):
         g[k] = (3.0 * xi[k] - E * _I[k]) / (p * Ma)
     return p, Ma, pmd, E
 
 
 @jit
-def _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, c):
+def _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, c, nc):
     """(E) integrated exactly along the elastic strain increment deps_e (engineering Voigt): p' = p'_n exp(x),
     x = c_e d eps_v^e; s = s_n + 2 G_bar de^e, G_bar = r_G K_bar, K_bar = p'_n c_e phi(x). Fills sig_e and the
     vector c; returns G_bar. The stiffness d sig_e/d deps_e is S_e v = G_bar T o (v - I tr(v)/3) + c tr(v)
-    (``_apply_stiffness``)."""
+    (``_stiffness_entry``)."""
     dve = deps_e[0] + deps_e[1] + deps_e[2]
     x = c_e * dve
     p_e = p_n * math.exp(x)
     phi, dphi = _expm1_over_x(x)
     gk = r_G * p_n * c_e * phi
     gk_x = r_G * p_n * c_e * c_e * dphi  # d(r_G K_bar)/d(d eps_v^e)
-    for k in range(6):
+    for k in range(nc):
         dev = (deps_e[k] - dve / 3.0 * _I[k]) * _T[k]
         sig_e[k] = s_n[k] + gk * dev + p_e * _I[k]
         c[k] = gk_x * dev + p_e * c_e * _I[k]
@@ -83,52 +112,54 @@ def _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, c):
 
 
 @jit
-def _apply_stiffness(gk, c, v, k):
-    """Component k of S_e v (``_elastic_stress``)."""
-    tr = v[0] + v[1] + v[2]
-    return gk * _T[k] * (v[k] - _I[k] * tr / 3.0) + c[k] * tr
+def _stiffness_entry(gk, c, k, j):
+    """(S_e)_kj = d sigma'_E,k/d(d eps^e_j) (``_elastic_stress``)."""
+    return gk * _T[k] * ((1.0 if k == j else 0.0) - _I[k] * _I[j] / 3.0) + c[k] * _I[j]
 
 
 @jit
-def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active, want_jac, R, J, ws):
-    """Residuals R (13) at X and, when ``want_jac``, the analytic Jacobian J = dR/dX (13 x 13). ``ws`` is scratch
-    (rows 0-31 used here, 32 x 13 at least); on return ws[2, :6] holds g and, with ``want_jac``, ws[6, :6] the vector c of the elastic
-    stiffness (``_elastic_stress``). Returns (ln(p'_m^d/p'_m^r), d lambda, G_bar, chi at the end of the increment)."""
+def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active, want_jac, nc, R, J, ws):
+    """Residuals R (2 nc + 1) at X = (sigma'[:nc], alpha_d[:nc], z) and, when ``want_jac``, the analytic Jacobian
+    J = dR/dX. ``ws`` is scratch (rows 0-31 used here, 32 x 13 at least); on return ws[2, :nc] holds g and, with
+    ``want_jac``, ws[6, :nc] the vector c of the elastic stiffness (``_elastic_stress``). Returns (ln(p'_m^d/p'_m^r),
+    d lambda, G_bar, chi at the end of the increment)."""
     M2, c_e, c_p, r_G, omega, omega_d, inv_beta = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6]
-    sig = X[0:6]
-    alp = X[6:12]
-    z = X[12]
+    nx = 2 * nc + 1
+    iz = 2 * nc                                      # index of z
+    sig = X[0:nc]
+    alp = X[nc:iz]
+    z = X[iz]
     s, xi, g, gdev, deps_e, sig_e, c = ws[0, :6], ws[1, :6], ws[2, :6], ws[3, :6], ws[4, :6], ws[5, :6], ws[6, :6]
-    p, Ma, pmd, E = _surface(sig, alp, M2, s, xi, g)
+    p, Ma, pmd, E = _surface(sig, alp, M2, s, xi, g, nc)
     dlam = dlam_ref * math.exp(z)
     trg = g[0] + g[1] + g[2]
-    for k in range(6):
+    for k in range(nc):
         gdev[k] = g[k] - trg / 3.0 * _I[k]
-    sq = math.sqrt(2.0 / 3.0 * _dot(gdev, gdev) + 1e-30)
+    sq = math.sqrt(2.0 / 3.0 * _dot(gdev, gdev, nc) + 1e-30)
     dv = dlam * trg                                  # d eps_v^vp
     dd = dlam * sq                                   # d eps_d^vp (magnitude)
-    for k in range(6):
+    for k in range(nc):
         deps_e[k] = deps[k] - dlam * _W[k] * g[k]
-    gk = _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, c)
-    for k in range(6):
+    gk = _elastic_stress(s_n, p_n, c_e, r_G, deps_e, sig_e, c, nc)
+    for k in range(nc):
         R[k] = (sig[k] - sig_e[k]) / pm_n
     dv_plus = dv if dv > 0.0 else 0.0
-    for k in range(6):
+    for k in range(nc):
         a1 = 0.75 * s[k] / p - alp[k]
         a2 = s[k] / (3.0 * p) - alp[k]
-        R[6 + k] = alp[k] - alp_n[k] - omega * (a1 * dv_plus + omega_d * a2 * dd)
+        R[nc + k] = alp[k] - alp_n[k] - omega * (a1 * dv_plus + omega_d * a2 * dd)
     ln_ratio = math.log(pmd) - ln_pm_n - c_p * dv
     chi = chi_n
     if chi_n > 0.0:         # (D): p'_m^r = (1 + chi) p'_mi^r
         chi = chi_n * math.exp(-prm[8] * (abs(dv) + prm[9] * dd))
         ln_ratio -= math.log1p(chi) - math.log1p(chi_n)
-    R[12] = ln_ratio - inv_beta * z if active else z
+    R[iz] = ln_ratio - inv_beta * z if active else z
     if not want_jac:
         return ln_ratio, dlam, gk, chi
 
-    # ---- analytic Jacobian: chain rule through (F), (V), (E), (R), (H). Per column j (13 unknowns) the
+    # ---- analytic Jacobian: chain rule through (F), (V), (E), (R), (H). Per column j (nx unknowns) the
     # derivatives of p', M^2 - alpha^2, xi:xi and xi:alpha_d (dxi_k/dsigma'_j = delta_kj - (I_k + alpha_k) I_j/3,
-    # dxi_k/dalpha_j = -p' delta_kj), then 6 x 13 blocks for g, d eps^e and the residual rows.
+    # dxi_k/dalpha_j = -p' delta_kj), then nc x nx blocks for g, d eps^e and the residual rows.
     third = 1.0 / 3.0
     ip, iMa, ipMa, ipm = 1.0 / p, 1.0 / Ma, 1.0 / (p * Ma), 1.0 / pm_n
     dp, dMa, dB, dD1 = ws[20], ws[21], ws[22], ws[23]
@@ -137,83 +168,82 @@ def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, act
     dg, dde = ws[8:14], ws[14:20]
     tr_xi = xi[0] + xi[1] + xi[2]
     tr_alp = alp[0] + alp[1] + alp[2]
-    D1 = _dot(xi, alp)
-    A2 = _dot(alp, alp)
-    for j in range(6):      # sigma'_j columns and alpha_j columns
+    D1 = _dot(xi, alp, nc)
+    A2 = _dot(alp, alp, nc)
+    for j in range(nc):     # sigma'_j columns and alpha_j columns
         dp[j] = _I[j] * third
         dMa[j] = 0.0
         dB[j] = 2.0 * (_W[j] * xi[j] - dp[j] * (tr_xi + D1))
         dD1[j] = _W[j] * alp[j] - dp[j] * (tr_alp + A2)
-        dp[6 + j] = 0.0
-        dMa[6 + j] = -3.0 * _W[j] * alp[j]
-        dB[6 + j] = -2.0 * p * _W[j] * xi[j]
-        dD1[6 + j] = _W[j] * (xi[j] - p * alp[j])
-    dp[12] = dMa[12] = dB[12] = dD1[12] = 0.0  # z column
+        dp[nc + j] = 0.0
+        dMa[nc + j] = -3.0 * _W[j] * alp[j]
+        dB[nc + j] = -2.0 * p * _W[j] * xi[j]
+        dD1[nc + j] = _W[j] * (xi[j] - p * alp[j])
+    dp[iz] = dMa[iz] = dB[iz] = dD1[iz] = 0.0  # z column
     C = pmd - p
-    for j in range(_NX):
+    for j in range(nx):
         dpmd[j] = dp[j] + 1.5 * dB[j] * ipMa - C * (dMa[j] * iMa + dp[j] * ip)
         dE[j] = dD1[j] + (dMa[j] * (pmd - 2.0 * p) + Ma * (dpmd[j] - 2.0 * dp[j])) * third
         dpM[j] = dp[j] * Ma + p * dMa[j]
         dl[j] = 0.0
-    dl[12] = dlam
-    for k in range(6):      # g = (3 xi - E I)/(p' Ma)
-        for j in range(_NX):
+    dl[iz] = dlam
+    for k in range(nc):     # g = (3 xi - E I)/(p' Ma)
+        for j in range(nx):
             dg[k, j] = -(dE[j] * _I[k] + g[k] * dpM[j]) * ipMa
         for j in range(3):
             dg[k, j] -= (_I[k] + alp[k]) * ipMa
         dg[k, k] += 3.0 * ipMa
-        dg[k, 6 + k] -= 3.0 * p * ipMa
+        dg[k, nc + k] -= 3.0 * p * ipMa
     tr_gdev = gdev[0] + gdev[1] + gdev[2]
-    for j in range(_NX):
+    for j in range(nx):
         dtrg[j] = dg[0, j] + dg[1, j] + dg[2, j]
         ddv[j] = dlam * dtrg[j] + trg * dl[j]                 # d(d eps_v^vp)
         ddd[j] = sq * dl[j] - dlam * (2.0 / 3.0) * tr_gdev * dtrg[j] * third / sq
-    for k in range(6):
+    for k in range(nc):
         f = dlam * (2.0 / 3.0) * _W[k] * gdev[k] / sq
-        for j in range(_NX):
+        for j in range(nx):
             ddd[j] += f * dg[k, j]                           # d(d eps_d^vp)
             dde[k, j] = -_W[k] * (dlam * dg[k, j] + g[k] * dl[j])  # d(d eps^e)
-    for j in range(_NX):
+    for j in range(nx):
         tr_dde[j] = dde[0, j] + dde[1, j] + dde[2, j]
-    for k in range(6):      # R_sigma = (sigma' - sigma'_E)/p'_m,n^r, d sigma'_E = S_e d eps^e (_apply_stiffness)
+    for k in range(nc):     # R_sigma = (sigma' - sigma'_E)/p'_m,n^r, d sigma'_E = S_e d eps^e (_stiffness_entry)
         gT, gTI, ck = gk * _T[k], gk * _T[k] * _I[k] * third, c[k]
-        for j in range(_NX):
+        for j in range(nx):
             J[k, j] = -(gT * dde[k, j] - gTI * tr_dde[j] + ck * tr_dde[j]) * ipm
         J[k, k] += ipm
     dv_plus = dv if dv > 0.0 else 0.0
     h_pos = 1.0 if dv > 0.0 else 0.0
     f_s = -omega * (0.75 * dv_plus + omega_d * dd * third) * ip  # coefficient of d(s_k)/p' - s_k dp'/p'^2 terms
     diag = 1.0 + omega * (dv_plus + omega_d * dd)
-    for k in range(6):      # R_alpha
+    for k in range(nc):     # R_alpha
         sp = s[k] * ip
         a1 = -omega * (0.75 * sp - alp[k]) * h_pos
         a2 = -omega * omega_d * (sp * third - alp[k])
-        for j in range(_NX):
-            J[6 + k, j] = a1 * ddv[j] + a2 * ddd[j] - f_s * sp * dp[j]
+        for j in range(nx):
+            J[nc + k, j] = a1 * ddv[j] + a2 * ddd[j] - f_s * sp * dp[j]
         for j in range(3):
-            J[6 + k, j] -= f_s * _I[k] * third
-        J[6 + k, k] += f_s
-        J[6 + k, 6 + k] += diag
+            J[nc + k, j] -= f_s * _I[k] * third
+        J[nc + k, k] += f_s
+        J[nc + k, nc + k] += diag
     if active:              # R_z
-        for j in range(_NX):
-            J[12, j] = dpmd[j] / pmd - c_p * ddv[j]
+        for j in range(nx):
+            J[iz, j] = dpmd[j] / pmd - c_p * ddv[j]
         if chi_n > 0.0:     # -d ln(1 + chi) = xi chi/(1 + chi) (sign(dv) d(d eps_v^vp) + xi_d d(d eps_d^vp))
             f_chi = prm[8] * chi / (1.0 + chi)
             sgn = 1.0 if dv > 0.0 else (-1.0 if dv < 0.0 else 0.0)
-            for j in range(_NX):
-                J[12, j] += f_chi * (sgn * ddv[j] + prm[9] * ddd[j])
-        J[12, 12] -= inv_beta
+            for j in range(nx):
+                J[iz, j] += f_chi * (sgn * ddv[j] + prm[9] * ddd[j])
+        J[iz, iz] -= inv_beta
     else:
-        for j in range(_NX):
-            J[12, j] = 0.0
-        J[12, 12] = 1.0
+        for j in range(nx):
+            J[iz, j] = 0.0
+        J[iz, iz] = 1.0
     return ln_ratio, dlam, gk, chi
 
 
 @jit
-def _lu_factor(A, piv):
-    """In-place LU with partial pivoting of A (13 x 13); False if a pivot is zero or not finite."""
-    n = _NX
+def _lu_factor(A, piv, n):
+    """In-place LU with partial pivoting of A[:n, :n]; False if a pivot is zero or not finite."""
     for k in range(n):
         imax = k
         amax = abs(A[k, k])
@@ -236,9 +266,8 @@ def _lu_factor(A, piv):
 
 
 @jit
-def _lu_solve(A, piv, b):
-    """Solve in place A x = b with the factors of ``_lu_factor``."""
-    n = _NX
+def _lu_solve(A, piv, b, n):
+    """Solve in place A[:n, :n] x = b[:n] with the factors of ``_lu_factor``."""
     for k in range(n):
         if piv[k] != k:
             b[k], b[piv[k]] = b[piv[k]], b[k]
@@ -252,25 +281,29 @@ def _lu_solve(A, piv, b):
 
 
 @jit(inline="always")  # one call site (update_points): compiled once, inside it
-def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it, max_dz,
+def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it, max_dz, nc, want_tangent,
                  sig_o, alp_o, dvp_o, tan_o, ws, X, Xn, dX, R, J, LU, piv, rhs):
-    """One backward-Euler increment of one point. Fills sig_o, alp_o (deviatoric), dvp_o, tan_o (6 x 6); returns
-    (converged, p'_m^r at the end, p'_m^d/p'_m^r at the end, chi at the end)."""
+    """One backward-Euler increment of one point in its first nc Voigt components (the others zero: module
+    docstring). Fills sig_o, alp_o (deviatoric), dvp_o and, with ``want_tangent``, tan_o (6 x 6); returns
+    (converged, p'_m^r at the end, p'_m^d/p'_m^r at the end, chi at the end). Without the tangent the Newton
+    iterates are the same; a full step that converges is then accepted without its Jacobian."""
     M2, c_e, c_p, r_G, inv_beta, mu = prm[0], prm[1], prm[2], prm[3], prm[6], prm[7]
+    nx = 2 * nc + 1
+    iz = 2 * nc
     p_n = (sig_n[0] + sig_n[1] + sig_n[2]) / 3.0
     s_n = ws[7, :6]
-    for k in range(6):
+    for k in range(nc):
         s_n[k] = sig_n[k] - p_n * _I[k]
     ln_pm_n = math.log(pm_n)
 
     # elastic trial sigma'_E(d eps) and the surface through it with the old fabric
     sig_t, s_t, xi_t, g_t, c_t = ws[32, :6], ws[33, :6], ws[34, :6], ws[35, :6], ws[36, :6]
-    _elastic_stress(s_n, p_n, c_e, r_G, deps, sig_t, c_t)
-    p_t, _, pmd_t, _ = _surface(sig_t, alp_n, M2, s_t, xi_t, g_t)
+    _elastic_stress(s_n, p_n, c_e, r_G, deps, sig_t, c_t, nc)
+    p_t, _, pmd_t, _ = _surface(sig_t, alp_n, M2, s_t, xi_t, g_t, nc)
     L_t = math.log(pmd_t) - ln_pm_n
     trg = g_t[0] + g_t[1] + g_t[2]
     G2 = 0.0
-    for k in range(6):
+    for k in range(nc):
         v = g_t[k] - trg / 3.0 * _I[k]
         G2 += _W[k] * v * v
     K_t = p_t * c_e
@@ -302,45 +335,49 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
     # stress predictor: linearized return sigma'_E - d lambda D W g (elastic D at the trial state)
     dl0 = dlam_ref * math.exp(z0) if (valid_trial and active) else 0.0
     p_pred = 0.0
-    for k in range(6):
+    for k in range(nc):
         X[k] = sig_t[k] - dl0 * K_t * (trg * _I[k] + 2.0 * r_G * (g_t[k] - trg / 3.0 * _I[k]))
         p_pred += X[k] * _I[k] / 3.0
-    if not (valid_trial and p_pred > 0.0 and _all_finite(X[:6])):
-        for k in range(6):
+    if not (valid_trial and p_pred > 0.0 and _all_finite(X[:nc])):
+        for k in range(nc):
             X[k] = sig_t[k]
-    for k in range(6):
-        X[6 + k] = alp_n[k]
-    X[12] = z0
+    for k in range(nc):
+        X[nc + k] = alp_n[k]
+    X[iz] = z0
 
     # Newton with backtracking on |R|^2. One evaluation site (keeps the compiled code small): the full Newton step
-    # is evaluated with the Jacobian (usually accepted: it becomes the next iterate), shorter line-search trials
-    # without it (the accepted one is then re-evaluated with it).
+    # is evaluated with the Jacobian when the tangent is wanted (usually accepted: it becomes the next iterate),
+    # otherwise, and for shorter line-search trials, without it (an accepted trial that has not converged, or
+    # converged when the tangent is wanted, is then re-evaluated with it).
     converged = False
     at_iterate = True  # Xn is the accepted iterate X
     n_jac = n_ls = 0
     step = 1.0
     m0 = 0.0
     ln_ratio, dlam, gk, chi = 0.0, 0.0, 0.0, chi_n
-    Xn[:] = X
+    Xn[:nx] = X[:nx]
     while True:
-        with_jac = at_iterate or step == 1.0
+        with_jac = at_iterate or (step == 1.0 and want_tangent)
         ln_ratio, dlam, gk, chi = _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active,
-                                            with_jac, R, J, ws)
+                                            with_jac, nc, R, J, ws)
         m = 0.0
         rmax = 0.0
-        for i in range(_NX):
+        for i in range(nx):
             m += R[i] * R[i]
             rmax = max(rmax, abs(R[i]))
         if not at_iterate:  # line-search trial: accept on sufficient decrease, or after 10 halvings
             n_ls += 1
             if not ((np.isfinite(m) and (m <= (1.0 - 1e-4 * step) * m0 or m <= tol * tol)) or n_ls == 10):
                 step *= 0.5
-                for i in range(_NX):
+                for i in range(nx):
                     Xn[i] = X[i] + step * dX[i]
                 continue
-            X[:] = Xn
+            X[:nx] = Xn[:nx]
             at_iterate = True
             if not with_jac:
+                if rmax <= tol and not want_tangent:
+                    converged = True
+                    break
                 continue
         # at the accepted iterate X = Xn, with R and J
         if not np.isfinite(m):
@@ -349,66 +386,93 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
             converged = True
             break
         n_jac += 1
-        LU[:, :] = J
-        if n_jac >= max_it or not _lu_factor(LU, piv):
+        LU[:nx, :nx] = J[:nx, :nx]
+        if n_jac >= max_it or not _lu_factor(LU, piv, nx):
             break
-        for i in range(_NX):
+        for i in range(nx):
             dX[i] = -R[i]
-        _lu_solve(LU, piv, dX)
-        if dX[12] > max_dz:
-            f = max_dz / dX[12]
-            for i in range(_NX):
+        _lu_solve(LU, piv, dX, nx)
+        if dX[iz] > max_dz:
+            f = max_dz / dX[iz]
+            for i in range(nx):
                 dX[i] *= f
         m0, step, n_ls, at_iterate = m, 1.0, 0, False
-        for i in range(_NX):
+        for i in range(nx):
             Xn[i] = X[i] + dX[i]
     if not converged:
         return False, pm_n, 0.0, chi_n
 
-    # converged: R, J, g (ws[2]) and c (ws[6]) belong to X; consistent tangent dX/d(d eps) = J^-1 [S_e/p'_m,n^r; 0]
-    LU[:, :] = J
-    if not _lu_factor(LU, piv):
-        return False, pm_n, 0.0, chi_n
-    unit = ws[37, :6]
-    for j in range(6):
-        unit[:] = 0.0
-        unit[j] = 1.0
-        for i in range(_NX):
-            rhs[i] = _apply_stiffness(gk, ws[6, :6], unit, i) / pm_n if i < 6 else 0.0
-        _lu_solve(LU, piv, rhs)
-        for i in range(6):
-            tan_o[i, j] = rhs[i]
-    g = ws[2, :6]
-    tr_alp = (X[6] + X[7] + X[8]) / 3.0
+    g = ws[2, :6]  # converged: R, g (ws[2]) and, with the tangent, J and c (ws[6]) belong to X
+    tr_alp = (X[nc] + X[nc + 1] + X[nc + 2]) / 3.0
     dvp_v = 0.0
     for k in range(6):
-        sig_o[k] = X[k]
-        alp_o[k] = X[6 + k] - tr_alp * _I[k]
-        dvp_o[k] = dlam * _W[k] * g[k]
+        sig_o[k] = X[k] if k < nc else 0.0
+        alp_o[k] = X[nc + k] - tr_alp * _I[k] if k < nc else 0.0
+        dvp_o[k] = dlam * _W[k] * g[k] if k < nc else 0.0
         dvp_v += dvp_o[k] * _I[k]
+    if want_tangent and not _tangent(gk, ws[6, :6], g, X, dlam, prm, pm_n, nc, J, LU, piv, rhs, tan_o):
+        return False, pm_n, 0.0, chi_n
     pm_new = pm_n * math.exp(c_p * dvp_v)  # (H)
     if chi_n > 0.0:
         pm_new *= (1.0 + chi) / (1.0 + chi_n)  # (D), chi from the converged residual
-    ok = _all_finite(tan_o) and (X[0] + X[1] + X[2]) > 0.0
+    ok = (X[0] + X[1] + X[2]) > 0.0
     return ok, pm_new, math.exp(ln_ratio), chi
 
 
 @jit
-def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth,
-                  stress_out, alpha_out, pm_out, chi_out, dvp_out, vp_shear_out, ratio_out, tangent_out):
+def _tangent(gk, c, g, X, dlam, prm, pm_n, nc, J, LU, piv, rhs, tan_o):
+    """Consistent tangent tan_o = d sigma'/d(d eps) (6 x 6) at the converged X with Jacobian J: dX/d(d eps) =
+    J^-1 [S_e/p'_m,n^r; 0] in the nc components, the closed-form diagonal of the dropped shear components (module
+    docstring). False when J is singular or the tangent not finite."""
+    nx = 2 * nc + 1
+    iz = 2 * nc
+    LU[:nx, :nx] = J[:nx, :nx]
+    if not _lu_factor(LU, piv, nx):
+        return False
+    tan_o[:, :] = 0.0
+    for j in range(nc):
+        for i in range(nx):
+            rhs[i] = _stiffness_entry(gk, c, i, j) / pm_n if i < nc else 0.0
+        _lu_solve(LU, piv, rhs, nx)
+        for i in range(nc):
+            tan_o[i, j] = rhs[i]
+    if nc < 6:  # diagonal of the dropped shear components (module docstring)
+        p = (X[0] + X[1] + X[2]) / 3.0
+        Ma = prm[0] - 1.5 * _dot(X[nc:iz], X[nc:iz], nc)
+        trg = g[0] + g[1] + g[2]
+        G2 = 0.0
+        for k in range(nc):
+            v = g[k] - trg / 3.0 * _I[k]
+            G2 += _W[k] * v * v
+        dv_plus = max(dlam * trg, 0.0)
+        dd = dlam * math.sqrt(2.0 / 3.0 * G2 + 1e-30)
+        omega, omega_d = prm[4], prm[5]
+        a = omega * (0.75 * dv_plus + omega_d * dd / 3.0) / (p * (1.0 + omega * (dv_plus + omega_d * dd)))
+        d_shear = gk / (1.0 + 6.0 * gk * dlam * (1.0 - p * a) / (p * Ma))
+        for k in range(nc, 6):
+            tan_o[k, k] = d_shear
+    return _all_finite(tan_o)
+
+
+@jit
+def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth, reduce,
+                  want_tangent, stress_out, alpha_out, pm_out, chi_out, dvp_out, vp_shear_out, ratio_out, tangent_out):
     """Integrate one increment at every point (arrays over n points: stress, alpha (n, 6), pm_ref (n,), chi (n,) the
-    bonding (0 without destructuration), deps (n, 6), dt (n,), prm (n, 10) in the order PARAMETER_COLUMNS). A point
-    that fails is split into halves (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays (dvp_out
-    the viscoplastic strain increment, vp_shear_out its eps_d^vp = sqrt(2/3 e^vp:e^vp)); returns the index of the
-    first point that failed at the deepest level, or -1."""
+    bonding (0 without destructuration), deps (n, 6), dt (n,), prm (n, 10) in the order PARAMETER_COLUMNS). With
+    ``reduce`` each point is integrated in the components in play (``components_in_play``), otherwise in all 6;
+    tangent_out is filled only with ``want_tangent`` (the consistent tangent of the last sub-step). A
+    point that fails is split into halves (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays
+    (dvp_out the viscoplastic strain increment, vp_shear_out its eps_d^vp = sqrt(2/3 e^vp:e^vp)); returns the index
+    of the first point that failed at the deepest level, or -1."""
     n = stress.shape[0]
-    ws = np.zeros((38, _NX))  # scratch rows: 0-31 _evaluate, 7 and 32-37 _local_solve
-    X, Xn, dX, R, rhs = np.zeros(_NX), np.zeros(_NX), np.zeros(_NX), np.zeros(_NX), np.zeros(_NX)
-    J, LU = np.zeros((_NX, _NX)), np.zeros((_NX, _NX))
-    piv = np.zeros(_NX, dtype=np.int64)
+    ws = np.zeros((38, MAX_NX))  # scratch rows: 0-31 _evaluate, 7 and 32-37 _local_solve
+    X, Xn, dX, R, rhs = np.zeros(MAX_NX), np.zeros(MAX_NX), np.zeros(MAX_NX), np.zeros(MAX_NX), np.zeros(MAX_NX)
+    J, LU = np.zeros((MAX_NX, MAX_NX)), np.zeros((MAX_NX, MAX_NX))
+    piv = np.zeros(MAX_NX, dtype=np.int64)
     sig_c, alp_c, dvp_c, sub_deps = np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6)
     units = 1 << max_depth
     for i in range(n):
+        nc = components_in_play(stress[i], alpha[i], deps[i]) if reduce else 6
         sig_c[:] = stress[i]
         alp_c[:] = alpha[i]
         pm_c = pm_ref[i]
@@ -421,8 +485,9 @@ def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_i
             for k in range(6):
                 sub_deps[k] = deps[i, k] * frac
             ok, pm_new, ratio, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt[i] * frac, prm[i],
-                                                      viscous, tol, max_it, max_dz, stress_out[i], alpha_out[i],
-                                                      dvp_c, tangent_out[i], ws, X, Xn, dX, R, J, LU, piv, rhs)
+                                                      viscous, tol, max_it, max_dz, nc, want_tangent, stress_out[i],
+                                                      alpha_out[i], dvp_c, tangent_out[i], ws, X, Xn, dX, R, J, LU,
+                                                      piv, rhs)
             if not ok:
                 if level >= max_depth:
                     return i
@@ -454,6 +519,6 @@ def surface_size_points(stress, alpha, M2):
     out = np.empty(n)
     s, xi, g = np.zeros(6), np.zeros(6), np.zeros(6)
     for i in range(n):
-        _, _, pmd, _ = _surface(stress[i], alpha[i], M2[i], s, xi, g)
+        _, _, pmd, _ = _surface(stress[i], alpha[i], M2[i], s, xi, g, 6)
         out[i] = pmd
     return out

@@ -10,12 +10,14 @@ Conventions (DESIGN.md):
 A model is a frozen, validated parameter record with two methods::
 
     state = model.initial_state(stress0, void_ratio0)          # dict of arrays over n points
-    stress, state, tangent = model.update(stress, state, dstrain, dt)
+    stress, state, tangent = model.update(stress, state, dstrain, dt, tangent=True)
 
 ``update`` never modifies its inputs. ``tangent`` is (n, 6, 6), d(stress)/d(strain) for the increment; each model
 states in ``tangent_kind`` whether it is the consistent (algorithmic) tangent, the continuum tangent or the elastic
-one; ``rate_dependent`` says whether the result depends on the time increment dt. A point whose local integration
-fails raises :class:`IntegrationError` naming the point.
+one; ``rate_dependent`` says whether the result depends on the time increment dt. With ``tangent=False`` the
+caller says it will not use the tangent: a model whose tangent costs extra work may then return None in its place
+(ANICREEP does; the others return it anyway). A point whose local integration fails raises
+:class:`IntegrationError` naming the point.
 """
 from __future__ import annotations
 
@@ -83,7 +85,7 @@ class MaterialModel:
     def initial_state(self, stress0, void_ratio0=None) -> dict:
         raise NotImplementedError
 
-    def update(self, stress, state: dict, dstrain, dt: float):
+    def update(self, stress, state: dict, dstrain, dt: float, tangent: bool = True):
         raise NotImplementedError
 
     def kernel_parameters(self, n):

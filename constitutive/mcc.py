@@ -114,7 +114,7 @@ class ModifiedCamClay(MaterialModel):
         """Columns of ``_mcc_kernel.PARAMETER_COLUMNS`` (``kernel_parameters``): M^2, lambda, kappa, G or nu."""
         return [self.M**2, self.lambda_, self.kappa, self.G if self.G is not None else self.nu]
 
-    def update(self, stress, state, dstrain, dt):
+    def update(self, stress, state, dstrain, dt, tangent=True):
         """One increment of strain ``dstrain`` (n, 6); ``dt`` is not used (rate independent). Returns the new
         effective stress (n, 6), the new state and the consistent tangent (n, 6, 6)."""
         stress = as_points(stress, "stress")

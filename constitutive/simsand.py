@@ -602,7 +602,7 @@ class SIMSAND(MaterialModel):
         return sig, e, eps + dl, deps + dw, bad
 
     # ------------------------------------------------------------------ public updates
-    def update(self, stress, state, dstrain, dt=0.0):
+    def update(self, stress, state, dstrain, dt=0.0, tangent=True):
         """Integrate a strain increment (n, 6) from ``stress`` (n, 6) and ``state``; returns (stress, state, tangent).
 
         ``dt`` is unused (rate-independent model). The tangent is the continuum one at the end state (module doc).

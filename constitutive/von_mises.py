@@ -64,7 +64,7 @@ class VonMises(MaterialModel):
         e0 = np.zeros(n) if void_ratio0 is None else np.broadcast_to(np.asarray(void_ratio0, float), (n,)).copy()
         return {"void_ratio": e0, "plastic_strain": np.zeros((n, 6)), "plastic_shear_strain": np.zeros(n)}
 
-    def update(self, stress, state, dstrain, dt):
+    def update(self, stress, state, dstrain, dt, tangent=True):
         stress = as_points(stress, "stress")
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]

@@ -40,18 +40,19 @@ class MaterialPoints:
         self.state = model.initial_state(self.stress, void_ratio0)
         self._work = np.zeros_like(self.stress)
 
-    def trial(self, dstrain_fe, dt):
+    def trial(self, dstrain_fe, dt, tangent=True):
         """Update over strain increment dstrain_fe (n, 4, tension positive) in time dt (s).
 
-        Returns (stress_soil (n, 6), state, stress_fe (n, 4), D_fe (n, 4, 4)). Raises IntegrationError.
+        Returns (stress_soil (n, 6), state, stress_fe (n, 4), D_fe (n, 4, 4)); D_fe may be None with
+        ``tangent=False`` (the model's choice, ``MaterialModel.update``). Raises IntegrationError.
         """
         deps = self._work
         deps[:, :4] = -dstrain_fe
-        stress, state, tangent = self.model.update(self.stress, self.state, deps, dt)
+        stress, state, tangent = self.model.update(self.stress, self.state, deps, dt, tangent=tangent)
         if not np.all(np.isfinite(stress)):
             bad = int(np.flatnonzero(~np.all(np.isfinite(stress), axis=1))[0])
             raise IntegrationError(bad, "non-finite stress")
-        return stress, state, -stress[:, :4], tangent[:, :4, :4]
+        return stress, state, -stress[:, :4], None if tangent is None else tangent[:, :4, :4]
 
     def commit(self, stress_soil, state):
         self.stress = stress_soil

@@ -150,7 +150,7 @@ class Solver:
         self._k = k / pb.gamma_w
         self._const_cache = {}
         self._lu = None
-        self.stats = {"residuals": 0, "material_calls": 0, "factorizations": 0, "cuts": 0}
+        self.stats = {"residuals": 0, "material_calls": 0, "tangent_calls": 0, "factorizations": 0, "cuts": 0}
         self._sig0_fe = -stress0[:, :4]
         first_dt = self.times[1] - self.times[0]
         _, _, _, self._D = mp.trial(np.zeros((ne, 4)), first_dt)   # tangent of the committed state (see _residual)
@@ -253,7 +253,10 @@ class Solver:
         for it in range(pb.max_iterations + 1):
             moved = it > 0 or guess is not None
             try:
-                R, D, trial, scale = self._residual(x, x_n, dt, a1, material_call=moved or self._rate_dependent)
+                # a rate-dependent material is called at every residual, and its tangent is needed only when a
+                # factorization follows (about 1 call in 10): asked for then (_tangent_at), not at every call
+                R, D, trial, scale = self._residual(x, x_n, dt, a1, material_call=moved or self._rate_dependent,
+                                                    tangent=not (moved and self._rate_dependent))
             except IntegrationError as err:
                 self._lu = None
                 raise _StepFailed(f"material: {err}") from None
@@ -285,6 +288,11 @@ class Solver:
             else:
                 rhs[self.cdofs] = 0.0
             if self._lu is None or abs(self._lu[2] - dt) > 1e-9 * dt:
+                if D is None:
+                    try:
+                        D = self._tangent_at(trial[3], dt)
+                    except IntegrationError as err:
+                        raise _StepFailed(f"material: {err}") from None
                 self._factor(self._stiffness(D), dt)
             x = x + self._back_substitute(rhs)
         self._lu = None
@@ -292,10 +300,11 @@ class Solver:
                           f"relative to the nodal force/flux levels: {ru:.3g} momentum, {rp:.3g} mass)")
 
     # ------------------------------------------------------------------ element work (vectorized over cells)
-    def _residual(self, x, x_n, dt, a1, material_call=True):
+    def _residual(self, x, x_n, dt, a1, material_call=True, tangent=True):
         """Residual, tangent, trial material state and per-dof reference magnitudes at x. With material_call False
         (iteration 0 of a step, x = x_n, rate-independent material: a zero strain increment leaves the stress
-        unchanged whatever dt) the committed stress and the tangent of the last converged iteration are used."""
+        unchanged whatever dt) the committed stress and the tangent of the last converged iteration are used. With
+        tangent False the tangent may be None (the material's choice; ``_tangent_at`` gives it when needed)."""
         self.stats["residuals"] += 1
         g = self.geom
         U = x[self.udofs]
@@ -305,7 +314,7 @@ class Solver:
         if material_call:
             self.stats["material_calls"] += 1
             strain = np.matmul(g.B, U[:, :, None])[:, :, 0]
-            stress_soil, state, stress_fe, D = self._mp.trial(strain - self._strain, dt)
+            stress_soil, state, stress_fe, D = self._mp.trial(strain - self._strain, dt, tangent=tangent)
         else:
             strain, stress_soil, state, stress_fe, D = (self._strain, self._mp.stress, self._mp.state,
                                                         self._stress_fe, self._D)
@@ -332,6 +341,11 @@ class Solver:
         if self._has_pressure:
             scale += np.abs(a1 * self.f_pressure)
         return R, D, (stress_soil, state, stress_fe, strain), scale
+
+    def _tangent_at(self, strain, dt):
+        """The material tangent of the trial at total strain ``strain`` (the same update again, with the tangent)."""
+        self.stats["tangent_calls"] += 1
+        return self._mp.trial(strain - self._strain, dt)[3]
 
     def _assemble_u(self, f_e):
         return np.bincount(self.udofs.ravel(), f_e.ravel(), self.n_dofs)

@@ -272,7 +272,9 @@ def _cavity_increment(n, size=1e-3):
 STRUCTURE = dict(destructuration=True, chi0=5.0, xi=10.0, xi_d=0.3)
 
 
-def _loaded_states(viscous, destructuration=False):
+def _loaded_states(viscous, destructuration=False, components=6):
+    """Six points loaded 15 increments along perturbed cavity increments; shear components from ``components`` on
+    are kept zero (4: the axisymmetric FE's states)."""
     rng = np.random.default_rng(3)
     n = 6
     M = rng.uniform(0.8, 1.8, n)
@@ -281,18 +283,24 @@ def _loaded_states(viscous, destructuration=False):
     sig = np.tile([0.9 * 31.0, 31.0, 0.9 * 31.0, 0, 0, 0], (n, 1))
     st = m.initial_state(sig)
     de = _cavity_increment(n) + rng.normal(0, 3e-4, (n, 6))
+    de[:, components:] = 0.0
     for _ in range(15):
         sig, st, _ = m.update(sig, st, de, 1.0)
     return m, sig, st, rng
 
 
+@pytest.mark.parametrize("components", [6, 4])
 @pytest.mark.parametrize("viscous, destructuration", [(True, False), (False, False), (True, True), (False, True)])
-def test_consistent_tangent_matches_finite_differences(viscous, destructuration):
-    m, sig, st, rng = _loaded_states(viscous, destructuration)
+def test_consistent_tangent_matches_finite_differences(viscous, destructuration, components):
+    """Central differences of the stress against the consistent tangent, all 36 entries; with components = 4 the
+    update runs in 4 components (gamma_23 = gamma_31 = 0) and the differences in those two shear columns are
+    taken by the 6-component integration: the closed-form diagonal of the dropped shear (kernel docstring)."""
+    m, sig, st, rng = _loaded_states(viscous, destructuration, components)
     if destructuration:
         assert np.all(st["chi"] < 5.0) and np.all(st["chi"] > 0.0)  # bonding partly destroyed: (D) active
     n = sig.shape[0]
     de = _cavity_increment(n, 5e-4) + rng.normal(0, 2e-4, (n, 6))
+    de[:, components:] = 0.0
     _, _, T = m.update(sig, st, de, 1.0)
     h = 1e-7
     fd = np.zeros_like(T)
@@ -303,6 +311,48 @@ def test_consistent_tangent_matches_finite_differences(viscous, destructuration)
         fd[:, :, j] = (m.update(sig, st, dp, 1.0)[0] - m.update(sig, st, dm, 1.0)[0]) / (2 * h)
     scale = np.abs(fd).max(axis=(1, 2))[:, None, None]
     assert np.max(np.abs(T - fd) / scale) < 1e-6
+
+
+@pytest.mark.parametrize("viscous, destructuration", [(True, False), (False, False), (True, True)])
+@pytest.mark.parametrize("components", [4, 3])
+def test_reduced_components_equal_the_six_component_integration(viscous, destructuration, components):
+    """Integrating in the components in play (4: axisymmetric, 3: no shear) gives the 6-component integration's
+    stress, state and consistent tangent (all 36 entries) to round-off, over 20 loading increments."""
+    m, sig, st, rng = _loaded_states(viscous, destructuration, components)
+    if components == 3:
+        sig[:, 3:] = 0.0
+        st["alpha"][:, 3:] = 0.0
+    n = sig.shape[0]
+    increments = [_cavity_increment(n, 4e-4) + rng.normal(0, 2e-4, (n, 6)) * (k % 2) for k in range(20)]
+    for de in increments:
+        de[:, components:] = 0.0
+    runs = []
+    for reduce in (True, False):
+        m.reduce_components = reduce
+        s, t = sig.copy(), {k: v.copy() for k, v in st.items()}
+        for de in increments:
+            s, t, T = m.update(s, t, de, 0.5)
+        runs.append((s, t, T))
+    m.reduce_components = True
+    (s4, t4, T4), (s6, t6, T6) = runs
+    assert np.all(s6[:, components:] == 0.0) and np.all(s4[:, components:] == 0.0)
+    assert np.max(np.abs(s4 - s6)) < 1e-10 * np.abs(s6).max()
+    for k in ("alpha", "pm_ref", "chi", "vp_strain", "overstress"):
+        assert np.max(np.abs(t4[k] - t6[k])) <= 1e-10 * max(np.abs(t6[k]).max(), 1e-300), k
+    assert np.max(np.abs(T4 - T6)) < 1e-9 * np.abs(T6).max()
+    assert np.all(T6[:, 4, 4] > 0.0) and np.all(np.abs(T4[:, 4, 4] - T6[:, 4, 4]) < 1e-9 * T6[:, 4, 4])
+
+
+def test_update_without_tangent_gives_the_same_stress_and_state():
+    """``tangent=False``: None in the tangent's place, the same stress and state bit for bit."""
+    m, sig, st, rng = _loaded_states(True, components=4)
+    de = _cavity_increment(6) + rng.normal(0, 3e-4, (6, 6))
+    de[:, 4:] = 0.0
+    with_tangent = m.update(sig, st, de, 0.6)
+    without = m.update(sig, st, de, 0.6, tangent=False)
+    assert without[2] is None
+    assert np.array_equal(with_tangent[0], without[0])
+    assert all(np.array_equal(with_tangent[1][k], without[1][k]) for k in without[1])
 
 
 def test_update_does_not_mutate_inputs_and_parameters_per_point_equal_separate_runs():
@@ -405,13 +455,21 @@ def _residual_oracle(X, deps, d):
     return np.concatenate([(sig - sig_e) / d["pm_n"], r_alp, [r_z]])
 
 
+@pytest.mark.parametrize("components", [6, 4, 3])
 @pytest.mark.parametrize("viscous, destructuration", [(True, False), (False, False), (True, True), (False, True)])
-def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous, destructuration):
+def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous, destructuration, components):
     """The kernel's residual equals the numpy transcription to round-off and its analytic Jacobian equals the
     complex-step derivative (exact to round-off) of that transcription, at perturbed loaded states (with bonding:
-    the (D) terms of R_z, including states where d eps_v^vp < 0 after the perturbation)."""
+    the (D) terms of R_z, including states where d eps_v^vp < 0 after the perturbation). With fewer components
+    (shear from ``components`` on zero) the kernel's 2 nc + 1 unknowns are the transcription's (sigma'[:nc],
+    alpha_d[:nc], z), whose residuals in the dropped components vanish."""
     from constitutive import _anicreep_kernel as K
-    m, sig, st, rng = _loaded_states(viscous, destructuration)
+    m, sig, st, rng = _loaded_states(viscous, destructuration, components)
+    sig[:, components:] = 0.0
+    st["alpha"][:, components:] = 0.0
+    kept = np.r_[0:components, 6:6 + components, 12]
+    dropped = np.setdiff1d(np.arange(13), kept)
+    nx = kept.size
     n = sig.shape[0]
     prm = m.kernel_parameters(n)
     R, J, ws = np.zeros(13), np.zeros((13, 13)), np.zeros((38, 13))
@@ -422,16 +480,19 @@ def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous,
         d = dict(col, p_n=p_n, s_n=sig[i] - p_n * _I, alpha_n=st["alpha"][i], pm_n=st["pm_ref"][i],
                  chi_n=st["chi"][i], dlam_ref=col["mu"] * 1.0 if viscous else 1.0)
         deps = _cavity_increment(1, 2e-3)[0] + rng.normal(0, 3e-4, 6)
+        deps[components:] = 0.0
         for dlam_scale in (1e-4, 3e-3):  # small and large viscoplastic multipliers
             X = np.concatenate([sig[i] * (1 + rng.normal(0, 0.02, 6)), st["alpha"][i] + rng.normal(0, 0.02, 6),
                                 [np.log(dlam_scale / d["dlam_ref"])]])
-            K._evaluate(X, deps, d["s_n"], p_n, d["alpha_n"], d["pm_n"], np.log(d["pm_n"]), d["chi_n"], prm[i],
-                        d["dlam_ref"], True, True, R, J, ws)
+            X[dropped] = 0.0
+            K._evaluate(X[kept].copy(), deps, d["s_n"], p_n, d["alpha_n"], d["pm_n"], np.log(d["pm_n"]), d["chi_n"],
+                        prm[i], d["dlam_ref"], True, True, components, R, J, ws)
             R0 = _residual_oracle(X.astype(complex), deps, d).real
             h = 1e-30
             Jcs = np.stack([_residual_oracle(X + 1j * h * e, deps, d).imag / h for e in np.eye(13)], axis=1)
-            worst_r = max(worst_r, np.max(np.abs(R - R0)))
-            worst_j = max(worst_j, np.max(np.abs(J - Jcs)) / np.max(np.abs(Jcs)))
+            assert np.all(R0[dropped] == 0.0)
+            worst_r = max(worst_r, np.max(np.abs(R[:nx] - R0[kept])))
+            worst_j = max(worst_j, np.max(np.abs(J[:nx, :nx] - Jcs[np.ix_(kept, kept)])) / np.max(np.abs(Jcs)))
     assert worst_r < 1e-12
     assert worst_j < 1e-12
 

@@ -37,7 +37,7 @@ class ElasticDissipation(C.VonMises):
 
     rate_dependent = True          # the response depends on dt (the solver must call it at every iteration)
 
-    def update(self, stress, state, dstrain, dt):
+    def update(self, stress, state, dstrain, dt, tangent=True):
         if dt < 1e-3:
             return super().update(stress, state, dstrain, dt)
         s, st, D = C.LinearElastic(2 * G * (1 + NU), NU).update(stress, state, dstrain, dt)

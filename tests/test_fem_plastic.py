@@ -65,7 +65,7 @@ def test_integration_error_triggers_step_cutting_then_convergence_error():
     """A material that fails above a strain level: the solver cuts the step, then raises fem.ConvergenceError."""
 
     class Brittle(C.LinearElastic):
-        def update(self, stress, state, dstrain, dt):
+        def update(self, stress, state, dstrain, dt, tangent=True):
             if np.abs(dstrain).max() > 1e-9:
                 raise C.IntegrationError(0, "strain increment too large")
             return super().update(stress, state, dstrain, dt)
@@ -80,7 +80,7 @@ def test_step_cutting_recovers():
     """A material that fails for increments above a threshold converges after cuts, to the uncut answer."""
 
     class Fussy(C.LinearElastic):
-        def update(self, stress, state, dstrain, dt):
+        def update(self, stress, state, dstrain, dt, tangent=True):
             if np.abs(dstrain).max() > 2e-3:
                 raise C.IntegrationError(0, "strain increment too large")
             return super().update(stress, state, dstrain, dt)
@@ -151,3 +151,24 @@ def test_full_and_modified_newton_agree(predictor):
     assert n_mod["factorizations"] <= n_full["factorizations"]
     with pytest.raises(fem.ProblemError, match="refresh_ratio"):
         undrained_problem(mcc, refresh_ratio=1.0)
+
+
+def test_rate_dependent_tangent_asked_for_only_before_a_factorization():
+    """A rate-dependent material (ANICREEP) is called at every residual, but its tangent is needed only when a
+    factorization follows: it is then asked for by a second call at the same trial strain. The curves are bit for
+    bit those of a solve that asks for the tangent at every call, with one extra call per such factorization."""
+    model = C.ANICREEP(M=1.71, lambda_=0.40, kappa=0.026, nu=0.3, e0=2.0, sigma_p0=58.4, C_alpha_e=0.020,
+                       vertical_axis=2)
+    mesh = fem.Mesh.cavity_strip(n_radial=20, n_vertical=1)
+    out = {}
+    for eager in (False, True):
+        solver = fem.Solver(fem.pressuremeter(model, mesh=mesh, n_increments=20, save_fields="none"))
+        if eager:
+            lazy_residual = solver._residual
+            solver._residual = lambda *a, **k: lazy_residual(*a, **{**k, "tangent": True})
+        out[eager] = (solver.solve(), dict(solver.stats))
+    (lazy, n_lazy), (eager, n_eager) = out[False], out[True]
+    assert np.array_equal(lazy.cavity_pressure, eager.cavity_pressure)
+    assert np.array_equal(lazy.cavity_excess_pore_pressure, eager.cavity_excess_pore_pressure)
+    assert n_eager["tangent_calls"] == 0 and 0 < n_lazy["tangent_calls"] <= n_lazy["factorizations"]
+    assert n_lazy["material_calls"] == n_eager["material_calls"]

@@ -72,7 +72,7 @@ class _FailsAtStrain(LinearElastic):
         st["eps_a"] = np.zeros(len(st["void_ratio"]))
         return st
 
-    def update(self, stress, state, dstrain, dt):
+    def update(self, stress, state, dstrain, dt, tangent=True):
         if state["eps_a"][1] + dstrain[1, 0] > 0.004:
             raise IntegrationError(1, "test failure")
         s, st, C = super().update(stress, {"void_ratio": state["void_ratio"]}, dstrain, dt)
