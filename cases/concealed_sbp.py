@@ -265,26 +265,52 @@ def plot_loop(path, like, classes, diag, label):
 ENRICHABLE = ("viscosity", "partial drainage")
 
 
-def design_limits(diag: dict, pore_pressure: bool) -> str:
-    """What these records cannot decide, in words (from the candidate item statuses), or ""."""
-    named = [c for c in diag["candidates"] if c["named"]]
+def _with_curves(candidate: dict) -> list:
+    """The diagnosis' items of ``candidate`` with the curves each is measured on (from the catalog, same order)."""
+    return [{**i, "curves": s["curves"]}
+            for i, s in zip(candidate["items"], physics_catalog.candidate(candidate["name"]).signature)]
+
+
+def _recorded(item, curves) -> bool:
+    return item["curves"] is None or bool(set(item["curves"]) & set(curves))
+
+
+def design_limits(diag: dict, pore_pressure: bool) -> tuple:
+    """(What these records cannot decide, in words or "", the tool's answer in one line), from the diagnosis'
+    candidate items, attribution and Bayes factors.
+
+    Enrichable candidates none of whose primary signature items is on a recorded curve (without the wall pore
+    pressure: viscosity's primary items are on effective stresses and the pore pressure, partial drainage's on the
+    pore pressure) cannot be named; when such candidates share a significant supporting item (the cavity pressure
+    rising with strain rate, which both produce on a total pressure) the records cannot tell them apart."""
+    curves = CURVES if pore_pressure else CURVES[:1]
+    enrichable = [{**c, "items": _with_curves(c)} for c in diag["candidates"] if c["name"] in ENRICHABLE]
     lnb = {c["candidate"]: c["log_bayes_vs_base"] for c in diag["classes"] if c["role"] == "enriched"}
+    attribution = {a["name"]: a for a in diag["attribution"]}
     notes = []
-    for c in diag["candidates"]:
-        if c["name"] not in ENRICHABLE:
-            continue
+    for c in enrichable:
         for i in c["items"]:
-            if i["role"] == "primary" and i["status"] == "not significant" and i["covariate"] == "strain rate":
-                notes.append(f"{c['name']}: a between-test trend with strain rate cannot be significant with "
-                             f"{len(RATES)} tests (the permutation null of {len(RATES)} tests has p >= 1/"
-                             f"{len(RATES)}!); more rates (at least 5-6 tests) are needed to name it from its "
-                             "signature")
-            if i["role"] == "primary" and i["status"] in ("direction not measurable", "not reported"):
-                notes.append(f"{c['name']}: its primary signature ({i['covariate']}, {i['meaning']}) needs curves "
-                             "that are not recorded" + ("" if pore_pressure else " (the wall pore pressure)"))
+            a = attribution.get(i["covariate"])
+            if (i["role"] == "primary" and i["status"] == "not significant" and a is not None and a["kind"] ==
+                    "between" and not a.get("contrast") and _recorded(i, curves)):
+                notes.append(f"{c['name']}: a between-test trend of {i['covariate']} cannot be significant with "
+                             f"{len(RATES)} tests under the permutation null; more tests are needed")
+    blind = [c for c in enrichable if not any(_recorded(i, curves) for i in c["items"] if i["role"] == "primary")]
+    shared = [i for c in blind for i in c["items"] if i["status"] == "supports"]
+    for c in blind:
+        missing = {k for i in c["items"] if i["role"] == "primary" for k in i["curves"] or ()} - set(curves)
+        notes.append(f"{c['name']}: its primary signature needs curves that are not recorded here "
+                     f"({', '.join(sorted(missing & set(CURVES)) or sorted(missing))})")
+    if len(blind) > 1 and shared:
+        a = attribution[shared[0]["covariate"]]
+        notes.append(f"the records show a significant effect of {a['name']} (p = {a['p_adjusted']:.2g}; "
+                     f"{shared[0]['meaning']}; rank correlation {shared[0]['rank_correlation']:+.2f}) that "
+                     f"{' and '.join(c['name'] for c in blind)} both produce: without the wall pore pressure the "
+                     "records cannot tell them apart; record the wall pore pressure")
+    strong = sorted(((v, n) for n, v in lnb.items() if v is not None and v >= diagnose.STRONG_LOG_BAYES),
+                    reverse=True)
+    named = [c for c in diag["candidates"] if c["named"]]
     if diag["verdict"] == "structured mismatch" and len(named) != 1:
-        strong = sorted(((v, n) for n, v in lnb.items() if v is not None and v >= diagnose.STRONG_LOG_BAYES),
-                        reverse=True)
         if len(strong) > 1 and strong[0][0] - strong[1][0] < diagnose.STRONG_LOG_BAYES:
             notes.append(f"the evidence does not separate {strong[0][1]} and {strong[1][1]} (ln B {strong[0][0]:.1f} "
                          f"and {strong[1][0]:.1f}, difference below {diagnose.STRONG_LOG_BAYES:g})")
@@ -292,27 +318,38 @@ def design_limits(diag: dict, pore_pressure: bool) -> str:
             runner = max((v for n, v in lnb.items() if n != strong[0][1] and v is not None), default=None)
             notes.append(f"the signatures name no candidate; the evidence favours {strong[0][1]} (ln B "
                          f"{strong[0][0]:.1f}" + ("" if runner is None else f"; next {runner:.1f}") + ")")
-        if len(strong) != 1:
-            notes.append("the records cannot tell the candidate physics apart: record the wall pore pressure and "
-                         "run more expansion rates")
-    return "; ".join(notes)
+    if len(blind) > 1 and shared:
+        answer = (f"cannot tell {' from '.join(c['name'] for c in blind)} apart: record the wall pore pressure" +
+                  (f" (the evidence alone favours {strong[0][1]}, ln B {strong[0][0]:.1f}, but the signatures cannot "
+                   "check it)" if strong else ""))
+    elif diag["omitted_physics"] != "none":
+        answer = f"{diag['omitted_physics']} (named by its signature, ln B {lnb[diag['omitted_physics']]:.1f})"
+    elif named:
+        answer = f"{', '.join(c['name'] for c in named)} named; enriched class not calibrated or not confirmed"
+    else:
+        answer = diag["recommendation"]
+    return "; ".join(notes), answer
 
 
 def run_case(effect: str, seed: int, out: Path, pore_pressure=True, settings=SETTINGS, args=None, generated=None,
-             processes=None, all_enrichments=False) -> dict:
+             processes=None, all_enrichments=False, data_seed=None) -> dict:
     """The loop on one data set (cases.calibrate.run_loop): calibrate the base class, diagnose, calibrate the enriched
     class of the best named candidate and, with ``all_enrichments`` (or when several are named), every other
     enrichable candidate (:meth:`SBPProblem.also_enrich`); the diagnosis compares every class. Returns a row for the
-    confusion table."""
+    confusion table. ``seed``: the sampler's seed; ``data_seed``: the noise seed of ``generated`` (default ``seed``;
+    the shipped data have noise seed 1)."""
     t0 = time.perf_counter()
     out = Path(out)
-    label = f"data set {EFFECTS[effect]['dataset']}, seed {seed}, {'with' if pore_pressure else 'without'} pore pressure"
+    data_seed = (seed if generated is not None else 1) if data_seed is None else data_seed
+    label = (f"data set {EFFECTS[effect]['dataset']}, noise seed {data_seed}, sampler seed {seed}, "
+             f"{'with' if pore_pressure else 'without'} pore pressure")
     obs = (observations_from(generated, pore_pressure, "yes") if generated is not None
            else load_data(effect, pore_pressure))
     problem = SBPProblem(EFFECTS[effect]["k_assumed"], pore_pressure, processes, all_enrichments)
     diag = run_loop(obs, args or study.arguments(__doc__, []), out, seed, settings, label, problem)
-    limits = design_limits(diag, pore_pressure)
-    row = {"effect": effect, "dataset": EFFECTS[effect]["dataset"], "seed": seed, "pore_pressure": pore_pressure,
+    limits, answer = design_limits(diag, pore_pressure)
+    row = {"effect": effect, "dataset": EFFECTS[effect]["dataset"], "seed": seed, "data_seed": data_seed,
+           "pore_pressure": pore_pressure,
            "verdict": diag["verdict"], "named": [c["name"] for c in diag["candidates"] if c["named"]],
            "omitted_physics": diag["omitted_physics"], "log_bayes": diag["log_bayes"],
            "log_evidence": {c["name"]: c["log_evidence"] for c in diag["classes"]},
@@ -320,7 +357,8 @@ def run_case(effect: str, seed: int, out: Path, pore_pressure=True, settings=SET
                        f"{100 * r['mean_relative']:+.1f} %)" for r in diag["mismatch_regions"]],
            "scores": {c["name"]: round(c["score"], 3) for c in diag["candidates"]},
            "parameters": {c["name"]: c["parameters"] for c in diag["classes"]},
-           "design_limits": limits, "recommendation": diag["recommendation"], "wall_s": time.perf_counter() - t0}
+           "design_limits": limits, "recommendation": diag["recommendation"], "answer": answer,
+           "wall_s": time.perf_counter() - t0}
     (out / "case.json").write_text(json.dumps(row, indent=1, default=float))
     return row
 
@@ -335,6 +373,9 @@ def _options(ap):
                     help="calibrate both enriched classes (viscosity, partial drainage) whenever the base misfits")
     ap.add_argument("--confusion", action="store_true", help="every data set x with/without pore pressure x seeds")
     ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--data-seed", type=int, default=1,
+                    help="noise seed of the records: 1 = the shipped files; another value regenerates the set in "
+                         "memory with that noise seed (the shipped files are not touched)")
     ap.add_argument("--generate", action="store_true", help="rewrite the shipped SYNTHETIC data and exit")
 
 
@@ -348,8 +389,9 @@ def main(argv=None):
     settings = Settings(args.samples or SETTINGS.n_samples, SETTINGS.max_steps, SETTINGS.predictive_draws)
     if not args.confusion:
         effect = "none" if args.control else args.effect
-        row = run_case(effect, args.seed, out, not args.pressure_only, settings, args, processes=args.processes,
-                       all_enrichments=args.all_enrichments)
+        gen = None if args.data_seed == 1 else synthetic_curves(effect, args.data_seed)
+        row = run_case(effect, args.seed, out, not args.pressure_only, settings, args, gen, args.processes,
+                       all_enrichments=args.all_enrichments, data_seed=args.data_seed)
         print(json.dumps(row, default=float))
         return 0
     rows = []

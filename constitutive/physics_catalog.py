@@ -18,12 +18,21 @@ Signature items (dicts, see :data:`SIGNATURE_KEYS`):
 
 Residual sign convention: r > 0 where the recorded value exceeds the simulated one (compression positive, so for the
 stress curves of :data:`STRESS_CURVES` r > 0 means the soil was recorded stronger or stiffer than simulated).
+
+Effective and total stresses: a rate trend of an effective stress (:data:`EFFECTIVE_STRESS_CURVES`) separates
+viscosity (faster tests stronger) from partial drainage (slower tests drain more and are stronger); a total stress
+such as the pressuremeter's cavity pressure carries the pore pressure too, and in the two-rate SBP both effects make
+the faster test's total pressure higher than a rate-independent simulation (cases.concealed_sbp, data sets 1 and 2),
+so on a total stress the rate trend only supports. With the pore pressure recorded (:data:`PORE_PRESSURE_CURVES`)
+the two are told apart by its rate trend: a viscous soil generates less excess pore pressure in faster undrained
+shear (the isotach effect, Sheahan, Ladd & Germaine 1996), whereas drainage that the assumed permeability
+underestimates lowers the slower test's pore pressure more.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-__all__ = ["COVARIATES", "STRESS_CURVES", "SIGNATURE_KEYS", "Enrichment", "Candidate", "CATALOG", "candidate",
+__all__ = ["COVARIATES", "STRESS_CURVES", "EFFECTIVE_STRESS_CURVES", "PORE_PRESSURE_CURVES", "SIGNATURE_KEYS", "Enrichment", "Candidate", "CATALOG", "candidate",
            "signatures", "enriched_settings"]
 
 #: covariate vocabulary: name -> what a forward model reports under that name
@@ -44,6 +53,10 @@ COVARIATES = {
 
 #: curves whose values are effective or total stresses, compression positive
 STRESS_CURVES = ("q", "p", "axial_stress", "radial_stress", "cavity_pressure")
+#: the effective-stress curves among them (laboratory drivers: q, p', sigma'_a, sigma'_r); cavity_pressure is total
+EFFECTIVE_STRESS_CURVES = ("q", "p", "axial_stress", "radial_stress")
+#: recorded pore pressures (total, or in excess of the initial value)
+PORE_PRESSURE_CURVES = ("pore_pressure", "excess_pore_pressure")
 
 SIGNATURE_KEYS = ("covariate", "role", "weight", "direction", "curves", "meaning")
 
@@ -100,7 +113,12 @@ CATALOG = (
         "viscosity",
         "Rate dependence, creep and relaxation of the soil skeleton (viscoplasticity): the faster a test is run the "
         "stronger and stiffer the soil; under constant stress it keeps straining (secondary compression).",
-        (_item("strain rate", "primary", +1, "recorded stresses exceed the simulation more in faster tests"),
+        (_item("strain rate", "primary", +1, "recorded effective stresses exceed the simulation more in faster "
+               "tests", EFFECTIVE_STRESS_CURVES),
+         _item("strain rate", "primary", -1, "faster tests generate less excess pore pressure than simulated (the "
+               "soil is stiffer and less contractive at a higher rate)", PORE_PRESSURE_CURVES),
+         _item("strain rate", "supporting", +1, "recorded total pressures exceed the simulation more in faster tests "
+               "(partial drainage does the same: not diagnostic alone)", ("cavity_pressure",)),
          _item("time", "supporting", -1, "the longer a record has run, the more the soil has crept: recorded "
                "stresses fall below the simulation late and in slow tests"),
          _item("loading phase", "supporting", 0, "holds (creep, relaxation) misfit differently from loading", None)),
@@ -117,8 +135,11 @@ CATALOG = (
         (_item("drainage time factor", "primary", -1, "recorded pore pressure falls below the simulation more where "
                "more drainage time has passed (T = c t / L^2: lower excess pore pressure than the assumed "
                "drainage allows)", ("pore_pressure", "excess_pore_pressure")),
-         _item("strain rate", "supporting", -1, "slower tests (more drainage) are stronger than simulated: the "
-               "opposite rate trend to viscosity")),
+         _item("strain rate", "supporting", -1, "slower tests (more drainage) are stronger than simulated in "
+               "effective stress: the opposite rate trend to viscosity", EFFECTIVE_STRESS_CURVES),
+         _item("strain rate", "primary", +1, "the slower test's pore pressure falls further below the simulation "
+               "than the faster one's (more drainage than the assumed permeability allows: the between-test face of "
+               "the drainage time factor)", PORE_PRESSURE_CURVES)),
         {"coupled": True},
         # SBP scale only: the coupled FE (fem.pressuremeter, cases.concealed_sbp) re-solved with the permeability of
         # each particle (fem.Solver.solve(permeability=...)); "coupled" is a forward-model switch, not an ANICREEP
