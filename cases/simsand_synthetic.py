@@ -140,12 +140,11 @@ def references(noise):
     return cols
 
 
-def report_run(out, args, post, obs, forward, summary):
-    """report.md and figures of one run."""
+def report_run(out, args, post, obs, forward, summary, truth):
+    """report.md and figures of one run; ``truth``: the curves at the true values (forward result)."""
     out = Path(out)
     label = f"SYNTHETIC data ({'noise-free' if not args.noise else f'noise c ~ N(1, {args.noise:g}^2)'})"
     method = study.method_name(args.method)
-    truth = SimsandTriaxial(forward.tests, {})([TRUE])[0]
     plot_curves(out / "curves.png", obs, forward, post, f"{method}, {label}: data, true-value and MAP curves",
                 reference=truth)
     study.plot_marginals(post, out / "marginals.png", marks=references(args.noise),
@@ -177,12 +176,15 @@ def main(argv=None):
     preset = PRESETS["quick" if args.quick else "full"]
     n_samples = args.samples or preset["n_samples"]
     settings = sampler_settings(args, preset, MAX_FAILURE_FRACTION)
+    # the true-value curves of the figures, computed before sampling: the compiled kernel is then loaded once here,
+    # before the process pool forks, instead of once in every worker
+    truth = SimsandTriaxial(forward.tests, {})([TRUE])[0]
 
     def finish(run_args, seed, out, post):
         summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
             "synthetic": True, "noise": args.noise, "true_values": TRUE, "fixed": list(forward.fixed),
             "max_failure_fraction": MAX_FAILURE_FRACTION, "sigma_eps_bounds": SIGMA_BOUNDS})
-        report_run(out, run_args, post, obs, forward, summary)
+        report_run(out, run_args, post, obs, forward, summary, truth)
         return summary
 
     summaries = study.run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)

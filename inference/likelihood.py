@@ -86,7 +86,7 @@ class Likelihood:
             raise ValueError(f"weights name unknown tests {sorted(unknown)}; tests are {list(observations.tests)}")
         self.weights = {t: float(weights.get(t, 1.0)) for t in observations.tests}
         # points used per curve (Eq. 5 floor)
-        self.masks, self.excluded, self._span, self._used = {}, {}, {}, {}
+        self.masks, self.excluded, self._span, self._used, self._kept = {}, {}, {}, {}, {}
         for t in observations:
             for cname, c in t.curves.items():
                 ymax = np.max(np.abs(c.y))
@@ -95,9 +95,11 @@ class Likelihood:
                     raise ValueError(f"test {t.name}, curve {cname}: every recorded value is below the floor")
                 self.masks[t.name, cname] = mask
                 self.excluded[t.name, cname] = int(c.y.size - mask.sum())
-                # per-evaluation constants: recorded span with its coverage tolerance, the used recorded values
+                # per-evaluation constants: recorded span with its coverage tolerance, the used recorded values and
+                # their columns (a slice when every point is used)
                 self._span[t.name, cname] = (c.x.min(), c.x.max(), 1e-9 * max(1.0, np.max(np.abs(c.x))))
                 self._used[t.name, cname] = c.y[mask]
+                self._kept[t.name, cname] = slice(None) if mask.all() else np.flatnonzero(mask)
         self.n_points = {t.name: int(sum(self.masks[t.name, c].sum() for c in t.curves)) for t in observations}
         self._plans = {}  # (test, curve) -> (simulation abscissa bytes, interpolation plan), the last one seen
         self.names = None
@@ -176,21 +178,14 @@ class Likelihood:
             if between.size:
                 y0 = ys[:, jb]
                 values[:, between] = (ys[:, jb + 1] - y0) / width * dx + y0
-            bad = ~np.isfinite(ys).all(axis=1)
-            message = f"test {test}, curve {cname}: simulated curve has NaN/inf"
-        else:
-            values = np.asarray(sim, dtype=float)
-            if values.size != m * n_rec:
-                raise ForwardModelError(f"test {test}, curve {cname}: {values.size} simulated values for "
-                                        + (f"{m} x " if m > 1 else "") + f"{n_rec} recorded points")
-            values = values.reshape(m, n_rec)
-            bad = np.zeros(m, dtype=bool)
-            message = None
-        unusable = ~np.isfinite(values).all(axis=1) & ~bad
-        if unusable.any():
-            bad = bad | unusable
-            message = message or f"test {test}, curve {cname}: simulated values contain NaN/inf"
-        return values, bad, message
+            # finite nodes interpolate to finite values (an overflow aside, which Eq. (5) turns into -inf anyway)
+            return values, ~np.isfinite(ys).all(axis=1), f"test {test}, curve {cname}: simulated curve has NaN/inf"
+        values = np.asarray(sim, dtype=float)
+        if values.size != m * n_rec:
+            raise ForwardModelError(f"test {test}, curve {cname}: {values.size} simulated values for "
+                                    + (f"{m} x " if m > 1 else "") + f"{n_rec} recorded points")
+        values = values.reshape(m, n_rec)
+        return values, ~np.isfinite(values).all(axis=1), f"test {test}, curve {cname}: simulated values contain NaN/inf"
 
     def _simulated_batch(self, result, m):
         """{test: {curve: ...}} of m parameter sets -> ({(test, curve): (m, n_recorded)}, [(bad rows, reason)])."""
@@ -224,7 +219,7 @@ class Likelihood:
         """Eq. (5) per test from {(test, curve): values}, values (n_recorded,) or (m, n_recorded) for m parameter
         sets (J_g then (m,) per test)."""
         return {t.name: goodness_of_fit([self._used[t.name, c] for c in t.curves],
-                                        [simulated[t.name, c][..., self.masks[t.name, c]] for c in t.curves])
+                                        [simulated[t.name, c][..., self._kept[t.name, c]] for c in t.curves])
                 for t in self.observations}
 
     def _log_likelihood(self, simulated, sigma):
