@@ -282,7 +282,9 @@ def design_limits(diag: dict, pore_pressure: bool) -> tuple:
     Enrichable candidates none of whose primary signature items is on a recorded curve (without the wall pore
     pressure: viscosity's primary items are on effective stresses and the pore pressure, partial drainage's on the
     pore pressure) cannot be named; when such candidates share a significant supporting item (the cavity pressure
-    rising with strain rate, which both produce on a total pressure) the records cannot tell them apart."""
+    rising with strain rate, which both produce on a total pressure), or when the base misfits, the records cannot
+    tell them apart (the answer then says so, and adds which one the Bayes factors favour only when they separate the
+    classes by ln B >= 3)."""
     curves = CURVES if pore_pressure else CURVES[:1]
     enrichable = [{**c, "items": _with_curves(c)} for c in diag["candidates"] if c["name"] in ENRICHABLE]
     lnb = {c["candidate"]: c["log_bayes_vs_base"] for c in diag["classes"] if c["role"] == "enriched"}
@@ -307,21 +309,22 @@ def design_limits(diag: dict, pore_pressure: bool) -> tuple:
                      f"{shared[0]['meaning']}; rank correlation {shared[0]['rank_correlation']:+.2f}) that "
                      f"{' and '.join(c['name'] for c in blind)} both produce: without the wall pore pressure the "
                      "records cannot tell them apart; record the wall pore pressure")
-    strong = sorted(((v, n) for n, v in lnb.items() if v is not None and v >= diagnose.STRONG_LOG_BAYES),
-                    reverse=True)
+    ranked = sorted(((v, n) for n, v in lnb.items() if v is not None), reverse=True)
+    top = ranked[0] if ranked and ranked[0][0] >= diagnose.STRONG_LOG_BAYES else None
+    separated = top is not None and (len(ranked) == 1 or top[0] - ranked[1][0] >= diagnose.STRONG_LOG_BAYES)
     named = [c for c in diag["candidates"] if c["named"]]
-    if diag["verdict"] == "structured mismatch" and len(named) != 1:
-        if len(strong) > 1 and strong[0][0] - strong[1][0] < diagnose.STRONG_LOG_BAYES:
-            notes.append(f"the evidence does not separate {strong[0][1]} and {strong[1][1]} (ln B {strong[0][0]:.1f} "
-                         f"and {strong[1][0]:.1f}, difference below {diagnose.STRONG_LOG_BAYES:g})")
-        elif strong:
-            runner = max((v for n, v in lnb.items() if n != strong[0][1] and v is not None), default=None)
-            notes.append(f"the signatures name no candidate; the evidence favours {strong[0][1]} (ln B "
-                         f"{strong[0][0]:.1f}" + ("" if runner is None else f"; next {runner:.1f}") + ")")
-    if len(blind) > 1 and shared:
+    if diag["verdict"] == "structured mismatch" and len(named) != 1 and top is not None:
+        if not separated:
+            notes.append(f"the evidence does not separate {top[1]} and {ranked[1][1]} (ln B {top[0]:.1f} and "
+                         f"{ranked[1][0]:.1f}, difference below {diagnose.STRONG_LOG_BAYES:g})")
+        else:
+            notes.append(f"the signatures name no candidate; the evidence favours {top[1]} (ln B {top[0]:.1f}" +
+                         ("" if len(ranked) == 1 else f"; next {ranked[1][0]:.1f}") + ")")
+    undecidable = len(blind) > 1 and (shared or diag["verdict"] == "structured mismatch")
+    if undecidable:
         answer = (f"cannot tell {' from '.join(c['name'] for c in blind)} apart: record the wall pore pressure" +
-                  (f" (the evidence alone favours {strong[0][1]}, ln B {strong[0][0]:.1f}, but the signatures cannot "
-                   "check it)" if strong else ""))
+                  (f" (the evidence alone favours {top[1]}, ln B {top[0]:.1f}, but the signatures cannot check it)"
+                   if separated else ""))
     elif diag["omitted_physics"] != "none":
         answer = f"{diag['omitted_physics']} (named by its signature, ln B {lnb[diag['omitted_physics']]:.1f})"
     elif named:

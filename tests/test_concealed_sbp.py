@@ -152,3 +152,17 @@ def test_tiny_loop_end_to_end(tmp_path):
     assert (tmp_path / "diagnosis.json").exists() and (tmp_path / "case.json").exists()
     assert row["verdict"] in ("structured mismatch", "consistent with noise")
     assert all(np.isfinite(v) for v in row["log_evidence"].values())
+
+
+@pytest.mark.parametrize("visc, drain, favours", [(20.0, 5.4, True), (3.3, 1.9, False), (1.0, -2.0, False)])
+def test_answer_without_pore_pressure_mentions_the_evidence_only_when_it_separates(visc, drain, favours):
+    """Without the wall pore pressure the answer is 'cannot tell ... apart'; it adds which class the Bayes factors
+    favour only when the best has ln B >= 3 and beats the other by >= 3 (data sets 1 and 2 without pore pressure,
+    noise seeds 1 and 2: ln B 20.0 / 5.4 and 3.3 / 1.9)."""
+    like, sim, cov, pp = _planted_sbp({"fast": 0.03, "slow": -0.03}, {"fast": -0.05, "slow": 0.05})[1]
+    diag = _diagnosed(like, sim, cov)
+    diag["classes"] = [{"role": "enriched", "candidate": "viscosity", "log_bayes_vs_base": visc},
+                       {"role": "enriched", "candidate": "partial drainage", "log_bayes_vs_base": drain}]
+    limits, answer = cs.design_limits(diag, pp)
+    assert not pp and answer.startswith("cannot tell viscosity from partial drainage apart")
+    assert ("favours viscosity" in answer) == favours
