@@ -25,6 +25,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from constitutive import IntegrationError
 
+from ._residual_kernel import cell_strain, coupled_residual
 from .element import ElementGeometry
 from .material_point import MaterialPoints
 from .problem import DOFS, Problem, edges_of_set
@@ -125,9 +126,6 @@ class Solver:
         driven = np.zeros(N, bool)
         driven[self.cdofs[self.cscale != 0.0]] = True
         self._cells_c = np.flatnonzero(np.any(driven[self.edofs], axis=1))   # cells moved by driven dofs
-        self._udofs_flat = self.udofs.ravel()
-        self._edofs_flat = self.edofs.ravel()
-        self._pdofs_flat = self.pdofs.ravel()
         self._has_pressure = bool(np.any(self.f_pressure))
         self._norm_pressure = np.linalg.norm(self.f_pressure)
         self._const_cache = {}
@@ -306,39 +304,21 @@ class Solver:
         unchanged whatever dt) the committed stress and the tangent of the last converged iteration are used. With
         tangent False the tangent may be None (the material's choice; ``_tangent_at`` gives it when needed)."""
         self.stats["residuals"] += 1
-        g = self.geom
-        U = x[self.udofs]
-        P = x[self.pdofs]
-        dU = U - x_n[self.udofs]
-        dP = P - x_n[self.pdofs]
         if material_call:
             self.stats["material_calls"] += 1
-            strain = np.matmul(g.B, U[:, :, None])[:, :, 0]
+            strain = np.empty_like(self._strain)
+            cell_strain(self.geom.B, x, self.udofs, strain)
             stress_soil, state, stress_fe, D = self._mp.trial(strain - self._strain, dt, tangent=tangent)
         else:
             strain, stress_soil, state, stress_fe, D = (self._strain, self._mp.stress, self._mp.state,
                                                         self._stress_fe, self._D)
-        VBt = self._VBt
-        pore = (g.n_bar * P).sum(axis=1)                                    # V p_bar
-        f_u = (np.matmul(VBt, (stress_fe - self._sig0_fe)[:, :, None])[:, :, 0] - g.vol_row * pore[:, None]
-               + np.matmul(self._hg, U[:, :, None])[:, :, 0])
-        dvol = (g.vol_row * dU).sum(axis=1)
-        flow = (dt * self._k)[:, None] * np.matmul(g.H, P[:, :, None])[:, :, 0]
-        r_p = -(g.n_bar * dvol[:, None] + flow + np.matmul(self._S, dP[:, :, None])[:, :, 0])
-        R = np.bincount(self._udofs_flat, f_u.ravel(), self.n_dofs)
-        R += np.bincount(self._pdofs_flat, r_p.ravel(), self.n_dofs)
+        g = self.geom
+        R, scale = np.empty(self.n_dofs), np.empty(self.n_dofs)
+        coupled_residual(x, x_n, stress_fe, self._sig0_fe, self._VBt, self._absVBt, self._hg, g.vol_row,
+                         self._abs_vol_row, g.n_bar, dt * self._k, g.H, self._S, self._absS, self.udofs, self.pdofs,
+                         R, scale)
         if self._has_pressure:
             R -= a1 * self.f_pressure
-        # reference magnitudes per dof for the convergence test: the assembled sums of absolute contributions, so
-        # that every node is judged against its own force (flux) level, not against the large outer cells
-        abs_u = (np.matmul(self._absVBt, (np.abs(stress_fe) + np.abs(self._sig0_fe))[:, :, None])[:, :, 0]
-                 + self._abs_vol_row * np.abs(pore)[:, None])
-        scale = np.bincount(self._udofs_flat, abs_u.ravel(), self.n_dofs)
-        abs_p = g.n_bar * (self._abs_vol_row * np.abs(dU)).sum(axis=1)[:, None] + np.abs(flow)
-        if self.problem.stabilization:
-            abs_p += np.matmul(self._absS, np.abs(dP)[:, :, None])[:, :, 0]
-        scale += np.bincount(self._pdofs_flat, abs_p.ravel(), self.n_dofs)
-        if self._has_pressure:
             scale += np.abs(a1 * self.f_pressure)
         return R, D, (stress_soil, state, stress_fe, strain), scale
 
