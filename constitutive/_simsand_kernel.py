@@ -28,10 +28,11 @@ import numpy as np
 from ._jit import jit
 from .simsand import E_MAX_STIFFNESS
 
-#: rows (numpy integrator) or columns (kernel) of the parameter array ``prm``
+#: rows (numpy integrator) or columns (kernel) of the parameter array ``prm`` (``_lode``: 1.0 with the Lode dependence
+#: of M_p and M_pt, 0.0 without it, see ``lode_argument``)
 PARAMETER_COLUMNS = ("K_0", "n", "lambda_c", "xi", "k_p", "A_d", "n_p", "n_d", "_log_e_ref", "_log_tan_mu",
-                     "_shear_ratio")
-K0, N, LAM, XI, KP, AD, NP, ND, LOG_EREF, LOG_TANMU, SHEAR_RATIO = range(len(PARAMETER_COLUMNS))
+                     "_shear_ratio", "_lode")
+K0, N, LAM, XI, KP, AD, NP, ND, LOG_EREF, LOG_TANMU, SHEAR_RATIO, LODE = range(len(PARAMETER_COLUMNS))
 #: failure codes of the integrators (0: none): index into simsand.FAILURE_REASONS
 NO_UNIQUE_RESPONSE, CONTROL_LOST, CONTROL_LOST_WITHIN, DRIFT_FAILED, STATE_INVALID, ERROR_CONTROL = range(1, 7)
 _NAN = math.nan
@@ -57,17 +58,25 @@ def friction_terms(tan_phi, sin3theta):
 
 
 @jit
+def lode_argument(sin3theta, lode):
+    """The sin 3theta at which the friction ratios M_p and M_pt are evaluated: sin 3theta itself with the Lode
+    dependence (``lode`` = 1.0, the column ``_lode``), +1 without it (``lode`` = 0.0: M(theta) = M_c for every Lode
+    angle, a circular deviatoric section). Its derivative with respect to sin 3theta is ``lode``."""
+    return lode * sin3theta + (1.0 - lode)
+
+
+@jit
 def peak_terms(pe, e, eps_dp, sin3theta, prm, p_at):
     """(VI) CSL and (VII) peak angle at p' = pe (floored at p_min by the caller), void ratio e: ln(p'/p_at),
     x = (p'/p_at)^xi, ln(e_c/e), H = eps_d^p/(k_p + eps_d^p) of (IV), tan phi_p, and (M_p, dM_p/dtan phi_p,
-    dM_p/dsin3theta)."""
+    dM_p/dsin3theta) (the last zero without Lode dependence)."""
     log_pr = np.log(pe / p_at)
     x = np.exp(prm[XI] * log_pr)
     log_r = prm[LOG_EREF] - prm[LAM] * x - np.log(e)
     tan_p = np.exp(prm[NP] * log_r + prm[LOG_TANMU])
     H = eps_dp / (prm[KP] + eps_dp)
-    Mp, dMp_dtan, dMp_dsin3 = friction_terms(tan_p, sin3theta)
-    return log_pr, x, log_r, H, tan_p, Mp, dMp_dtan, dMp_dsin3
+    Mp, dMp_dtan, dMp_dsin3 = friction_terms(tan_p, lode_argument(sin3theta, prm[LODE]))
+    return log_pr, x, log_r, H, tan_p, Mp, dMp_dtan, dMp_dsin3 * prm[LODE]
 
 
 @jit
@@ -83,7 +92,7 @@ def material_terms(eta, pe, e, eps_dp, sin3theta, prm, p_at):
     through M_p(e_c(p'), e) (d ln e_c/dp' = -lambda xi x/p'); the dilatancy A_d (M_pt - eta) of (V);
     K_p = -df/d eps_d^p; H dM_p/dsin3theta (the Lode part of the yield gradient)."""
     log_pr, x, log_r, H, tan_p, Mp, dMp_dtan, dMp_dsin3 = peak_terms(pe, e, eps_dp, sin3theta, prm, p_at)
-    Mpt = friction_terms(np.exp(prm[LOG_TANMU] - prm[ND] * log_r), sin3theta)[0]
+    Mpt = friction_terms(np.exp(prm[LOG_TANMU] - prm[ND] * log_r), lode_argument(sin3theta, prm[LODE]))[0]
     K = prm[K0] * p_at * (E_MAX_STIFFNESS - e) ** 2 / (1.0 + e) * np.exp(prm[N] * log_pr)
     HdM = H * dMp_dtan * tan_p * prm[NP]
     df_dp = -eta / pe + HdM * prm[LAM] * prm[XI] * x / pe

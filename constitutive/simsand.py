@@ -17,6 +17,19 @@ Equations (numbers of REFERENCE.md section 3):
 - Lode dependence (Sheng, Sloan & Yu 2000) on M_p and M_pt, each with its own c = (3 - sin phi)/(3 + sin phi):
   M(theta) = M_c [2 c^4 / (1 + c^4 - (1 - c^4) sin 3theta)]^(1/4).
 
+Two physics switches of the one model (both True by default, the model of REFERENCE.md section 3; used by the
+missing-physics catalog ``constitutive.physics_catalog`` to build a base class without the physics and its enriched
+class):
+
+- ``lode_dependence=False``: M(theta) = M_c for every Lode angle (circular deviatoric section, as in Cam-clay-type
+  sand models): M_p and M_pt are evaluated at sin 3theta = +1 and the Lode part of the yield gradient vanishes. One
+  mechanism for every integrator: the parameter column ``_lode`` (1.0 or 0.0) read by
+  ``_simsand_kernel.lode_argument``. Triaxial extension then fails at eta = -M_c(phi_mu) instead of -c M_c.
+- ``state_dependent_dilatancy=False``: the interlocking of (VII) is off, tan phi_p = tan phi_pt = tan phi_mu
+  whatever the density and pressure (n_p = n_d = 0): the peak ratio is M_mu H, the dilatancy A_d (M_mu - eta) of
+  (V); no peak above the critical-state ratio. n_p and n_d are then not parameters of the model (omit them or give
+  0; a non-zero value raises ParameterError).
+
 Generalisation to six components: the yield gradient a = df/dsigma' includes the p'- and Lode-angle dependence of
 M_p (through e_c(p') and sin 3theta); the flow direction is the stress-space gradient of g from (V) (radial in the
 deviatoric plane). The void ratio enters M_p and M_pt and follows the total volumetric strain,
@@ -195,7 +208,7 @@ class MixedControl:
 class SIMSAND(MaterialModel):
     """SIMSAND sand model (REFERENCE.md section 3).
 
-    Parameters (scalars or arrays of shape (n,), one per point or particle):
+    Parameters (scalars or arrays of shape (n,), one per point or particle; stresses in kPa, compression positive):
         nu       Poisson's ratio, -1 < nu < 0.5
         K_0      bulk stiffness constant of (III) (dimensionless) > 0 (not the earth-pressure coefficient)
         n        stiffness exponent of (III), 0 <= n < 1
@@ -205,8 +218,12 @@ class SIMSAND(MaterialModel):
         phi_mu   critical-state friction angle in degrees, 0 < phi_mu < 90
         k_p      plastic hardening constant of (IV) > 0
         A_d      stress-dilatancy constant of (V) >= 0
-        n_p      interlocking exponent for the peak angle (VII) >= 0
-        n_d      interlocking exponent for the phase-transformation angle (VII) >= 0
+        n_p      interlocking exponent for the peak angle (VII) >= 0 (required with state_dependent_dilatancy)
+        n_d      interlocking exponent for the phase-transformation angle (VII) >= 0 (likewise)
+
+    Switches (module docstring): ``lode_dependence`` (default True: Sheng et al. M(theta); False: M = M_c for every
+    Lode angle) and ``state_dependent_dilatancy`` (default True: (VII) with n_p, n_d; False: n_p = n_d = 0, so
+    phi_p = phi_pt = phi_mu; n_p, n_d omitted, or 0).
 
     Options: ``p_at`` (kPa, 101.325), ``p_min`` (kPa, tension cutoff and stiffness floor, default 0.1),
     ``stol`` (relative local error tolerance of the substepping, default 1e-3: curves within about 1e-3 of the
@@ -227,9 +244,24 @@ class SIMSAND(MaterialModel):
     tangent_kind = "continuum"
     parameter_names = ("nu", "K_0", "n", "e_ref", "lambda_c", "xi", "phi_mu", "k_p", "A_d", "n_p", "n_d")
 
-    def __init__(self, nu, K_0, n, e_ref, lambda_c, xi, phi_mu, k_p, A_d, n_p, n_d, *,
+    def __init__(self, nu, K_0, n, e_ref, lambda_c, xi, phi_mu, k_p, A_d, n_p=None, n_d=None, *,
+                 lode_dependence=True, state_dependent_dilatancy=True,
                  p_at=P_AT, p_min=0.1, stol=1e-3, ftol=1e-8, max_substeps=1000, triaxial_integrator="compiled"):
         m = self.name
+        for k, v in (("lode_dependence", lode_dependence), ("state_dependent_dilatancy", state_dependent_dilatancy)):
+            if not isinstance(v, (bool, np.bool_)):
+                raise ParameterError(f"{m}: {k} must be True or False, got {v!r}")
+        self.lode_dependence = bool(lode_dependence)
+        self.state_dependent_dilatancy = bool(state_dependent_dilatancy)
+        for k, v in (("n_p", n_p), ("n_d", n_d)):
+            if self.state_dependent_dilatancy and v is None:
+                raise ParameterError(f"{m}: parameter {k} is required with state_dependent_dilatancy=True")
+            if not self.state_dependent_dilatancy and v is not None and np.any(np.asarray(v, dtype=float) != 0.0):
+                raise ParameterError(f"{m}: {k} = {v} given but state_dependent_dilatancy=False (the interlocking of "
+                                     "(VII) is off: n_p = n_d = 0)")
+        if not self.state_dependent_dilatancy:
+            n_p = 0.0 if n_p is None else n_p
+            n_d = 0.0 if n_d is None else n_d
         self.nu = check_parameter("nu", nu, lower=-1.0, upper=0.5, model=m)
         self.K_0 = check_parameter("K_0", K_0, lower=0.0, model=m)
         self.n = check_parameter("n", n, lower=0.0, upper=1.0, lower_open=False, model=m)
@@ -263,6 +295,7 @@ class SIMSAND(MaterialModel):
         self._log_tan_mu = np.log(self._tan_mu)
         self._log_e_ref = np.log(self.e_ref)
         self._shear_ratio = 1.5 * (1.0 - 2.0 * self.nu) / (1.0 + self.nu)  # G/K
+        self._lode = 1.0 if self.lode_dependence else 0.0  # the column _lode of _simsand_kernel.lode_argument
 
     # ------------------------------------------------------------------ parameters per point
     def _point_params(self, n):
@@ -287,10 +320,13 @@ class SIMSAND(MaterialModel):
         return self._shear_ratio * self.bulk_modulus(p, e)
 
     def friction_ratios(self, p, e, sin3theta=1.0):
-        """(M_p, M_pt) of (VII) with the Lode dependence, at p' (kPa), void ratio e and sin 3theta."""
+        """(M_p, M_pt) of (VII) at p' (kPa), void ratio e and sin 3theta, with the Lode dependence when the model has
+        it (else M_c of each angle whatever sin 3theta)."""
         r = self.critical_void_ratio(np.maximum(p, self.p_min)) / e
-        Mp = friction_ratio(r**self.n_p * self._tan_mu, sin3theta, derivatives=False)
-        Mpt = friction_ratio(r ** (-self.n_d) * self._tan_mu, sin3theta, derivatives=False)
+        s3 = np.asarray(sin3theta, dtype=float)
+        s3 = _kernel().lode_argument(np.ascontiguousarray(s3.ravel()), self._lode).reshape(s3.shape)
+        Mp = friction_ratio(r**self.n_p * self._tan_mu, s3, derivatives=False)
+        Mpt = friction_ratio(r ** (-self.n_d) * self._tan_mu, s3, derivatives=False)
         return Mp, Mpt
 
     # ------------------------------------------------------------------ state
