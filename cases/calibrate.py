@@ -18,8 +18,9 @@ Test types (units kPa, m, s; compression positive; strains in % in the files):
 - ``oedometer_creep``: incremental oedometer, load stages held for a stage duration (``labtests.oedometer_loading``);
 - ``sbp``: self-boring pressuremeter expansion (the coupled FE of ``cases.burswood_sbp.SBPForward``).
 
-Base models: ``ModifiedCamClay``, ``ANICREEP`` (switches ``viscous``, ``anisotropy``) and ``SIMSAND`` (laboratory tests
-only). ``--diagnose`` runs the loop of ``cases.concealed_viscosity`` (shared here: :func:`calibrate_class`,
+Base models: ``ModifiedCamClay``, ``ANICREEP`` (switches ``viscous``, ``anisotropy``, ``destructuration``) and
+``SIMSAND`` (laboratory tests only; switches ``lode_dependence``, ``state_dependent_dilatancy``, the latter needing
+n_p and n_d). ``--diagnose`` runs the loop of ``cases.concealed_viscosity`` (shared here: :func:`calibrate_class`,
 :func:`run_loop`): calibrate the base class, locate the mismatch (``inference.screen``), explain it with per-point
 covariates and ``constitutive.physics_catalog``, recalibrate the enriched class of the best-ranked named candidate
 whose enrichment exists for the base model, compare log-evidences (``inference.diagnose``).
@@ -179,7 +180,7 @@ def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str, pr
     t_loop = time.perf_counter()
     out = Path(out)
     base_switches = problem.base_switches
-    candidates = physics_catalog.signatures(problem.catalog_switches(base_switches))
+    candidates = physics_catalog.signatures(problem.catalog_switches(base_switches), problem.model)
     base, _, like, base_raw = calibrate_class(obs, class_name(base_switches, problem.model), base_switches,
                                               problem.base_bounds, problem.base_log_uniform, args,
                                               out / problem.base_dir, seed, settings, problem)
@@ -194,14 +195,15 @@ def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str, pr
     for cand in first["candidates"]:
         if not cand["named"]:
             continue
-        if cand["enrichment"] is None or cand["enrichment"]["model_class"] != problem.model:
+        if cand["enrichment"] is None:  # none, or not for this model class (physics_catalog.signatures)
             skipped.append(cand["name"])
             continue
         chosen.append(cand["name"])
         break
     chosen += [name for name in problem.also_enrich(first) if name not in chosen]
     for name in chosen:
-        switches, bounds, log_uniform = physics_catalog.enriched_settings(name, base_switches, problem.base_bounds)
+        switches, bounds, log_uniform = physics_catalog.enriched_settings(name, base_switches, problem.base_bounds,
+                                                                          problem.model)
         enriched, _, _, _ = calibrate_class(obs, class_name(switches, problem.model), switches, bounds,
                                             tuple(problem.base_log_uniform) + tuple(log_uniform), args,
                                             out / f"enriched_{name.replace(' ', '_')}", seed, settings, problem)
@@ -254,9 +256,11 @@ MODELS = {
                           switches={"viscous": True, "anisotropy": True, "destructuration": False},
                           defaults={"tau": 86400.0}, e0_parameter=True,
                           needs={"viscous": ("C_alpha_e",), "destructuration": ("chi0", "xi", "xi_d")}),
-    "SIMSAND": ModelSpec(SIMSAND, SIMSAND.parameter_names, SIMSAND.parameter_names,
-                         catalog={"state_dependent": True, "lode": True, "viscous": False, "anisotropy": False},
-                         max_strain_step=None),
+    "SIMSAND": ModelSpec(SIMSAND, SIMSAND.parameter_names,
+                         tuple(k for k in SIMSAND.parameter_names if k not in ("n_p", "n_d")),
+                         switches={"lode_dependence": True, "state_dependent_dilatancy": True},
+                         catalog={"viscous": False, "anisotropy": False},
+                         needs={"state_dependent_dilatancy": ("n_p", "n_d")}, max_strain_step=None),
 }
 #: models the pressuremeter FE runs in this entry point
 SBP_MODELS = ("ANICREEP", "ModifiedCamClay")
@@ -786,7 +790,7 @@ def build_model(model: str, values: dict, switches: dict, vertical_axis=1):
     """The material-point model ``model`` with parameter values (scalars or (n,) arrays) and switches."""
     if model == "ANICREEP":  # an enrichment's switches may hold a parameter fixed (xi_d): the study's value wins
         return ANICREEP(**{**switches, **values}, vertical_axis=vertical_axis)
-    return MODELS[model].cls(**values)
+    return MODELS[model].cls(**switches, **values)
 
 
 def _substeps(spec, strains, max_step):
@@ -812,8 +816,9 @@ def _creep_weights(spec, times):
 
 def simulate_lab(spec: TestSpec, model, e0, x, max_step=None) -> dict:
     """Curves of one laboratory test for a batch (m,) at the recorded abscissae ``x`` (strain in % or time in s):
-    {curve: (m, n)} with the calibrated curve names plus ``stress_ratio`` and ``mean_stress``, and ``failed``;
-    ``max_step``: see :func:`_substeps`."""
+    {curve: (m, n)} with the calibrated curve names plus ``stress_ratio`` and ``mean_stress`` (kPa), for a model with
+    a critical state line e_c(p') (SIMSAND) ``state_parameter`` psi = e - e_c(p'), and ``failed``; ``max_step``: see
+    :func:`_substeps`."""
     if spec.type == "triaxial":
         strains = np.asarray(x, dtype=float) / 100.0
         driver = labtests.drained_triaxial if spec.drainage == "drained" else labtests.undrained_triaxial
@@ -832,6 +837,8 @@ def simulate_lab(spec: TestSpec, model, e0, x, max_step=None) -> dict:
            "volumetric_strain": 100.0 * c["volumetric_strain"], "void_ratio": c["e"],
            "axial_stress": c["axial_stress"], "axial_strain": 100.0 * c["axial_strain"],
            "stress_ratio": c["q"] / c["p"], "mean_stress": c["p"]}
+    if hasattr(model, "critical_void_ratio"):
+        out["state_parameter"] = c["e"] - model.critical_void_ratio(c["p"])
     out["failed"] = c["failed"] | ~np.all(np.isfinite(c["q"]), axis=1)
     return out
 
@@ -847,6 +854,10 @@ class _SBP(burswood_sbp.SBPForward):
 
     def material(self, params):
         return build_model(self.model, {**self.values, **params}, self.switches, vertical_axis=2)
+
+
+#: the simulated quantities besides the calibrated curves that the covariates use (simulate_lab)
+COVARIATE_CURVES = ("stress_ratio", "mean_stress", "state_parameter")
 
 
 class StudyForward:
@@ -896,7 +907,7 @@ class StudyForward:
         out = []
         for i, params in enumerate(batch):
             bad = [t for t, f in failed.items() if f[i]]
-            result = {t: {c: curves[t][c][i] for c in self.curves[t] + ("stress_ratio", "mean_stress")}
+            result = {t: {c: curves[t][c][i] for c in self.curves[t] + COVARIATE_CURVES if c in curves[t]}
                       for t in curves}
             for name, sbp in self.sbp.items():
                 if bad:  # this particle has already failed: no FE solve for it
@@ -972,10 +983,10 @@ class StudyProblem(LoopProblem):
 
     def covariates(self, like, map_curves) -> dict:
         """Per-point covariates (names from physics_catalog.COVARIATES): strain rate (test condition), time, strain
-        level, the MAP's stress ratio and p', loading phase, stress-path direction and consolidation (test
-        conditions); a between-test covariate is kept only when it takes at least two values."""
+        level, the MAP's stress ratio, p' and (SIMSAND) state parameter, loading phase, stress-path direction and
+        consolidation (test conditions); a between-test covariate is kept only when it takes at least two values."""
         cov = {k: {} for k in ("strain rate", "time", "strain level", "stress ratio", "mean effective stress",
-                               "loading phase", "stress path direction", "consolidation")}
+                               "state parameter", "loading phase", "stress path direction", "consolidation")}
         for spec in self.study.tests:
             test = like.observations[spec.name]
             for c, curve in test.curves.items():
@@ -991,6 +1002,8 @@ class StudyProblem(LoopProblem):
                 if "stress_ratio" in map_curves[spec.name]:
                     cov["stress ratio"][k] = np.asarray(map_curves[spec.name]["stress_ratio"])
                     cov["mean effective stress"][k] = np.asarray(map_curves[spec.name]["mean_stress"])
+                if "state_parameter" in map_curves[spec.name]:
+                    cov["state parameter"][k] = np.asarray(map_curves[spec.name]["state_parameter"])
                 cov["loading phase"][k] = "hold" if spec.type == "oedometer_creep" else "load"
                 if spec.type == "triaxial":
                     cov["stress path direction"][k] = spec.direction

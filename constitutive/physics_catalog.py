@@ -44,7 +44,9 @@ COVARIATES = {
                         "branch only: undefined before the peak and in records that peak at their last point)",
     "stress ratio": "q/p' at the point (simulated at the MAP)",
     "mean effective stress": "p' at the point (kPa, simulated at the MAP)",
-    "overconsolidation": "overconsolidation ratio or sand state parameter at the point",
+    "overconsolidation": "overconsolidation ratio at the point",
+    "state parameter": "sand state parameter psi = e - e_c(p') at the point (Been & Jefferies 1985; negative: denser "
+                       "than critical; simulated at the MAP)",
     "drainage time factor": "T = c t / L^2 (consolidation coefficient c, drainage length L)",
     "loading phase": "'load', 'hold' or 'unload' (categorical)",
     "stress path direction": "'compression' or 'extension' (categorical test condition)",
@@ -190,22 +192,36 @@ CATALOG = (
                     "(2011) EVP-SCLAY1S; constitutive/anicreep.py (D)",)),
     Candidate(
         "state-dependent dilatancy",
-        "Sand dilatancy and peak strength depending on the state (density and pressure, e_c(p')): dense states "
-        "dilate and peak, loose states contract.",
-        (_item("overconsolidation", "primary", +1, "denser-than-critical states (state parameter < 0) are recorded "
-               "stronger than simulated", None),
-         _item("mean effective stress", "supporting", -1, "the misfit fades at higher confining pressure")),
-        {"state_dependent": True},
-        None,
-        "SIMSAND always has state-dependent dilatancy; no sand base class without it is offered to enrich"),
+        "Sand dilatancy and peak strength depending on the state (density and pressure, through the critical state "
+        "line e_c(p')): denser-than-critical states interlock, peak above the critical-state ratio and dilate; looser "
+        "ones contract and harden without a peak; both end at the critical state, where the effect vanishes.",
+        (_item("state parameter", "primary", -1, "the denser than critical the state (the more negative psi), the "
+               "more the recorded stresses and void ratio exceed the simulation (a peak and dilation the base model "
+               "lacks); where psi -> 0 the misfit vanishes", EFFECTIVE_STRESS_CURVES + ("void_ratio",)),
+         _item("mean effective stress", "supporting", 0, "the misfit changes with confining pressure at a given "
+               "density (the same void ratio is further from e_c(p') at low p')"),
+         _item("strain level", "supporting", 0, "the misfit peaks around the strength peak and fades at large strain "
+               "(critical state)")),
+        {"state_dependent_dilatancy": True},
+        # SIMSAND's interlocking (VII) on: n_p, n_d free with the paper's SIMSAND priors (uniform [0.1, 10] both,
+        # cases.simsand_synthetic.BOUNDS; the printed table of the paper swaps them)
+        Enrichment("SIMSAND", {"state_dependent_dilatancy": True}, {"n_p": (0.1, 10.0), "n_d": (0.1, 10.0)}),
+        references=("REFERENCE.md section 3 (VII): tan phi_p = (e_c/e)^n_p tan phi_mu, tan phi_pt = (e_c/e)^-n_d "
+                    "tan phi_mu; Been & Jefferies (1985) state parameter",)),
     Candidate(
         "Lode dependence",
         "Strength depending on the Lode angle: triaxial extension (and plane strain) fail at a lower stress ratio "
-        "than compression.",
-        (_item("stress path direction", "primary", 0, "extension tests misfit, compression tests fit", None),),
-        {"lode": True},
-        None,
-        "ANICREEP has no Lode-angle switch (SIMSAND applies the Sheng et al. rule always)"),
+        "than compression (Sheng, Sloan & Yu 2000: M_e = c M_c, c = (3 - sin phi)/(3 + sin phi)); a model with a "
+        "circular deviatoric section overpredicts the extension strength or, calibrated on both, misfits compression "
+        "and extension with opposite signs.",
+        (_item("stress path direction", "primary", 0, "extension and compression tests misfit differently "
+               "(extension recorded weaker than simulated)", None),
+         _item("stress ratio", "supporting", 0, "the misfit grows as the stress ratio approaches failure (the Lode "
+               "rule changes the failure ratio, not the elastic start)")),
+        {"lode_dependence": True},
+        # no extra parameter: c follows from phi_p and phi_pt (REFERENCE section 3)
+        Enrichment("SIMSAND", {"lode_dependence": True}, {}),
+        references=("REFERENCE.md section 3: Sheng, Sloan & Yu (2000) M(theta) on M_p and M_pt",)),
 )
 
 
@@ -217,24 +233,41 @@ def candidate(name: str) -> Candidate:
     raise ValueError(f"candidate physics {name!r} is not in the catalog; known: {[c.name for c in CATALOG]}")
 
 
-def signatures(base_switches: dict) -> list:
+def _unavailable(c: Candidate, model_class) -> str:
+    """Why candidate ``c`` cannot enrich a base model of class ``model_class`` (None: any class), or ""."""
+    if c.enrichment is None:
+        return c.unavailable
+    if model_class is not None and c.enrichment.model_class != model_class:
+        return (f"{model_class} has no switch for it (the enrichment is {c.enrichment.model_class} "
+                f"{', '.join(f'{k}={v}' for k, v in c.enrichment.switches.items())})")
+    return ""
+
+
+def signatures(base_switches: dict, model_class: str | None = None) -> list:
     """The catalog as plain data for a base model with ``base_switches`` (e.g. {"viscous": False,
-    "anisotropy": True}); each entry gains ``in_base`` (True when the base model already has the physics)."""
+    "anisotropy": True}); each entry gains ``in_base`` (True when the base model already has the physics). With
+    ``model_class`` (the base model's class), an enrichment of another class is given as ``enrichment`` None with the
+    reason in ``unavailable``."""
     out = []
     for c in CATALOG:
         d = c.as_data()
         d["in_base"] = bool(c.present_when) and all(base_switches.get(k) == v for k, v in c.present_when.items())
+        reason = _unavailable(c, model_class)
+        if reason:
+            d.update(enrichment=None, unavailable=reason)
         out.append(d)
     return out
 
 
-def enriched_settings(name: str, base_switches: dict, base_bounds: dict) -> tuple:
+def enriched_settings(name: str, base_switches: dict, base_bounds: dict, model_class: str | None = None) -> tuple:
     """(switches, prior bounds, log-uniform names) of the enriched class of candidate ``name`` for a base model with
-    ``base_switches`` and free-parameter ``base_bounds``. Raises ValueError when the enrichment is not implemented
-    (message: the catalog's reason) or the base model already has the physics."""
+    ``base_switches`` and free-parameter ``base_bounds`` (of class ``model_class`` when given). Raises ValueError when
+    the enrichment is not implemented or belongs to another model class (message: the reason) or the base model
+    already has the physics."""
     c = candidate(name)
-    if c.enrichment is None:
-        raise ValueError(f"candidate {name!r}: enrichment not available: {c.unavailable}")
+    reason = _unavailable(c, model_class)
+    if reason:
+        raise ValueError(f"candidate {name!r}: enrichment not available: {reason}")
     if c.present_when and all(base_switches.get(k) == v for k, v in c.present_when.items()):
         raise ValueError(f"candidate {name!r}: the base model already has it (switches {base_switches})")
     overlap = set(c.enrichment.parameters) & set(base_bounds)

@@ -307,8 +307,13 @@ class SIMSAND(MaterialModel):
 
     # ------------------------------------------------------------------ closed-form pieces
     def critical_void_ratio(self, p):
-        """e_c(p') of (VI); p' in kPa."""
-        return self.e_ref * np.exp(-self.lambda_c * (np.asarray(p, float) / self.p_at) ** self.xi)
+        """e_c(p') of (VI); p' in kPa, a scalar or an array whose first axis runs over the parameter sets (per-point
+        parameters broadcast along it, e.g. curves (n_sets, n_records))."""
+        p = np.asarray(p, float)
+
+        def lead(v):  # a parameter (scalar or (n_sets,)) aligned with the first axis of p
+            return np.reshape(v, np.shape(v) + (1,) * max(p.ndim - 1, 0))
+        return lead(self.e_ref) * np.exp(-lead(self.lambda_c) * (p / self.p_at) ** lead(self.xi))
 
     def bulk_modulus(self, p, e):
         """K of (III) in kPa (p' floored at p_min)."""

@@ -42,17 +42,21 @@ def test_catalog_entries_are_complete_and_well_formed():
                 assert p in kwargs and 0 < lo < hi, (c.name, p)
             assert set(c.enrichment.log_uniform) <= set(c.enrichment.parameters)
         json.dumps(c.as_data())  # plain data for inference/
-    # the real enrichments now: three ANICREEP switches and the coupled SBP forward model
+    # the real enrichments now: three ANICREEP switches, the coupled SBP forward model and two SIMSAND switches
     assert {c.name for c in catalog.CATALOG if c.enrichment} == {"viscosity", "partial drainage", "anisotropy",
-                                                                  "destructuration"}
+                                                                  "destructuration", "state-dependent dilatancy",
+                                                                  "Lode dependence"}
 
 
 def test_catalog_enrichment_settings_and_refusals():
     switches, bounds, log_uniform = catalog.enriched_settings("viscosity", BASE, {"M": (0.8, 2.0)})
     assert switches == {"viscous": True, "anisotropy": True}
     assert bounds == {"M": (0.8, 2.0), "C_alpha_e": (0.001, 0.1)} and log_uniform == ("C_alpha_e",)
-    with pytest.raises(ValueError, match="enrichment not available: ANICREEP has no Lode-angle switch"):
-        catalog.enriched_settings("Lode dependence", BASE, {})
+    with pytest.raises(ValueError, match="enrichment not available: ANICREEP has no switch for it .the enrichment "
+                                         "is SIMSAND lode_dependence=True"):
+        catalog.enriched_settings("Lode dependence", BASE, {}, "ANICREEP")
+    plain = {d["name"]: d for d in catalog.signatures(BASE, "ANICREEP")}["Lode dependence"]
+    assert plain["enrichment"] is None and "ANICREEP has no switch" in plain["unavailable"]
     with pytest.raises(ValueError, match="already has it"):
         catalog.enriched_settings("anisotropy", BASE, {})
     with pytest.raises(ValueError, match="not in the catalog"):
@@ -320,7 +324,8 @@ def _named_at_best_fit(effect):
     sim = like.simulated_at_observations(map_curves)
     cov = lab.covariates(like, map_curves)
     report = screen(like, sim, float(np.sqrt(np.mean(fit.fun**2))), covariates=cov)  # the loop's 1000 draws
-    ranked = diagnose.rank_candidates(report, relative_residuals(like, sim), cov, catalog.signatures(lab.BASE_SWITCHES))
+    ranked = diagnose.rank_candidates(report, relative_residuals(like, sim), cov,
+                                      catalog.signatures(lab.BASE_SWITCHES, lab.PROBLEM.model))
     return report.verdict, [r["name"] for r in ranked if r["named"] and r["enrichment"]]
 
 

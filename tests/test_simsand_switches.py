@@ -188,3 +188,86 @@ def test_compiled_kernel_equals_the_numpy_reference_with_the_switches_off(draine
 def test_bad_switch_input_raises(kwargs, message):
     with pytest.raises(ParameterError, match=message):
         SIMSAND(**kwargs)
+
+
+# ----------------------------------------------------------------------------------------------- catalog and studies
+def test_catalog_enrichments_are_the_simsand_switches():
+    from constitutive import physics_catalog as catalog
+
+    base = {"lode_dependence": False, "state_dependent_dilatancy": False, "viscous": False, "anisotropy": False}
+    bounds = {"e_ref": (0.5, 1.5), "phi_mu": (20.0, 50.0)}
+    switches, b, log_uniform = catalog.enriched_settings("Lode dependence", base, bounds, "SIMSAND")
+    assert switches == dict(base, lode_dependence=True) and b == bounds and log_uniform == ()
+    switches, b, _ = catalog.enriched_settings("state-dependent dilatancy", base, bounds, "SIMSAND")
+    assert switches == dict(base, state_dependent_dilatancy=True)
+    assert b == dict(bounds, n_p=(0.1, 10.0), n_d=(0.1, 10.0))
+    full = {d["name"]: d for d in catalog.signatures(dict(base, lode_dependence=True,
+                                                          state_dependent_dilatancy=True), "SIMSAND")}
+    assert full["Lode dependence"]["in_base"] and full["state-dependent dilatancy"]["in_base"]
+    assert full["anisotropy"]["enrichment"] is None and "SIMSAND has no switch" in full["anisotropy"]["unavailable"]
+    for name in ("Lode dependence", "state-dependent dilatancy"):
+        with pytest.raises(ValueError, match="already has it"):
+            catalog.enriched_settings(name, dict(base, lode_dependence=True, state_dependent_dilatancy=True), {},
+                                      "SIMSAND")
+
+
+OFF = "lode_dependence = false\nstate_dependent_dilatancy = false\n"
+
+
+def _drained_study(tmp_path, switches=OFF, interlocking="", free=""):
+    """The shipped drained example (cases/examples/triaxial_drained.toml, SYNTHETIC data) with the [model] switches
+    ``switches``, the fixed n_p, n_d lines replaced by ``interlocking`` and ``free`` added to [model.free]."""
+    from pathlib import Path
+
+    examples = Path(__file__).resolve().parents[1] / "cases" / "examples"
+    text = (examples / "triaxial_drained.toml").read_text()
+    for old, new in (('file = "data/', f'file = "{examples}/data/'),
+                     ('name = "SIMSAND"\n', f'name = "SIMSAND"\n{switches}'),
+                     ("n_p = 2.0\nn_d = 2.0\n", interlocking), ("[model.free]\n", f"[model.free]\n{free}")):
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "study.toml"
+    path.write_text(text)
+    return path
+
+
+def test_study_switches_off_without_n_p_n_d_and_the_state_parameter_covariate(tmp_path):
+    """A study can state the base model without the physics (no n_p, n_d); its forward model runs the switched
+    model (phi_mu = 30: no peak above M_mu) and reports the state parameter psi = e - e_c(p') (Been & Jefferies
+    1985), computed here from (VI) with the curves' e and p'."""
+    import inference
+    from cases import calibrate as cal
+
+    study = cal.load_study(_drained_study(tmp_path))
+    assert study.switches == {"lode_dependence": False, "state_dependent_dilatancy": False}
+    obs, times = cal.load_observations(study)
+    problem = cal.StudyProblem(study, obs, times, quick=True)
+    assert problem.catalog_switches(study.switches)["state_dependent_dilatancy"] is False
+    curves = problem.map_curves({"e_ref": 0.75, "phi_mu": 30.0, "k_p": 0.003}, study.switches)
+    for t in study.tests:
+        c = curves[t.name]
+        assert np.all(c["stress_ratio"] <= M_C + 1e-8)
+        psi = c["void_ratio"] - 0.75 * np.exp(-0.03 * (c["mean_stress"] / P_AT) ** 0.6)
+        np.testing.assert_allclose(c["state_parameter"], psi, rtol=1e-12, atol=1e-15)
+    like = inference.Likelihood(obs, problem.forward(study.switches), batch=True)
+    cov = problem.covariates(like, curves)
+    assert set(cov["state parameter"]) == {(t.name, "q") for t in study.tests} | {
+        (t.name, "void_ratio") for t in study.tests}
+
+
+@pytest.mark.parametrize("interlocking, free, message", [
+    ("n_p = 2.0\n", "", "n_p = 2.0 given but state_dependent_dilatancy=False"),
+    ("", "n_d = [0.1, 10.0]\n", "model.free.n_d.*not used when state_dependent_dilatancy = false"),
+])
+def test_study_refuses_interlocking_parameters_with_the_switch_off(tmp_path, interlocking, free, message):
+    from cases import calibrate as cal
+
+    with pytest.raises(cal.StudyError, match=message):
+        cal.load_study(_drained_study(tmp_path, interlocking=interlocking, free=free))
+
+
+def test_study_needs_n_p_n_d_with_state_dependent_dilatancy(tmp_path):
+    from cases import calibrate as cal
+
+    with pytest.raises(cal.StudyError, match="state_dependent_dilatancy = true needs n_d"):
+        cal.load_study(_drained_study(tmp_path, switches="", interlocking="n_p = 2.0\n"))
