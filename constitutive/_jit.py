@@ -1,5 +1,6 @@
 """The one compilation policy of the constitutive kernels (numba), and the small pieces the kernels share
-(Voigt constants, the exponential-integration helper, the finiteness check). Imported only by the kernel modules.
+(Voigt constants, the exponential-integration helper, the finiteness check). Imported only by the kernel modules
+(constitutive's and fem/_residual_kernel.py).
 
 ``jit(func)`` compiles ``func`` in nopython mode on its first call with
   - ``error_model="numpy"``: floating-point division by zero and invalid operations give inf/nan as in numpy (a
