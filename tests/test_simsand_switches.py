@@ -271,3 +271,28 @@ def test_study_needs_n_p_n_d_with_state_dependent_dilatancy(tmp_path):
 
     with pytest.raises(cal.StudyError, match="state_dependent_dilatancy = true needs n_d"):
         cal.load_study(_drained_study(tmp_path, switches="", interlocking="n_p = 2.0\n"))
+
+
+def test_sand_lab_examples_are_synthetic_do_not_name_the_effect_and_equal_their_generator(tmp_path):
+    """cases/examples/sand_lab*.toml: the shipped records are labelled SYNTHETIC, neither their names nor their text
+    name the generating model's Lode rule, and they equal a fresh run of cases/examples/sand_lab_data.py."""
+    import importlib.util
+    from pathlib import Path
+
+    from cases import calibrate as cal
+
+    examples = Path(__file__).resolve().parents[1] / "cases" / "examples"
+    spec = importlib.util.spec_from_file_location("sand_lab_data", examples / "sand_lab_data.py")
+    generator = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(generator)
+    for study in generator.DATASETS:
+        shipped = {t.name: t.file for t in cal.load_study(examples / f"{study}.toml").tests}
+        assert len(shipped) == 12
+        fresh = {f.stem: f for f in generator.write(study, tmp_path / study)}
+        assert set(fresh) == set(shipped)
+        for name, f in shipped.items():
+            text = f.read_text()
+            assert text.startswith("# synthetic: NOT MEASURED DATA")
+            for word in ("lode", "sheng", "theta", "circular", "extension strength"):
+                assert word not in text.lower() and word not in str(f.relative_to(examples)).lower(), (f, word)
+            assert text == fresh[name].read_text(), name
