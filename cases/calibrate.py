@@ -817,8 +817,8 @@ def _creep_weights(spec, times):
 def simulate_lab(spec: TestSpec, model, e0, x, max_step=None) -> dict:
     """Curves of one laboratory test for a batch (m,) at the recorded abscissae ``x`` (strain in % or time in s):
     {curve: (m, n)} with the calibrated curve names plus ``stress_ratio`` and ``mean_stress`` (kPa), for a model with
-    a critical state line e_c(p') (SIMSAND) ``state_parameter`` psi = e - e_c(p'), and ``failed``; ``max_step``: see
-    :func:`_substeps`."""
+    a critical state line e_c(p') (SIMSAND) ``initial_state_parameter`` psi_0 = e_0 - e_c(p'_0) (constant along the
+    curve), and ``failed``; ``max_step``: see :func:`_substeps`."""
     if spec.type == "triaxial":
         strains = np.asarray(x, dtype=float) / 100.0
         driver = labtests.drained_triaxial if spec.drainage == "drained" else labtests.undrained_triaxial
@@ -838,7 +838,8 @@ def simulate_lab(spec: TestSpec, model, e0, x, max_step=None) -> dict:
            "axial_stress": c["axial_stress"], "axial_strain": 100.0 * c["axial_strain"],
            "stress_ratio": c["q"] / c["p"], "mean_stress": c["p"]}
     if hasattr(model, "critical_void_ratio"):
-        out["state_parameter"] = c["e"] - model.critical_void_ratio(c["p"])
+        psi0 = e0 - model.critical_void_ratio(spec.start_p)  # scalar, or (m,) with per-particle parameters
+        out["initial_state_parameter"] = np.broadcast_to(np.reshape(psi0, (-1, 1)), c["q"].shape)
     out["failed"] = c["failed"] | ~np.all(np.isfinite(c["q"]), axis=1)
     return out
 
@@ -857,7 +858,7 @@ class _SBP(burswood_sbp.SBPForward):
 
 
 #: the simulated quantities besides the calibrated curves that the covariates use (simulate_lab)
-COVARIATE_CURVES = ("stress_ratio", "mean_stress", "state_parameter")
+COVARIATE_CURVES = ("stress_ratio", "mean_stress", "initial_state_parameter")
 
 
 class StudyForward:
@@ -983,10 +984,11 @@ class StudyProblem(LoopProblem):
 
     def covariates(self, like, map_curves) -> dict:
         """Per-point covariates (names from physics_catalog.COVARIATES): strain rate (test condition), time, strain
-        level, the MAP's stress ratio, p' and (SIMSAND) state parameter, loading phase, stress-path direction and
-        consolidation (test conditions); a between-test covariate is kept only when it takes at least two values."""
+        level, the MAP's stress ratio and p', loading phase, stress-path direction, consolidation and (SIMSAND) the
+        initial state parameter at the MAP's critical state line (test conditions); a between-test covariate is kept
+        only when it takes at least two values."""
         cov = {k: {} for k in ("strain rate", "time", "strain level", "stress ratio", "mean effective stress",
-                               "state parameter", "loading phase", "stress path direction", "consolidation")}
+                               "loading phase", "stress path direction", "consolidation", "initial state parameter")}
         for spec in self.study.tests:
             test = like.observations[spec.name]
             for c, curve in test.curves.items():
@@ -1002,13 +1004,14 @@ class StudyProblem(LoopProblem):
                 if "stress_ratio" in map_curves[spec.name]:
                     cov["stress ratio"][k] = np.asarray(map_curves[spec.name]["stress_ratio"])
                     cov["mean effective stress"][k] = np.asarray(map_curves[spec.name]["mean_stress"])
-                if "state_parameter" in map_curves[spec.name]:
-                    cov["state parameter"][k] = np.asarray(map_curves[spec.name]["state_parameter"])
+                if "initial_state_parameter" in map_curves[spec.name]:
+                    cov["initial state parameter"][k] = float(map_curves[spec.name]["initial_state_parameter"][0])
                 cov["loading phase"][k] = "hold" if spec.type == "oedometer_creep" else "load"
                 if spec.type == "triaxial":
                     cov["stress path direction"][k] = spec.direction
                     cov["consolidation"][k] = spec.consolidation
-        between = ("strain rate", "loading phase", "stress path direction", "consolidation")
+        between = ("strain rate", "loading phase", "stress path direction", "consolidation",
+                   "initial state parameter")
         return {k: v for k, v in cov.items()
                 if v and (k not in between or len({str(x) for x in v.values()}) > 1)}
 

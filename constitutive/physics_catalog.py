@@ -45,8 +45,8 @@ COVARIATES = {
     "stress ratio": "q/p' at the point (simulated at the MAP)",
     "mean effective stress": "p' at the point (kPa, simulated at the MAP)",
     "overconsolidation": "overconsolidation ratio at the point",
-    "state parameter": "sand state parameter psi = e - e_c(p') at the point (Been & Jefferies 1985; negative: denser "
-                       "than critical; simulated at the MAP)",
+    "initial state parameter": "sand state parameter at the start of the test, psi_0 = e_0 - e_c(p'_0) (Been & "
+                               "Jefferies 1985; negative: denser than critical; e_c of the MAP); a test condition",
     "drainage time factor": "T = c t / L^2 (consolidation coefficient c, drainage length L)",
     "loading phase": "'load', 'hold' or 'unload' (categorical)",
     "stress path direction": "'compression' or 'extension' (categorical test condition)",
@@ -195,9 +195,10 @@ CATALOG = (
         "Sand dilatancy and peak strength depending on the state (density and pressure, through the critical state "
         "line e_c(p')): denser-than-critical states interlock, peak above the critical-state ratio and dilate; looser "
         "ones contract and harden without a peak; both end at the critical state, where the effect vanishes.",
-        (_item("state parameter", "primary", -1, "the denser than critical the state (the more negative psi), the "
-               "more the recorded stresses and void ratio exceed the simulation (a peak and dilation the base model "
-               "lacks); where psi -> 0 the misfit vanishes", EFFECTIVE_STRESS_CURVES + ("void_ratio",)),
+        (_item("initial state parameter", "primary", -1, "the denser than critical a test starts (the more negative "
+               "psi_0), the more its recorded stresses and void ratio exceed the simulation (a peak and dilation the "
+               "base model lacks), and the looser, the more they fall below it",
+               EFFECTIVE_STRESS_CURVES + ("void_ratio",)),
          _item("mean effective stress", "supporting", 0, "the misfit changes with confining pressure at a given "
                "density (the same void ratio is further from e_c(p') at low p')"),
          _item("strain level", "supporting", 0, "the misfit peaks around the strength peak and fades at large strain "

@@ -231,10 +231,10 @@ def _drained_study(tmp_path, switches=OFF, interlocking="", free=""):
     return path
 
 
-def test_study_switches_off_without_n_p_n_d_and_the_state_parameter_covariate(tmp_path):
+def test_study_switches_off_without_n_p_n_d_and_the_initial_state_parameter_covariate(tmp_path):
     """A study can state the base model without the physics (no n_p, n_d); its forward model runs the switched
-    model (phi_mu = 30: no peak above M_mu) and reports the state parameter psi = e - e_c(p') (Been & Jefferies
-    1985), computed here from (VI) with the curves' e and p'."""
+    model (phi_mu = 30: no peak above M_mu) and reports each test's initial state parameter psi_0 = e_0 - e_c(p'_0)
+    (Been & Jefferies 1985), computed here from (VI) and the test conditions, as a between-test covariate."""
     import inference
     from cases import calibrate as cal
 
@@ -244,15 +244,15 @@ def test_study_switches_off_without_n_p_n_d_and_the_state_parameter_covariate(tm
     problem = cal.StudyProblem(study, obs, times, quick=True)
     assert problem.catalog_switches(study.switches)["state_dependent_dilatancy"] is False
     curves = problem.map_curves({"e_ref": 0.75, "phi_mu": 30.0, "k_p": 0.003}, study.switches)
-    for t in study.tests:
-        c = curves[t.name]
-        assert np.all(c["stress_ratio"] <= M_C + 1e-8)
-        psi = c["void_ratio"] - 0.75 * np.exp(-0.03 * (c["mean_stress"] / P_AT) ** 0.6)
-        np.testing.assert_allclose(c["state_parameter"], psi, rtol=1e-12, atol=1e-15)
     like = inference.Likelihood(obs, problem.forward(study.switches), batch=True)
-    cov = problem.covariates(like, curves)
-    assert set(cov["state parameter"]) == {(t.name, "q") for t in study.tests} | {
-        (t.name, "void_ratio") for t in study.tests}
+    cov = problem.covariates(like, curves)["initial state parameter"]
+    assert set(cov) == {(t.name, c) for t in study.tests for c in ("q", "void_ratio")}
+    for t in study.tests:  # (e0, p'0) = (0.7, 200 kPa) and (0.6, 800 kPa)
+        assert np.all(curves[t.name]["stress_ratio"] <= M_C + 1e-8)
+        psi0 = t.e0 - 0.75 * np.exp(-0.03 * (t.p0 / P_AT) ** 0.6)
+        np.testing.assert_array_equal(curves[t.name]["initial_state_parameter"],
+                                      np.full(curves[t.name]["q"].shape, curves[t.name]["initial_state_parameter"][0]))
+        assert cov[(t.name, "q")] == pytest.approx(psi0, rel=1e-12)
 
 
 @pytest.mark.parametrize("interlocking, free, message", [
@@ -273,9 +273,10 @@ def test_study_needs_n_p_n_d_with_state_dependent_dilatancy(tmp_path):
         cal.load_study(_drained_study(tmp_path, switches="", interlocking="n_p = 2.0\n"))
 
 
-def test_sand_lab_examples_are_synthetic_do_not_name_the_effect_and_equal_their_generator(tmp_path):
-    """cases/examples/sand_lab*.toml: the shipped records are labelled SYNTHETIC, neither their names nor their text
-    name the generating model's Lode rule, and they equal a fresh run of cases/examples/sand_lab_data.py."""
+def test_sand_examples_are_synthetic_do_not_name_the_effect_and_equal_their_generator(tmp_path):
+    """cases/examples/sand_lab*.toml and sand_density*.toml: the shipped records are labelled SYNTHETIC, neither their
+    names nor their text name the generating model's Lode rule or interlocking (n_p, n_d where the base lacks them),
+    and they equal a fresh run of cases/examples/sand_lab_data.py."""
     import importlib.util
     from pathlib import Path
 
@@ -285,14 +286,18 @@ def test_sand_lab_examples_are_synthetic_do_not_name_the_effect_and_equal_their_
     spec = importlib.util.spec_from_file_location("sand_lab_data", examples / "sand_lab_data.py")
     generator = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(generator)
+    assert set(generator.DATASETS) == {"sand_lab", "sand_lab_control", "sand_density", "sand_density_control"}
     for study in generator.DATASETS:
-        shipped = {t.name: t.file for t in cal.load_study(examples / f"{study}.toml").tests}
-        assert len(shipped) == 12
+        base = cal.load_study(examples / f"{study}.toml")
+        shipped = {t.name: t.file for t in base.tests}
+        assert len(shipped) == (12 if study.startswith("sand_lab") else 8)
         fresh = {f.stem: f for f in generator.write(study, tmp_path / study)}
         assert set(fresh) == set(shipped)
+        words = ("lode", "sheng", "theta", "circular", "interlocking", "dilatancy", "state_dependent")
+        words += () if base.switches["state_dependent_dilatancy"] else ('"n_p"', '"n_d"')
         for name, f in shipped.items():
             text = f.read_text()
             assert text.startswith("# synthetic: NOT MEASURED DATA")
-            for word in ("lode", "sheng", "theta", "circular", "extension strength"):
+            for word in words:
                 assert word not in text.lower() and word not in str(f.relative_to(examples)).lower(), (f, word)
             assert text == fresh[name].read_text(), name
