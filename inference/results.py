@@ -107,13 +107,15 @@ class Posterior:
         return out
 
     def to_arviz(self):
-        """ArviZ InferenceData of the final-stage samples (needs the optional arviz package)."""
+        """ArviZ InferenceData of the final-stage samples (needs the optional arviz package). The log_likelihood
+        group holds one variable, ``total``: each sample's log-likelihood summed over every test and point (Eq. (6)
+        with its sigma_eps), not the pointwise values that LOO/WAIC would need."""
         try:
             import arviz as az
         except ImportError as exc:
             raise ImportError("to_arviz needs arviz: pip install 'geoinfer[arviz]'") from exc
         post = {n: self.samples[None, :, i] for i, n in enumerate(self.names)}
-        return az.from_dict(posterior=post, sample_stats={"log_likelihood": self.log_like[None, :]},
+        return az.from_dict(posterior=post, log_likelihood={"total": self.log_like[None, :]},
                             attrs={"log_evidence": self.log_evidence, "sampler": "TMCMC"})
 
 

@@ -329,7 +329,7 @@ def test_checkpoint_refuses_other_problem(tmp_path):
 
 def test_arviz_export_carries_the_final_samples_and_evidence():
     """to_arviz (optional arviz extra, installed with the test extra): the posterior group holds the final-stage
-    samples in prior order, sample_stats their log-likelihoods, attrs the log-evidence."""
+    samples in prior order, the log_likelihood group their total log-likelihoods, attrs the log-evidence."""
     az = pytest.importorskip("arviz")
     prior = UniformPrior({"a": (-3.0, 3.0), "b": (-3.0, 3.0)})
     post = tmcmc(lambda th: -0.5 * float(np.sum(np.asarray(th) ** 2)), prior, n_samples=100, seed=1,
@@ -337,7 +337,7 @@ def test_arviz_export_carries_the_final_samples_and_evidence():
     idata = post.to_arviz()
     for i, name in enumerate(("a", "b")):
         assert np.array_equal(idata.posterior[name].values[0], post.samples[:, i])
-    assert np.array_equal(idata.sample_stats["log_likelihood"].values[0], post.log_like)
+    assert np.array_equal(idata.log_likelihood["total"].values[0], post.log_like)
     assert idata.attrs["log_evidence"] == post.log_evidence
     assert float(az.summary(idata, var_names=["a"])["mean"].iloc[0]) == pytest.approx(post.mean["a"], abs=1e-3)
 
