@@ -234,6 +234,11 @@ def candidate(name: str) -> Candidate:
     raise ValueError(f"candidate physics {name!r} is not in the catalog; known: {[c.name for c in CATALOG]}")
 
 
+def _in_base(c: Candidate, base_switches: dict) -> bool:
+    """True when a base model with ``base_switches`` already has the physics of candidate ``c``."""
+    return bool(c.present_when) and all(base_switches.get(k) == v for k, v in c.present_when.items())
+
+
 def _unavailable(c: Candidate, model_class) -> str:
     """Why candidate ``c`` cannot enrich a base model of class ``model_class`` (None: any class), or ""."""
     if c.enrichment is None:
@@ -252,7 +257,7 @@ def signatures(base_switches: dict, model_class: str | None = None) -> list:
     out = []
     for c in CATALOG:
         d = c.as_data()
-        d["in_base"] = bool(c.present_when) and all(base_switches.get(k) == v for k, v in c.present_when.items())
+        d["in_base"] = _in_base(c, base_switches)
         reason = _unavailable(c, model_class)
         if reason:
             d.update(enrichment=None, unavailable=reason)
@@ -269,7 +274,7 @@ def enriched_settings(name: str, base_switches: dict, base_bounds: dict, model_c
     reason = _unavailable(c, model_class)
     if reason:
         raise ValueError(f"candidate {name!r}: enrichment not available: {reason}")
-    if c.present_when and all(base_switches.get(k) == v for k, v in c.present_when.items()):
+    if _in_base(c, base_switches):
         raise ValueError(f"candidate {name!r}: the base model already has it (switches {base_switches})")
     overlap = set(c.enrichment.parameters) & set(base_bounds)
     if overlap:

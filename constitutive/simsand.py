@@ -328,8 +328,7 @@ class SIMSAND(MaterialModel):
         """(M_p, M_pt) of (VII) at p' (kPa), void ratio e and sin 3theta, with the Lode dependence when the model has
         it (else M_c of each angle whatever sin 3theta)."""
         r = self.critical_void_ratio(np.maximum(p, self.p_min)) / e
-        s3 = np.asarray(sin3theta, dtype=float)
-        s3 = _kernel().lode_argument(np.ascontiguousarray(s3.ravel()), self._lode).reshape(s3.shape)
+        s3 = _kernel().lode_argument(np.asarray(sin3theta, dtype=float), self._lode)
         Mp = friction_ratio(r**self.n_p * self._tan_mu, s3, derivatives=False)
         Mpt = friction_ratio(r ** (-self.n_d) * self._tan_mu, s3, derivatives=False)
         return Mp, Mpt
