@@ -49,6 +49,7 @@ from inference.priors import Bound
 
 from . import burswood_sbp, study
 from .study import generating_values, write_records
+from .study.programme import TestSpec
 
 __all__ = ["StudyError", "Settings", "LoopProblem", "calibrate_class", "run_loop", "class_name", "load_study",
            "load_observations", "StudyForward", "StudyProblem", "generate", "main"]
@@ -306,64 +307,6 @@ SAMPLER_DEFAULTS = {"samples": 400, "max_steps": 8, "predictive_draws": 100}
 QUICK_DEFAULTS = {"samples": 64, "max_steps": 4, "predictive_draws": 24}
 FE_FIELDS = burswood_sbp.FE_FIELDS
 TOP_LEVEL = ("name", "description", "model", "sigma_eps", "sampler", "fe", "tests", "synthetic")
-
-
-@dataclass(frozen=True)
-class TestSpec:
-    """One [[tests]] entry (units kPa, m, s, 1/s)."""
-
-    __test__ = False  # not a pytest class
-
-    name: str
-    type: str
-    file: Path
-    where: str
-    drainage: str | None = None
-    direction: str | None = None
-    consolidation: str | None = None
-    p0: float | None = None
-    sigma_v0: float | None = None
-    K0: float | None = None
-    e0: float | None = None
-    strain_rate: float | None = None
-    substeps: int | None = None
-    stage_stress: tuple = ()
-    stage_duration: float | None = None
-    load_time: float = 1.0
-    n_times: int = 20
-    u0: float | None = None
-    permeability: float | None = None
-    probe_radius: float | None = None
-    depth: float | None = None
-    curves: tuple | None = None
-
-    @property
-    def k0(self) -> float:
-        return 1.0 if self.consolidation == "isotropic" else self.K0
-
-    @property
-    def start_p(self) -> float:
-        """Mean effective stress at the start of a triaxial test (kPa)."""
-        return self.p0 if self.consolidation == "isotropic" else self.sigma_v0 * (1.0 + 2.0 * self.K0) / 3.0
-
-    def conditions(self) -> dict:
-        """The test conditions as plain data (for summaries and the diagnosis input)."""
-        skip = ("name", "file", "where")
-        return {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(self)
-                for v in [getattr(self, f.name)] if f.name not in skip and v not in (None, ())}
-
-    def describe(self) -> str:
-        if self.type == "triaxial":
-            start = (f"isotropic p'0 {self.p0:g} kPa" if self.consolidation == "isotropic"
-                     else f"K0 {self.K0:g}, sigma'_v0 {self.sigma_v0:g} kPa")
-            return f"{self.drainage} triaxial {self.direction} ({start}, {self.strain_rate:g} 1/s)"
-        if self.type == "oedometer_crs":
-            return f"CRS oedometer (sigma'_v0 {self.sigma_v0:g} kPa, {self.strain_rate:g} 1/s)"
-        if self.type == "oedometer_creep":
-            return (f"incremental oedometer, stages {', '.join(f'{s:g}' for s in self.stage_stress)} kPa held "
-                    f"{self.stage_duration:g} s each")
-        return (f"SBP expansion (sigma'_v0 {self.sigma_v0:g} kPa, K0 {self.K0:g}, u0 {self.u0:g} kPa, "
-                f"k {self.permeability:g} m/s, {self.strain_rate:g} 1/s)")
 
 
 @dataclass(frozen=True)
