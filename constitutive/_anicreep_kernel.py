@@ -44,12 +44,12 @@ import math
 
 import numpy as np
 
-from ._jit import STRAIN_TO_TENSOR as _T
-from ._jit import VOIGT_IDENTITY as _I
-from ._jit import VOIGT_WEIGHTS as _W
-from ._jit import all_finite as _all_finite
-from ._jit import expm1_over_x as _expm1_over_x
-from ._jit import jit, next_substep
+from .jit import STRAIN_TO_TENSOR as _T
+from .jit import VOIGT_IDENTITY as _I
+from .jit import VOIGT_WEIGHTS as _W
+from .jit import all_finite as _all_finite
+from .jit import expm1_over_x as _expm1_over_x
+from .jit import jit, next_substep
 
 MAX_NX = 13                                     # unknowns per point with all 6 components (2 nc + 1)
 #: columns of the per-point parameter array ``prm``

@@ -14,12 +14,12 @@ import math
 
 import numpy as np
 
-from ._jit import STRAIN_TO_TENSOR as _T
-from ._jit import VOIGT_IDENTITY as _I
-from ._jit import VOIGT_WEIGHTS as _W
-from ._jit import all_finite as _all_finite
-from ._jit import expm1_over_x as _expm1_over_x
-from ._jit import jit, next_substep
+from .jit import STRAIN_TO_TENSOR as _T
+from .jit import VOIGT_IDENTITY as _I
+from .jit import VOIGT_WEIGHTS as _W
+from .jit import all_finite as _all_finite
+from .jit import expm1_over_x as _expm1_over_x
+from .jit import jit, next_substep
 
 #: columns of the per-point parameter array ``prm``: M^2, lambda, kappa and G (constant_G) or nu
 PARAMETER_COLUMNS = ("M2", "lambda_", "kappa", "G_or_nu")

@@ -25,8 +25,8 @@ import math
 
 import numpy as np
 
-from ._jit import jit
-from .simsand import E_MAX_STIFFNESS
+from .jit import jit
+from .simsand_constants import E_MAX_STIFFNESS
 
 #: rows (numpy integrator) or columns (kernel) of the parameter array ``prm`` (``_lode``: 1.0 with the Lode dependence
 #: of M_p and M_pt, 0.0 without it, see ``lode_argument``)

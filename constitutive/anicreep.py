@@ -72,7 +72,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import IntegrationError, MaterialModel, ParameterError, as_points, check_parameter
+from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
 from .invariants import IDENTITY, mean_stress
 
 __all__ = ["ANICREEP", "anisotropy_constants"]
@@ -82,6 +82,10 @@ def _kernel():
     """The compiled integrator, imported on first use (keeps ``import constitutive`` free of numba)."""
     from . import _anicreep_kernel
     return _anicreep_kernel
+
+
+#: default reference time tau of sigma'_p0 (s): 24 h, the duration of a standard oedometer load stage
+REFERENCE_TIME = 86400.0
 
 
 def anisotropy_constants(M):
@@ -136,6 +140,25 @@ class ANICREEP(MaterialModel):
     name = "ANICREEP"
     tangent_kind = "consistent"
     parameter_names = ("M", "lambda_", "kappa", "nu", "e0", "C_alpha_e", "tau", "sigma_p0", "chi0", "xi", "xi_d")
+    parameter_ranges = {
+        "M": ParameterRange(0.0, 3.0, (0.8, 1.8)),
+        "lambda_": ParameterRange(0.0, None, (0.05, 0.5)),
+        "kappa": ParameterRange(0.0, None, (0.005, 0.05)),
+        "nu": ParameterRange(-1.0, 0.5, (0.1, 0.4)),
+        "e0": ParameterRange(0.0, None, (0.5, 3.0)),
+        "C_alpha_e": ParameterRange(0.0, None, (0.002, 0.03)),
+        "tau": ParameterRange(0.0, None, (3600.0, 172800.0), "s"),
+        "sigma_p0": ParameterRange(0.0, None, (10.0, 500.0), "kPa"),
+        "chi0": ParameterRange(0.0, None, (0.0, 20.0), lower_open=False),
+        "xi": ParameterRange(0.0, None, (5.0, 15.0), lower_open=False),
+        "xi_d": ParameterRange(0.0, None, (0.1, 0.5), lower_open=False),
+    }
+    required_parameters = ("M", "lambda_", "kappa", "nu", "e0", "sigma_p0")
+    switches = {"viscous": True, "anisotropy": True, "destructuration": False}
+    switch_parameters = {"viscous": ("C_alpha_e",), "destructuration": ("chi0", "xi", "xi_d")}
+    parameter_defaults = {"tau": REFERENCE_TIME}
+    void_ratio_parameter = True
+    oriented = True
     #: Newton tolerance on the scaled residuals (stress / p'_m,n^r, alpha, log-overstress)
     tolerance = 1e-10
     max_iterations = 40
@@ -146,37 +169,36 @@ class ANICREEP(MaterialModel):
     #: 7 or 9 local unknowns instead of 13: _anicreep_kernel docstring); False integrates all 6 (the tests' oracle)
     reduce_components = True
 
-    def __init__(self, M, lambda_, kappa, nu, e0, sigma_p0, C_alpha_e=None, tau=86400.0, *, anisotropy=True,
+    def __init__(self, M, lambda_, kappa, nu, e0, sigma_p0, C_alpha_e=None, tau=REFERENCE_TIME, *, anisotropy=True,
                  viscous=True, destructuration=False, chi0=None, xi=None, xi_d=None, vertical_axis=1):
         name = self.name
-        self.M = check_parameter("M", M, lower=0.0, upper=3.0, model=name)
-        self.lambda_ = check_parameter("lambda_", lambda_, lower=0.0, model=name)
-        self.kappa = check_parameter("kappa", kappa, lower=0.0, model=name)
+        self.M = self._checked("M", M)
+        self.lambda_ = self._checked("lambda_", lambda_)
+        self.kappa = self._checked("kappa", kappa)
         k, lam = np.broadcast_arrays(self.kappa, self.lambda_)
         if np.any(k >= lam):
             bad = k >= lam
             raise ParameterError(f"{name}: parameter kappa = {k[bad].ravel()[0]:g} must be < lambda_ = "
                                  f"{lam[bad].ravel()[0]:g}")
-        self.nu = check_parameter("nu", nu, lower=-1.0, upper=0.5, model=name)
-        self.e0 = check_parameter("e0", e0, lower=0.0, model=name)
-        self.sigma_p0 = check_parameter("sigma_p0", sigma_p0, lower=0.0, model=name)
-        self.tau = check_parameter("tau", tau, lower=0.0, model=name)
+        self.nu = self._checked("nu", nu)
+        self.e0 = self._checked("e0", e0)
+        self.sigma_p0 = self._checked("sigma_p0", sigma_p0)
+        self.tau = self._checked("tau", tau)
         self.anisotropy = bool(anisotropy)
         self.viscous = bool(viscous)
         self.rate_dependent = self.viscous  # the rate-independent limit does not depend on dt
         if self.viscous:
             if C_alpha_e is None:
                 raise ParameterError(f"{name}: parameter C_alpha_e is required when viscous=True")
-            self.C_alpha_e = check_parameter("C_alpha_e", C_alpha_e, lower=0.0, model=name)
+            self.C_alpha_e = self._checked("C_alpha_e", C_alpha_e)
         else:
-            self.C_alpha_e = None if C_alpha_e is None else check_parameter("C_alpha_e", C_alpha_e, lower=0.0,
-                                                                             model=name)
+            self.C_alpha_e = None if C_alpha_e is None else self._checked("C_alpha_e", C_alpha_e)
         self.destructuration = bool(destructuration)
         for key, value in (("chi0", chi0), ("xi", xi), ("xi_d", xi_d)):
             if self.destructuration:
                 if value is None:
                     raise ParameterError(f"{name}: parameter {key} is required when destructuration=True")
-                value = check_parameter(key, value, lower=0.0, lower_open=False, model=name)
+                value = self._checked(key, value)
             elif value is not None:
                 raise ParameterError(f"{name}: parameter {key} = {value!r} given but destructuration=False")
             setattr(self, key, value)

@@ -21,9 +21,11 @@ caller says it will not use the tangent: a model whose tangent costs extra work 
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["ParameterError", "IntegrationError", "MaterialModel", "as_points", "check_parameter"]
+__all__ = ["ParameterError", "IntegrationError", "MaterialModel", "ParameterRange", "as_points", "check_parameter"]
 
 
 class ParameterError(ValueError):
@@ -62,6 +64,33 @@ def check_parameter(name: str, value, *, lower=None, upper=None, lower_open=True
     return arr
 
 
+@dataclass(frozen=True)
+class ParameterRange:
+    """The physical range of one model parameter and the range it takes in usual soils.
+
+    ``lower < value < upper`` (``<=`` where ``lower_open``/``upper_open`` is False; None: unbounded) is what the
+    model accepts (checked on construction, :meth:`check`); ``typical`` (lo, hi) is a finite range of common soils in
+    the same unit (examples, starting values, tests; not enforced); ``unit`` is "-" for dimensionless parameters.
+    """
+
+    lower: float | None
+    upper: float | None
+    typical: tuple
+    unit: str = "-"
+    lower_open: bool = True
+    upper_open: bool = True
+
+    def check(self, name: str, value, model: str = ""):
+        """``value`` as a float array, or ParameterError naming the model, the parameter and the offending value."""
+        return check_parameter(name, value, lower=self.lower, upper=self.upper, lower_open=self.lower_open,
+                               upper_open=self.upper_open, model=model)
+
+    @property
+    def middle(self) -> float:
+        """The middle of the typical range."""
+        return 0.5 * (self.typical[0] + self.typical[1])
+
+
 def as_points(stress_or_strain, name="array") -> np.ndarray:
     """Return a float (n, 6) array; a single 6-vector becomes (1, 6)."""
     arr = np.asarray(stress_or_strain, dtype=float)
@@ -75,12 +104,45 @@ def as_points(stress_or_strain, name="array") -> np.ndarray:
 class MaterialModel:
     """Base class of material-point models. Subclasses set ``name`` and ``tangent_kind`` and implement
     ``initial_state`` and ``update``. Parameters are stored as attributes (float arrays broadcastable to (n,)).
+
+    The class attributes below describe a model for the registry (:mod:`constitutive.registry`) and for the study
+    readers: parameter names and physical ranges, which parameters are required, the physics switches (constructor
+    keywords, True/False) and the parameters each switch needs when on.
     """
 
     name = "material"
     tangent_kind = "consistent"
     #: True when ``update`` depends on the time increment dt (viscous models); False for rate-independent models
     rate_dependent = False
+    #: the parameter record (names as in docs/reference.md)
+    parameter_names: tuple = ()
+    #: name -> ParameterRange of every parameter the constructor checks
+    parameter_ranges: dict = {}
+    #: parameters without which the model cannot be built, whatever its switches
+    required_parameters: tuple = ()
+    #: physics switches (constructor keywords) -> default
+    switches: dict = {}
+    #: switch -> the parameters it needs when on (they are not parameters of the model when it is off)
+    switch_parameters: dict = {}
+    #: defaults of optional parameters (the constructor's)
+    parameter_defaults: dict = {}
+    #: groups of parameters of which exactly one / at most one is given
+    exactly_one: tuple = ()
+    at_most_one: tuple = ()
+    #: switches of the missing-physics catalog (``physics_catalog``, present_when) that this model does not take,
+    #: with the value the model has (e.g. viscous=False for a rate-independent model)
+    catalog_switches: dict = {}
+    #: the initial void ratio is a model parameter (``e0``), not a condition of each test
+    void_ratio_parameter = False
+    #: the constructor takes ``vertical_axis`` (the deposition axis of an anisotropic initial fabric)
+    oriented = False
+    #: laboratory drivers default to strain steps of at most this; None: the model's own triaxial integrator
+    #: controls its substeps (one driver step per record)
+    max_strain_step: float | None = 0.0025
+
+    def _checked(self, name, value):
+        """``value`` of parameter ``name`` checked against ``parameter_ranges[name]`` (ParameterError)."""
+        return self.parameter_ranges[name].check(name, value, model=self.name)
 
     def initial_state(self, stress0, void_ratio0=None) -> dict:
         raise NotImplementedError
@@ -104,8 +166,6 @@ class MaterialModel:
     def parameters(self) -> dict:
         """The parameter record as a dict (names as in REFERENCE.md)."""
         return {k: getattr(self, k) for k in self.parameter_names}
-
-    parameter_names: tuple = ()
 
     def __repr__(self):
         body = ", ".join(f"{k}={np.array2string(np.asarray(v), precision=4)}" for k, v in self.parameters().items())

@@ -1,14 +1,14 @@
-"""Constitutive benchmarks: ``python -m constitutive.bench`` prints one JSON line per benchmark.
+"""Constitutive benchmarks: ``python -m constitutive.bench [WORD ...] [--list]`` prints one JSON line per benchmark.
 
+With words, only the benchmarks whose name contains one of them run; ``--list`` prints the names and runs nothing.
 To add a benchmark: write a function returning a dict (its JSON line) and append it to ``BENCHMARKS``.
 Timings: ``seconds`` wall-clock on whatever machine runs this (noisy on shared machines), and where given
 ``cpu_seconds``, the process CPU time (less sensitive to other jobs).
-``python -m constitutive.bench [WORD ...]`` runs only the benchmarks whose name contains one of the words.
 """
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 import time
 
 import numpy as np
@@ -132,10 +132,14 @@ BENCHMARKS = [mcc_update_points, anicreep_update_points, mcc_drained_triaxial_ba
 
 
 def main(argv=None):
-    words = sys.argv[1:] if argv is None else argv
-    for bench in BENCHMARKS:
-        if not words or any(w in bench.__name__ for w in words):
-            print(json.dumps(bench()), flush=True)
+    ap = argparse.ArgumentParser(prog="python -m constitutive.bench", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("words", nargs="*", metavar="WORD", help="run only the benchmarks whose name contains a word")
+    ap.add_argument("--list", action="store_true", help="print the benchmark names and exit")
+    args = ap.parse_args(argv)
+    chosen = [b for b in BENCHMARKS if not args.words or any(w in b.__name__ for w in args.words)]
+    for bench in chosen:
+        print(bench.__name__ if args.list else json.dumps(bench()), flush=True)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import MaterialModel, as_points, check_parameter
+from .base import MaterialModel, ParameterRange, as_points
 from .invariants import isotropic_stiffness
 
 
@@ -18,10 +18,13 @@ class LinearElastic(MaterialModel):
     rate_dependent = False
     tangent_kind = "consistent"
     parameter_names = ("E", "nu")
+    parameter_ranges = {"E": ParameterRange(0.0, None, (1.0e3, 1.0e5), "kPa"),
+                        "nu": ParameterRange(-1.0, 0.5, (0.1, 0.4))}
+    required_parameters = ("E", "nu")
 
     def __init__(self, E, nu):
-        self.E = check_parameter("E", E, lower=0.0, model=self.name)
-        self.nu = check_parameter("nu", nu, lower=-1.0, upper=0.5, model=self.name)
+        self.E = self._checked("E", E)
+        self.nu = self._checked("nu", nu)
 
     @property
     def bulk_modulus(self):

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import IntegrationError, MaterialModel, ParameterError, as_points, check_parameter
+from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
 from .invariants import deviatoric_stress, mean_stress
 
 
@@ -59,15 +59,28 @@ class ModifiedCamClay(MaterialModel):
     rate_dependent = False
     tangent_kind = "consistent"
     parameter_names = ("M", "lambda_", "kappa", "G", "nu", "pc0", "ocr")
+    parameter_ranges = {
+        "M": ParameterRange(0.0, None, (0.8, 1.6)),
+        "lambda_": ParameterRange(0.0, None, (0.05, 0.5)),
+        "kappa": ParameterRange(0.0, None, (0.005, 0.05)),
+        "G": ParameterRange(0.0, None, (1.0e3, 5.0e4), "kPa"),
+        "nu": ParameterRange(-1.0, 0.5, (0.1, 0.4)),
+        "pc0": ParameterRange(0.0, None, (10.0, 1000.0), "kPa"),
+        "ocr": ParameterRange(1.0, None, (1.0, 10.0), lower_open=False),
+    }
+    required_parameters = ("M", "lambda_", "kappa")
+    exactly_one = (("G", "nu"),)
+    at_most_one = (("pc0", "ocr"),)
+    catalog_switches = {"viscous": False, "anisotropy": False}
     #: Newton tolerance on the scaled residuals (b r1, f/p'_cn^2), b = v/(lambda - kappa)
     tolerance = 1e-11
     max_iterations = 30
     max_substep_depth = 10
 
     def __init__(self, M, lambda_, kappa, G=None, nu=None, pc0=None, ocr=None):
-        self.M = check_parameter("M", M, lower=0.0, model=self.name)
-        self.kappa = check_parameter("kappa", kappa, lower=0.0, model=self.name)
-        self.lambda_ = check_parameter("lambda_", lambda_, lower=0.0, model=self.name)
+        self.M = self._checked("M", M)
+        self.kappa = self._checked("kappa", kappa)
+        self.lambda_ = self._checked("lambda_", lambda_)
         bad = np.broadcast_to(self.kappa >= self.lambda_, np.broadcast(self.kappa, self.lambda_).shape)
         if np.any(bad):
             k, l = np.broadcast_arrays(self.kappa, self.lambda_)
@@ -76,13 +89,12 @@ class ModifiedCamClay(MaterialModel):
         if (G is None) == (nu is None):
             raise ParameterError(f"{self.name}: give exactly one of G (constant shear modulus) or nu (constant "
                                  f"Poisson's ratio), got G={G}, nu={nu}")
-        self.G = None if G is None else check_parameter("G", G, lower=0.0, model=self.name)
-        self.nu = None if nu is None else check_parameter("nu", nu, lower=-1.0, upper=0.5, model=self.name)
+        self.G = None if G is None else self._checked("G", G)
+        self.nu = None if nu is None else self._checked("nu", nu)
         if pc0 is not None and ocr is not None:
             raise ParameterError(f"{self.name}: give at most one of pc0 or ocr, got pc0={pc0}, ocr={ocr}")
-        self.pc0 = None if pc0 is None else check_parameter("pc0", pc0, lower=0.0, model=self.name)
-        self.ocr = (check_parameter("ocr", 1.0 if ocr is None else ocr, lower=1.0, lower_open=False, model=self.name)
-                    if pc0 is None else None)
+        self.pc0 = None if pc0 is None else self._checked("pc0", pc0)
+        self.ocr = self._checked("ocr", 1.0 if ocr is None else ocr) if pc0 is None else None
 
     # ------------------------------------------------------------------ state
     def initial_state(self, stress0, void_ratio0=None) -> dict:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import MaterialModel, ParameterError, as_points, check_parameter
+from .base import MaterialModel, ParameterError, ParameterRange, as_points
 from .invariants import IDENTITY, STRESS_WEIGHTS, deviator, isotropic_stiffness
 
 #: unit deviatoric stiffness P: s = G P eps maps an engineering-shear strain Voigt vector to 2 G e (stress Voigt)
@@ -37,17 +37,25 @@ class VonMises(MaterialModel):
     rate_dependent = False
     tangent_kind = "consistent"
     parameter_names = ("s_u", "G", "nu")
+    parameter_ranges = {
+        "s_u": ParameterRange(0.0, None, (5.0, 200.0), "kPa"),
+        "nu": ParameterRange(-1.0, 0.5, (0.1, 0.49)),
+        "E": ParameterRange(0.0, None, (1.0e3, 1.0e5), "kPa"),
+        "G": ParameterRange(0.0, None, (1.0e3, 5.0e4), "kPa"),
+    }
+    required_parameters = ("s_u", "nu")
+    exactly_one = (("E", "G"),)
 
     def __init__(self, s_u, nu, E=None, G=None):
         if (E is None) == (G is None):
             raise ParameterError(f"{self.name}: give exactly one of E or G (got E={E}, G={G})")
-        self.s_u = check_parameter("s_u", s_u, lower=0.0, model=self.name)
-        self.nu = check_parameter("nu", nu, lower=-1.0, upper=0.5, model=self.name)
+        self.s_u = self._checked("s_u", s_u)
+        self.nu = self._checked("nu", nu)
         if G is None:
-            E = check_parameter("E", E, lower=0.0, model=self.name)
+            E = self._checked("E", E)
             self.G = E / (2.0 * (1.0 + self.nu))
         else:
-            self.G = check_parameter("G", G, lower=0.0, model=self.name)
+            self.G = self._checked("G", G)
 
     @property
     def bulk_modulus(self):

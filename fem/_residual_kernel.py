@@ -1,4 +1,4 @@
-"""Compiled (numba, the policy of ``constitutive._jit``) element loops of the coupled residual, one pass over the
+"""Compiled (numba, the policy of :mod:`constitutive.jit`) element loops of the coupled residual, one pass over the
 cells: the equations are those of :mod:`fem.solver` (module docstring), FE sign convention (tension positive).
 
 The numpy form of the same sums needs ~20 array operations of (n, 8, 4)-sized stacks per residual (0.22 ms for the
@@ -8,7 +8,7 @@ inputs (rank-count independence of the calibrations).
 """
 from __future__ import annotations
 
-from constitutive._jit import jit
+from constitutive.jit import jit
 
 
 @jit

@@ -530,7 +530,7 @@ def test_jit_falls_back_to_uncached_compilation_without_cache_location(monkeypat
     """With no usable cache location numba raises RuntimeError at decoration; jit then compiles without a cache."""
     import numba
 
-    from constitutive import _jit
+    from constitutive import jit as policy
     real = numba.njit
 
     def njit(*args, **kw):
@@ -543,7 +543,7 @@ def test_jit_falls_back_to_uncached_compilation_without_cache_location(monkeypat
     def twice(x):
         return 2.0 * x
 
-    assert _jit.jit(twice)(1.5) == 3.0
+    assert policy.jit(twice)(1.5) == 3.0
 
 
 def test_vp_shear_increment_is_the_deviatoric_measure_of_the_vp_strain_increment():

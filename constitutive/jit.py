@@ -1,6 +1,6 @@
-"""The one compilation policy of the constitutive kernels (numba), and the small pieces the kernels share
-(Voigt constants, the exponential-integration helper, the finiteness check). Imported only by the kernel modules
-(constitutive's and fem/_residual_kernel.py).
+"""The one compilation policy of the compiled kernels (numba), and the small pieces the kernels share (Voigt
+constants, the exponential-integration helper, the finiteness check). Public: imported by the kernel modules of
+constitutive and of fem (``fem._residual_kernel``); importing it imports numba.
 
 ``jit(func)`` compiles ``func`` in nopython mode on its first call with
   - ``error_model="numpy"``: floating-point division by zero and invalid operations give inf/nan as in numpy (a
@@ -12,10 +12,10 @@
     ranks) share that cache; numba writes it atomically. If no cache location is usable, the kernel is compiled
     in memory in every process instead (slower start, same results).
     Numba invalidates a cached function only when its OWN source file changes (a documented numba limitation): the
-    helpers and constants of this module, and ``simsand.E_MAX_STIFFNESS`` read by ``_simsand_kernel``, are frozen
-    into the cached kernels of the other files. After editing one of them, delete the kernels' cache files
-    (``constitutive/__pycache__/*.nbi`` and ``*.nbc``, or those under ``NUMBA_CACHE_DIR``) or touch the kernel
-    modules; otherwise a process keeps running the old code.
+    helpers and constants of this module, and ``simsand_constants.E_MAX_STIFFNESS`` read by ``_simsand_kernel``,
+    are frozen into the cached kernels of the other files. After editing one of them, delete the kernels' cache
+    files (``constitutive/__pycache__/*.nbi`` and ``*.nbc``, ``fem/__pycache__/*.nbi`` and ``*.nbc``, or those
+    under ``NUMBA_CACHE_DIR``) or touch the kernel modules; otherwise a process keeps running the old code.
 """
 from __future__ import annotations
 
