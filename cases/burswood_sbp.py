@@ -37,7 +37,7 @@ import numpy as np
 import constitutive
 import fem
 import inference
-from inference import mismatch
+from inference import diagnosis
 from inference.observations import DataError, read_csv_table
 
 from . import study
@@ -227,12 +227,12 @@ def load_recordings(files: dict, pore_pressure=False) -> inference.Observations:
 
 # ------------------------------------------------------------------------------------------------ outputs
 def predictive_bands(post, like, n_draws, seed):
-    """95 % posterior predictive band of the records (inference.mismatch: the exact mixture of U_sim (1 + eps) over
+    """95 % posterior predictive band of the records (inference.diagnosis: the exact mixture of U_sim (1 + eps) over
     ``n_draws`` posterior samples, each with its sigma_eps). Returns ({(test, curve): PredictiveBand}, draws)."""
     rng = np.random.default_rng(seed)
     idx = rng.choice(len(post.samples), size=min(n_draws, len(post.samples)), replace=False)
-    sims, sigmas = mismatch.simulate_samples(like, post.samples[idx])
-    return mismatch.predictive_bands(like, sims, sigmas), len(idx)
+    sims, sigmas = diagnosis.simulate_samples(like, post.samples[idx])
+    return diagnosis.predictive_bands(like, sims, sigmas), len(idx)
 
 
 def plot_curves(path, like, map_curves, bands, title):

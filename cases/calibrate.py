@@ -23,7 +23,7 @@ Base models: ``ModifiedCamClay``, ``ANICREEP`` (switches ``viscous``, ``anisotro
 n_p and n_d). ``--diagnose`` runs the loop of ``cases.concealed_viscosity`` (shared here: :func:`calibrate_class`,
 :func:`run_loop`): calibrate the base class, locate the mismatch (``inference.screen``), explain it with per-point
 covariates and ``constitutive.physics_catalog``, recalibrate the enriched class of the best-ranked named candidate
-whose enrichment exists for the base model, compare log-evidences (``inference.diagnose``).
+whose enrichment exists for the base model, compare log-evidences (``inference.diagnosis``).
 
 Outputs in DIR (default results/calibrate/<study name>): summary.json (the DESIGN.md fields), report.md,
 curves.png (recorded vs MAP with the 95 % posterior predictive band), marginals.png, stages.png, posterior.npz,
@@ -43,7 +43,7 @@ import numpy as np
 
 import inference
 from constitutive import ANICREEP, ModifiedCamClay, SIMSAND, ParameterError, labtests, physics_catalog
-from inference import DataError, ForwardModelError, diagnose, mismatch
+from inference import DataError, ForwardModelError, diagnosis
 from inference.observations import _converted, read_csv_table
 from inference.priors import Bound
 
@@ -136,7 +136,7 @@ class LoopProblem:
 
 
 def calibrate_class(obs, name, switches, bounds, log_uniform, args, out, seed, settings, problem):
-    """Calibrate one model class; returns (the class dict of inference.diagnose.write_input, Posterior, Likelihood,
+    """Calibrate one model class; returns (the class dict of inference.diagnosis.write_input, Posterior, Likelihood,
     MAP curves)."""
     t0 = time.perf_counter()
     like = inference.Likelihood(obs, problem.forward(switches), batch=True)
@@ -159,13 +159,13 @@ def finish_class(post, like, problem, name, switches, args, out, seed, draws, wa
 
 
 def class_record(post, like, problem, name, switches, seed, draws, summary):
-    """The class dict of inference.diagnose.write_input (MAP curves, posterior-sample curves for the predictive band)
+    """The class dict of inference.diagnosis.write_input (MAP curves, posterior-sample curves for the predictive band)
     and the MAP's raw curves."""
     params, sigma = like.split(post.map_theta)
     map_raw = problem.map_curves(params, switches)
     rng = np.random.default_rng(seed)
     rows = rng.choice(len(post.samples), size=min(draws, len(post.samples)), replace=False)
-    sample_sims, sample_sigma = mismatch.simulate_samples(like, post.samples[rows])
+    sample_sims, sample_sigma = diagnosis.simulate_samples(like, post.samples[rows])
     q = post.quantiles()
     cls = {"name": name, "role": "base", "log_evidence": float(post.log_evidence), "J_g": summary["J_g_at_map"],
            "parameters": {n: {"map": post.map[n], "mean": post.mean[n], "std": post.std[n], "q2.5": q[n][0],
@@ -188,9 +188,9 @@ def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str, pr
     cov = problem.covariates(like, base_raw)
     description = problem.description(label, base["name"])
     classes = [base]
-    diagnose.write_input(out, like, classes, cov, candidates, description=description)
+    diagnosis.write_input(out, like, classes, cov, candidates, description=description)
     t0 = time.perf_counter()
-    first = diagnose.diagnose_directory(out)
+    first = diagnosis.diagnose_directory(out)
     screen_s = time.perf_counter() - t0
     skipped, chosen = [], []
     for cand in first["candidates"]:
@@ -211,8 +211,8 @@ def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str, pr
         enriched.update(role="enriched", candidate=name)
         classes.append(enriched)
     if len(classes) > 1:
-        diagnose.write_input(out, like, classes, cov, candidates, description=description)
-    final = diagnose.diagnose_directory(out)
+        diagnosis.write_input(out, like, classes, cov, candidates, description=description)
+    final = diagnosis.diagnose_directory(out)
     problem.plot(out / "diagnosis.png", like, classes, final, label)
     timing = {"screen_and_rank_s": screen_s, "diagnose_final_s": final["wall_s"],
               "calibration_s": {c["name"]: c["wall_s"] for c in classes}, "loop_s": time.perf_counter() - t_loop}
@@ -972,7 +972,7 @@ def write_outputs(out, args, post, like, cls, problem: StudyProblem):
     """report.md, curves.png, marginals.png, stages.png of one calibrated class (summary.json is written)."""
     out = Path(out)
     tag = "SYNTHETIC recordings" if problem.synthetic else "recordings"
-    bands = mismatch.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
+    bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
     title = f"{problem.study.name}: {cls['name']}, {study.method_name(args.method)} ({tag})"
     plot_curves(out / "curves.png", like, cls["map_simulated"], bands, title)
     truth = problem.generating

@@ -33,7 +33,7 @@ import numpy as np
 import inference
 from constitutive import ANICREEP, physics_catalog
 from fem.oracles import consolidation_coefficient
-from inference import ForwardModelError, diagnose
+from inference import ForwardModelError, diagnosis
 
 from . import burswood_sbp, study
 from .calibrate import LoopProblem, Settings, class_name, run_loop
@@ -310,13 +310,13 @@ def design_limits(diag: dict, pore_pressure: bool) -> tuple:
                      f"{' and '.join(c['name'] for c in blind)} both produce: without the wall pore pressure the "
                      "records cannot tell them apart; record the wall pore pressure")
     ranked = sorted(((v, n) for n, v in lnb.items() if v is not None), reverse=True)
-    top = ranked[0] if ranked and ranked[0][0] >= diagnose.STRONG_LOG_BAYES else None
-    separated = top is not None and (len(ranked) == 1 or top[0] - ranked[1][0] >= diagnose.STRONG_LOG_BAYES)
+    top = ranked[0] if ranked and ranked[0][0] >= diagnosis.STRONG_LOG_BAYES else None
+    separated = top is not None and (len(ranked) == 1 or top[0] - ranked[1][0] >= diagnosis.STRONG_LOG_BAYES)
     named = [c for c in diag["candidates"] if c["named"]]
     if diag["verdict"] == "structured mismatch" and len(named) != 1 and top is not None:
         if not separated:
             notes.append(f"the evidence does not separate {top[1]} and {ranked[1][1]} (ln B {top[0]:.1f} and "
-                         f"{ranked[1][0]:.1f}, difference below {diagnose.STRONG_LOG_BAYES:g})")
+                         f"{ranked[1][0]:.1f}, difference below {diagnosis.STRONG_LOG_BAYES:g})")
         else:
             notes.append(f"the signatures name no candidate; the evidence favours {top[1]} (ln B {top[0]:.1f}" +
                          ("" if len(ranked) == 1 else f"; next {ranked[1][0]:.1f}") + ")")

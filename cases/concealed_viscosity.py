@@ -21,9 +21,9 @@ The base model class is the rate-independent ANICREEP (``viscous=False``, anisot
 with M, sigma'_p0 and sigma_eps free. The loop (``--diagnose``): calibrate the base class by DE-TMCMC; screen its
 residuals (``inference.screen``: locate) with per-point covariates (strain rate between tests; time, strain level,
 stress ratio and p' along the curves); rank the candidate physics of ``constitutive.physics_catalog`` by signature
-(``inference.diagnose.rank_candidates``: explain); calibrate the enriched class of the best-ranked named candidate
+(``inference.diagnosis.rank_candidates``: explain); calibrate the enriched class of the best-ranked named candidate
 that has an implemented enrichment; compare log-evidences (Bayes factor) and report before/after
-(``inference.diagnose.diagnose_directory``, also ``python -m inference.diagnose DIR``). ``--control`` replaces the data
+(``inference.diagnosis.diagnose_directory``, also ``python -m inference.diagnose DIR``). ``--control`` replaces the data
 by recordings generated from the base class itself (same noise): the tool must then find nothing to enrich.
 
 Rate-independent forward models are solved once per distinct test geometry (their curves do not depend on the strain
@@ -255,7 +255,7 @@ PROBLEM = _Problem()
 
 
 def calibrate_class(obs, name, switches, bounds, log_uniform, args, out, seed, settings):
-    """Calibrate one model class; returns (the class dict of inference.diagnose.write_input, Posterior, Likelihood,
+    """Calibrate one model class; returns (the class dict of inference.diagnosis.write_input, Posterior, Likelihood,
     MAP raw curves)."""
     return calibrate.calibrate_class(obs, name, switches, bounds, log_uniform, args, out, seed, settings, PROBLEM)
 

@@ -5,7 +5,7 @@ Generic: knows nothing of soil. A forward model is any callable from a parameter
 from .checkpoint import CheckpointError
 from .executors import Evaluator, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
 from .likelihood import ForwardModelError, Likelihood, goodness_of_fit
-from .mismatch import ScreenReport, screen
+from .diagnosis import ScreenReport, screen
 from .observations import Curve, DataError, Observations, Test
 from .priors import Bound, LogUniformPrior, Prior, PriorError, UniformPrior
 from .results import Posterior

@@ -106,12 +106,12 @@ def _planted_sbp(cavity, pore, seed=0):
 
 
 def _diagnosed(like, simulated, cov):
-    from inference import diagnose, screen
-    from inference.mismatch import relative_residuals
+    from inference import diagnosis
+    from inference.diagnosis import relative_residuals, screen
 
     report = screen(like, simulated, cs.NOISE, covariates=cov, n_shifts=300)
     switches = cs.SBPProblem(1e-9, True).catalog_switches(cs.BASE_SWITCHES)
-    ranked = diagnose.rank_candidates(report, relative_residuals(like, simulated), cov,
+    ranked = diagnosis.rank_candidates(report, relative_residuals(like, simulated), cov,
                                       physics_catalog.signatures(switches))
     return {"verdict": report.verdict, "candidates": ranked, "classes": [], "omitted_physics": "none",
             "attribution": report.to_dict()["attribution"], "recommendation": "-"}
@@ -124,7 +124,7 @@ def _diagnosed(like, simulated, cov):
 def test_two_rate_signatures_name_the_effect_only_with_the_pore_pressure(effect, cavity, pore):
     """The patterns of data sets 1-3 (viscosity: faster test's cavity pressure higher, its pore pressure lower than
     simulated; partial drainage: both higher in the faster test; none: noise), two tests: with the wall pore pressure
-    the catalog names exactly the hidden effect (the few-test contrast of inference.covariates makes the two-test
+    the catalog names exactly the hidden effect (the few-test contrast of inference.diagnosis makes the two-test
     rate trend significant; the pore-pressure items tell the two apart); with the cavity pressure only nothing is
     named and the case says it cannot tell viscosity from partial drainage apart and needs the pore pressure."""
     for like, sim, cov, pp in _planted_sbp(cavity, pore):

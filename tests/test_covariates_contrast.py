@@ -1,4 +1,4 @@
-"""The few-test contrast of inference.covariates (a between-test covariate with fewer than 5 tests, e.g. the two-rate
+"""The few-test contrast of inference.diagnosis.attribution (a between-test covariate with fewer than 5 tests, e.g. the two-rate
 SBP): false-alarm rate on white and AR(1) residuals, power on a planted contrast, direction, and no change with 5 or
 more tests."""
 import math
@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from inference.covariates import MIN_PERMUTATION_TESTS, attribute
+from inference.diagnosis import attribute
+from inference.diagnosis.attribution import MIN_PERMUTATION_TESTS
 
 N = 40
 SIGMA = 0.02
@@ -43,7 +44,7 @@ def two_tests(rng, phi, shift=0.0, shape=None, curves=("cavity_pressure",)):
 @pytest.mark.parametrize("phi", [0.0, 0.3, 0.5])
 def test_false_alarm_rate_close_to_nominal(phi):
     """Pure noise (white, AR(1) phi 0.3 and 0.5), 2 tests x 40 points, 1000 simulated pairs: rate at alpha 0.05 at
-    most 0.07 (binomial SE 0.007; measured over 3000 pairs: 0.036, 0.047, 0.057, inference.covariates docstring),
+    most 0.07 (binomial SE 0.007; measured over 3000 pairs: 0.036, 0.047, 0.057, inference.diagnosis.attribution docstring),
     and not absurdly conservative."""
     rng = np.random.default_rng(2024)
     p = np.array([rate_attribution(two_tests(rng, phi)).p_value for _ in range(1000)])
@@ -66,7 +67,7 @@ def test_power_and_direction_on_a_planted_contrast(phi, shift):
     """Fast test recorded ``shift`` sigma above (or below) the slow one, white or AR(1) phi 0.5 noise: significant
     (p <= 0.05) in >= 90 % of 200 pairs (measured over 1000: 1 sigma white 0.98, 2 sigma AR(1) 0.5 0.90),
     z > 0 (the residual rises with the rate) and its sign is that of the Spearman correlation rate-residual pooled
-    over the points (how inference.diagnose measures an item's direction); the reversed contrast gives z < 0."""
+    over the points (how inference.diagnosis.rank measures an item's direction); the reversed contrast gives z < 0."""
     rng = np.random.default_rng(11)
     hits = 0
     for k in range(200):

@@ -1,5 +1,5 @@
 """The missing-physics loop of issue 6: catalog (constitutive.physics_catalog), generic scoring and the run-directory
-command (inference.diagnose), and the concealed-viscosity proof case (cases.concealed_viscosity)."""
+command (inference.diagnosis), and the concealed-viscosity proof case (cases.concealed_viscosity)."""
 import inspect
 import json
 import subprocess
@@ -14,8 +14,8 @@ import inference
 from cases import concealed_lab as lab
 from cases import concealed_viscosity as cv
 from constitutive import physics_catalog as catalog
-from inference import diagnose
-from inference.mismatch import relative_residuals, screen
+from inference import diagnosis
+from inference.diagnosis import relative_residuals, screen
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = {"viscous": False, "anisotropy": True}
@@ -98,7 +98,7 @@ def _planted(effect, seed):
 def _ranked(effect, seed=0, candidates=None):
     like, sim, cov = _planted(effect, seed)
     report = screen(like, sim, SIGMA, covariates=cov, n_shifts=300)
-    ranked = diagnose.rank_candidates(report, relative_residuals(like, sim), cov,
+    ranked = diagnosis.rank_candidates(report, relative_residuals(like, sim), cov,
                                       catalog.signatures(BASE) if candidates is None else candidates)
     return report, ranked
 
@@ -150,22 +150,22 @@ def test_conclude_confirms_by_bayes_factor_and_reports_unavailable_enrichments()
     base = {"name": "base", "role": "base", "log_evidence": 100.0}
     strong = {"name": "visc", "role": "enriched", "candidate": "viscosity", "log_evidence": 110.0}
     weak = {**strong, "log_evidence": 101.0}
-    assert diagnose.conclude(ranked, [base, strong])["omitted_physics"] == "viscosity"
-    weak_verdict = diagnose.conclude(ranked, [base, weak])
+    assert diagnosis.conclude(ranked, [base, strong])["omitted_physics"] == "viscosity"
+    weak_verdict = diagnosis.conclude(ranked, [base, weak])
     assert weak_verdict["omitted_physics"] == "none" and weak_verdict["log_bayes"] == {"visc": 1.0}
-    assert diagnose.conclude(ranked, [base])["omitted_physics"] == "none"
+    assert diagnosis.conclude(ranked, [base])["omitted_physics"] == "none"
     _, destr = _ranked(lambda rate, x: -0.06 * (x / 10.0) ** 2)
-    decision = diagnose.conclude(destr, [base])["candidates"][0]
+    decision = diagnosis.conclude(destr, [base])["candidates"][0]
     assert decision["name"] == "destructuration"
     assert decision["decision"] == "candidate named, enriched class not calibrated"
     # a named candidate whose enrichment is not implemented (here: destructuration with its enrichment removed)
     stripped = [dict(c, enrichment=None, unavailable="not implemented in this test") if c["name"] == "destructuration"
                 else c for c in catalog.signatures(BASE)]
     _, destr = _ranked(lambda rate, x: -0.06 * (x / 10.0) ** 2, candidates=stripped)
-    decision = diagnose.conclude(destr, [base])["candidates"][0]
+    decision = diagnosis.conclude(destr, [base])["candidates"][0]
     assert decision["decision"] == "candidate named, enrichment not available (not implemented in this test)"
     with pytest.raises(ValueError, match="exactly one with role 'base'"):
-        diagnose.conclude(ranked, [strong])
+        diagnosis.conclude(ranked, [strong])
 
 
 def test_rank_candidates_rejects_malformed_signatures():
@@ -173,7 +173,7 @@ def test_rank_candidates_rejects_malformed_signatures():
     report = screen(like, sim, SIGMA)
     bad = [{"name": "x", "signature": [{"covariate": "time", "role": "main", "weight": 1, "direction": 1}]}]
     with pytest.raises(ValueError, match="role 'main'"):
-        diagnose.rank_candidates(report, relative_residuals(like, sim), cov, bad)
+        diagnosis.rank_candidates(report, relative_residuals(like, sim), cov, bad)
 
 
 # ------------------------------------------------------------------------------------------------ command on a run directory
@@ -191,7 +191,7 @@ def test_diagnose_command_writes_diagnosis_json(tmp_path):
     recorded = {(t.name, c): curve.y for t in like.observations for c, curve in t.curves.items()}
     classes = [_fake_class(like, sim, "base", "base", 100.0),
                _fake_class(like, recorded, "enriched", "enriched", 112.0, "viscosity")]
-    diagnose.write_input(tmp_path, like, classes, cov, catalog.signatures(BASE), description="SYNTHETIC test input")
+    diagnosis.write_input(tmp_path, like, classes, cov, catalog.signatures(BASE), description="SYNTHETIC test input")
     done = subprocess.run([sys.executable, "-m", "inference.diagnose", str(tmp_path)], cwd=ROOT, capture_output=True,
                           text=True, timeout=120)
     assert done.returncode == 0, done.stderr
@@ -204,7 +204,7 @@ def test_diagnose_command_writes_diagnosis_json(tmp_path):
     text = (tmp_path / "diagnosis.md").read_text()
     assert "viscosity" in text and "ln B = 12.0" in text
     with pytest.raises(FileNotFoundError, match="diagnosis_input.json"):
-        diagnose.read_input(tmp_path / "missing")
+        diagnosis.read_input(tmp_path / "missing")
 
 
 # ------------------------------------------------------------------------------------------------ the case
@@ -252,7 +252,7 @@ def _loop(tmp_path, control):
 def test_case_loop_names_viscosity_on_concealed_data(tmp_path):
     d = _loop(tmp_path, control=False)
     assert d["verdict"] == "structured mismatch" and d["omitted_physics"] == "viscosity"
-    assert list(d["log_bayes"].values())[0] > diagnose.STRONG_LOG_BAYES
+    assert list(d["log_bayes"].values())[0] > diagnosis.STRONG_LOG_BAYES
     assert (tmp_path / "diagnosis.json").exists() and (tmp_path / "diagnosis.png").exists()
 
 
@@ -324,7 +324,7 @@ def _named_at_best_fit(effect):
     sim = like.simulated_at_observations(map_curves)
     cov = lab.covariates(like, map_curves)
     report = screen(like, sim, float(np.sqrt(np.mean(fit.fun**2))), covariates=cov)  # the loop's 1000 draws
-    ranked = diagnose.rank_candidates(report, relative_residuals(like, sim), cov,
+    ranked = diagnosis.rank_candidates(report, relative_residuals(like, sim), cov,
                                       catalog.signatures(lab.BASE_SWITCHES, lab.PROBLEM.model))
     return report.verdict, [r["name"] for r in ranked if r["named"] and r["enrichment"]]
 
@@ -348,5 +348,5 @@ def test_lab_case_tiny_loop_names_anisotropy(tmp_path):
     args = lab.study.arguments("", ["--samples", "20"])
     d = lab.run_loop(obs, args, tmp_path, 1, lab.Settings(20, 2, 8), "test", lab.PROBLEM)
     assert d["verdict"] == "structured mismatch" and d["omitted_physics"] == "anisotropy"
-    assert list(d["log_bayes"].values())[0] > diagnose.STRONG_LOG_BAYES
+    assert list(d["log_bayes"].values())[0] > diagnosis.STRONG_LOG_BAYES
     assert (tmp_path / "diagnosis.json").exists() and (tmp_path / "diagnosis.png").exists()

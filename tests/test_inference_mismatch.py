@@ -1,4 +1,4 @@
-"""Residual screening (issue 6, "locate"): predictive bands, structure tests, regions, covariate attribution.
+"""Residual screening (inference.diagnosis): predictive bands, structure tests, regions, covariate attribution.
 
 False-alarm rates are checked by Monte Carlo against the nominal alpha (or the exact attained size of a discrete
 test) with a tolerance of 4 binomial standard errors sqrt(a(1-a)/reps); the slow tests repeat with 10x more draws.
@@ -12,9 +12,9 @@ import pytest
 from scipy import stats
 
 from inference import Curve, Likelihood, Observations, Test
-from inference.covariates import attribute, holm
-from inference.mismatch import (SCAN_DRAWS, lag1_test, predictive_bands, relative_residuals, runs_test, scale_test, scan_test,
-                                screen, segment)
+from inference.diagnosis import (attribute, holm, lag1_test, predictive_bands, relative_residuals, runs_test,
+                                 scale_test, scan_test, screen, segment)
+from inference.diagnosis.structure import SCAN_DRAWS
 
 ALPHA = 0.05
 

@@ -1,4 +1,4 @@
-"""Which per-point covariate explains the structured residual (issue 6, end of "locate", start of "explain").
+"""Attribution: which per-point covariate explains the structured residual of a screened calibration.
 
 Forward models report covariates alongside the curves (time, strain rate, strain level, stress ratio, p',
 overconsolidation, drainage time factor, loading phase, test conditions ...). For each covariate this module fits the
@@ -35,12 +35,11 @@ autocorrelation:
   contrasted: valid under any dependence between curve names). The sign of z is the direction of the trend (z > 0:
   the residual rises with the covariate), reported per curve name in ``Attribution.contrast``. Measured false-alarm
   rate at alpha = 0.05, one curve name, 2 tests x 40 points, 3000 simulated pairs (tests/test_covariates_contrast.py,
-  notes/concealed-sbp.md session 4): white noise 0.036, AR(1) phi 0.3 0.047, phi 0.5 0.057, phi 0.7 0.060; with 20
+  notes/concealed-sbp.md): white noise 0.036, AR(1) phi 0.3 0.047, phi 0.5 0.057, phi 0.7 0.060; with 20
   points 0.038, 0.061, 0.068, 0.091 (the lag-1 estimate is too noisy on short, strongly autocorrelated curves: read
   the p-value as approximate below about 30 points). Power at 40 points (1000 pairs): a 1-sigma offset between the
   tests in white noise 0.98, 2 sigma in AR(1) phi 0.5 0.90; a difference growing 0 -> 3 sigma along the curve in
-  AR(1) phi 0.3 0.98. With 5 or more tests nothing
-  changes (permutation null).
+  AR(1) phi 0.3 0.98. With 5 or more tests nothing changes (permutation null).
 
 Within one curve, covariates that are monotone along it (strain level, time, p' in monotonic loading) cannot be told
 apart; the pooled fit over tests run at other rates, pressures or drainage conditions is what separates them.
@@ -54,7 +53,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import special, stats
 
-__all__ = ["Attribution", "attribute", "holm", "per_curve"]
+__all__ = ["Attribution", "attribute", "holm", "per_curve", "expand_covariates", "MIN_PERMUTATION_TESTS"]
 
 MAX_EXACT_TESTS = 7
 #: fewer tests than this: a numeric between-test covariate is tested by the few-test contrast (module docstring)
@@ -125,6 +124,20 @@ def per_curve(name, spec, residuals):
     kinds = {np.asarray(v).dtype.kind in "biuf" for v in out.values()}
     if len(kinds) > 1:
         raise ValueError(f"covariate {name!r}: mixes numeric and categorical values")
+    return out
+
+
+def expand_covariates(covariates: dict, curves: dict) -> dict:
+    """Every covariate in its full form {name: {(test, curve): array aligned with the curve's points}}.
+
+    covariates: in the form of ``attribute`` (keys (test, curve) or test; scalars broadcast); curves: {(test, curve):
+    recorded values}, whose order the result follows (so the attribution's random draws do not depend on the order
+    in which a caller listed the curves).
+    """
+    out = {}
+    for name, spec in covariates.items():
+        full = per_curve(name, spec, curves)
+        out[name] = {k: full[k] for k in curves if k in full}
     return out
 
 

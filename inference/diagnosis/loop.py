@@ -1,0 +1,156 @@
+"""The calibrate -> diagnose loop as a library function: calibrate the base class, locate and explain the mismatch,
+calibrate the enriched class of the best-ranked named candidate, compare log-evidences.
+
+The loop knows nothing of the physics: a problem (`LoopProblem`) calibrates a model class on request and returns its
+record (`ModelClass`), gives the base class's per-point covariates and the candidate physics as plain data
+(`rank.rank_candidates`). Everything stays in memory; the problem writes whatever files it wants (for a run
+directory, `files.write_input` and `files.write_diagnosis`).
+
+Steps of `run_loop`:
+1. candidates = problem.candidates(); base = problem.calibrate(None); covariates = problem.covariates(base);
+2. first diagnosis (`report.diagnose`) of the base class alone;
+3. the first candidate in ranked order that is named and has an enrichment is chosen (named candidates before it
+   without an enrichment are listed as "named without enrichment"); then the problem's ``also_enrich(first)``
+   names, in their order, not chosen already;
+4. each chosen candidate's enriched class is calibrated (``problem.calibrate(name)``);
+5. when an enriched class was calibrated, the final diagnosis compares every class; else the first is final.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import Protocol
+
+import numpy as np
+
+from .rank import STRONG_LOG_BAYES
+from .report import diagnose
+
+__all__ = ["ModelClass", "LoopProblem", "LoopResult", "run_loop"]
+
+ROLES = ("base", "enriched")
+
+
+@dataclass
+class ModelClass:
+    """One calibrated model class, as the diagnosis reads it.
+
+    name: the class's name (e.g. its model and switches); role: "base" or "enriched"; candidate: the candidate
+    physics an enriched class adds (None for the base class); log_evidence: ln Z of the calibration; J_g: goodness
+    of fit at the MAP per test, Eq. (6) (docs/reference.md section 1); parameters: {name: {map, mean, std, q2.5,
+    q97.5}} of the posterior; sigma_eps: the error parameter at the MAP; map_simulated: {(test, curve): simulated
+    values at the recorded abscissae} at the MAP; sample_simulated: {(test, curve): (n_s, n)} the same for n_s
+    posterior samples, sample_sigma (n_s,) their sigma_eps (for the predictive bands); wall_s: calibration wall time
+    (s); n_forward_solves: forward solves of the calibration; extra: the problem's own data (e.g. the MAP's raw
+    curves for its covariates and figures), never read by the diagnosis.
+    """
+
+    name: str
+    role: str
+    candidate: str | None
+    log_evidence: float
+    J_g: dict
+    parameters: dict
+    sigma_eps: float
+    map_simulated: dict
+    sample_simulated: dict
+    sample_sigma: np.ndarray
+    wall_s: float = 0.0
+    n_forward_solves: int = 0
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.role not in ROLES:
+            raise ValueError(f"model class {self.name!r}: role {self.role!r} must be one of {ROLES}")
+
+    def to_dict(self) -> dict:
+        """The class dict of `report.diagnose` and `files.write_input` (``extra`` left out)."""
+        return {"name": self.name, "role": self.role, "candidate": self.candidate,
+                "log_evidence": self.log_evidence, "J_g": self.J_g, "parameters": self.parameters,
+                "sigma_eps": self.sigma_eps, "wall_s": self.wall_s, "n_forward_solves": self.n_forward_solves,
+                "map_simulated": self.map_simulated, "sample_simulated": self.sample_simulated,
+                "sample_sigma": self.sample_sigma}
+
+
+class LoopProblem(Protocol):
+    """What `run_loop` needs from a study.
+
+    likelihood: an inference.Likelihood of the recorded curves (the screening reads its observations and near-zero
+    floor); description: one line for the diagnosis report, read after the base class is calibrated.
+    ``also_enrich`` is optional (a problem without it enriches only the best-ranked named candidate).
+    """
+
+    likelihood: object
+    description: str
+
+    def candidates(self) -> list:
+        """Candidate physics as plain data (``rank.rank_candidates``), judged against the base class."""
+
+    def calibrate(self, candidate: str | None) -> ModelClass:
+        """Calibrate the base class (candidate None) or the base class enriched with ``candidate``."""
+
+    def covariates(self, base: ModelClass) -> dict:
+        """Per-point covariates of the calibrated base class, in the form of ``screen``."""
+
+    def also_enrich(self, first_diagnosis: dict) -> list:
+        """Further candidates (names, in this order) to enrich after the best-ranked named one, from the first
+        diagnosis."""
+
+
+@dataclass
+class LoopResult:
+    """The records of one loop.
+
+    first: the diagnosis of the base class alone; final: the diagnosis of every calibrated class (the first when no
+    enriched class was calibrated); classes: [ModelClass], the base class first; covariates: the base class's;
+    named: candidates named in the final diagnosis; named_without_enrichment: named candidates ranked above the chosen
+    one that have no enrichment for this base class; timing: {screen_and_rank_s (the first diagnosis),
+    diagnose_final_s (the second; 0 when none), calibration_s {class: s}, loop_s} in seconds.
+    """
+
+    first: dict
+    final: dict
+    classes: list
+    covariates: dict
+    named: list
+    named_without_enrichment: list
+    timing: dict
+
+
+def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, threshold=STRONG_LOG_BAYES, n_shifts=1000) -> LoopResult:
+    """Calibrate, locate, explain, enrich, recalibrate, compare (module docstring); writes no files.
+
+    alpha: family-wise false-alarm level of each screening; level: predictive band level; threshold: ln B that
+    confirms an enrichment; n_shifts: null draws of the covariate attribution.
+    """
+    t_loop = time.perf_counter()
+    settings = {"alpha": alpha, "level": level, "threshold": threshold, "n_shifts": n_shifts}
+    candidates = problem.candidates()
+    base = replace(problem.calibrate(None), role="base", candidate=None)
+    covariates = problem.covariates(base)
+    classes = [base]
+    t0 = time.perf_counter()
+    first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
+    screen_s = time.perf_counter() - t0
+    skipped, chosen = [], []
+    for cand in first["candidates"]:
+        if not cand["named"]:
+            continue
+        if cand["enrichment"] is None:
+            skipped.append(cand["name"])
+            continue
+        chosen.append(cand["name"])
+        break
+    also = getattr(problem, "also_enrich", None)
+    chosen += [name for name in (also(first) if also else []) if name not in chosen]
+    for name in chosen:
+        classes.append(replace(problem.calibrate(name), role="enriched", candidate=name))
+    final, final_s = first, 0.0
+    if len(classes) > 1:
+        t0 = time.perf_counter()
+        final = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
+        final_s = time.perf_counter() - t0
+    timing = {"screen_and_rank_s": screen_s, "diagnose_final_s": final_s,
+              "calibration_s": {c.name: c.wall_s for c in classes}, "loop_s": time.perf_counter() - t_loop}
+    return LoopResult(first, final, classes, covariates, [c["name"] for c in final["candidates"] if c["named"]],
+                      skipped, timing)

@@ -1,0 +1,202 @@
+"""The diagnosis of a calibrate -> diagnose loop: every model class screened, the candidates ranked on the base
+class, the conclusion by the Bayes factor; as a dict (JSON) and as a report an engineer reads (Markdown).
+
+`diagnose` works in memory on the recorded curves' Likelihood, the model-class records, the base class's covariates
+and the candidates (plain data, `rank.rank_candidates`). Its dict holds: the screening verdict of the base class,
+the mismatch regions, the covariate attribution, the ranked candidates with their decisions, per class the
+log-evidence, ln B against the base, J_g at the MAP, parameters and residual-structure statistics (before/after),
+the full screening of every class, the omitted physics ("none" when nothing is confirmed) and the recommendation.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+
+from .attribution import Attribution, expand_covariates
+from .rank import STRONG_LOG_BAYES, conclude, rank_candidates
+from .screening import POSITION, CurveStatistics, ScreenReport, relative_residuals, screen
+from .structure import Region
+
+__all__ = ["diagnose", "markdown", "to_json"]
+
+#: the fields of a model class reported in the diagnosis (the arrays stay out)
+CLASS_FIELDS = ("name", "role", "candidate", "log_evidence", "J_g", "parameters", "sigma_eps", "wall_s")
+
+
+def _class_dict(model_class) -> dict:
+    """A model class as the dict `diagnose` reads: a ``ModelClass`` (its ``to_dict()``) or such a dict itself."""
+    return model_class.to_dict() if hasattr(model_class, "to_dict") else model_class
+
+
+def diagnose(likelihood, classes: list, covariates: dict, candidates: list, description="", alpha=0.05, level=0.95,
+             threshold=STRONG_LOG_BAYES, n_shifts=1000) -> dict:
+    """Screen every model class, rank the candidates on the base class, conclude; returns the diagnosis dict.
+
+    likelihood: an inference.Likelihood of the recorded curves (observations and near-zero floor; its forward model
+    is not called); classes: model classes (``ModelClass`` or its dict: name, role "base" | "enriched", candidate,
+    log_evidence, J_g, parameters, sigma_eps, wall_s, map_simulated {(test, curve): values}, sample_simulated
+    {(test, curve): (n_s, n)}, sample_sigma (n_s,)), exactly one with role "base"; covariates: per-point covariates
+    of the base class in the form of ``screen``; candidates: plain-data catalog entries (``rank.rank_candidates``);
+    alpha: family-wise false-alarm level of each screening; level: predictive band level; threshold: ln B that
+    confirms an enrichment; n_shifts: null draws of the attribution. Deterministic (fixed seeds).
+    """
+    t0 = time.perf_counter()
+    alpha, level = float(alpha), float(level)
+    classes = [_class_dict(cl) for cl in classes]
+    covariates = expand_covariates(covariates, {(t.name, c): curve.y for t in likelihood.observations
+                                                for c, curve in t.curves.items()})
+    screens, structure = {}, {}
+    for cl in classes:
+        base = cl["role"] == "base"
+        rep = screen(likelihood, cl["map_simulated"], cl["sigma_eps"], cl["sample_simulated"], cl["sample_sigma"],
+                     covariates if base else None, alpha=alpha, level=level, n_shifts=n_shifts)
+        screens[cl["name"]], structure[cl["name"]] = rep, _structure(rep)
+    base = next(cl for cl in classes if cl["role"] == "base")
+    residuals = relative_residuals(likelihood, base["map_simulated"])
+    ranked = rank_candidates(screens[base["name"]], residuals, covariates, candidates, alpha)
+    verdict = conclude(ranked, classes, threshold)
+    out = {"description": description, "alpha": alpha, "verdict": screens[base["name"]].verdict,
+           "omitted_physics": verdict["omitted_physics"],
+           "recommendation": _recommendation(verdict, ranked, screens[base["name"]]),
+           "mismatch_regions": [{**r.to_dict(), "x_unit": likelihood.observations[r.test].curves[r.curve].x_unit}
+                                for r in screens[base["name"]].regions],
+           "attribution": [a.to_dict() for a in screens[base["name"]].attribution],
+           "candidates": [{**r, "decision": d["decision"]} for r, d in zip(ranked, verdict["candidates"])],
+           "classes": [{k: cl.get(k) for k in CLASS_FIELDS}
+                       | {"log_bayes_vs_base": verdict["log_bayes"].get(cl["name"], 0.0 if cl["role"] == "base"
+                                                                         else None),
+                          "structure": structure[cl["name"]]} for cl in classes],
+           "log_bayes": verdict["log_bayes"], "threshold_log_bayes": verdict["threshold"],
+           "screens": {name: rep.to_dict() for name, rep in screens.items()}}
+    out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
+def _structure(report) -> dict:
+    """Residual-structure statistics of one screening, summarized for a before/after table."""
+    curves = report.curves
+    covs = [c.coverage for c in curves if c.coverage is not None]
+    return {"verdict": report.verdict, "structured_curves": sum(c.structured for c in curves),
+            "curves": len(curves), "regions": len(report.regions),
+            "min_p_adjusted": float(min(min(c.p_adjusted.values()) for c in curves)),
+            "mean_lag1": float(np.mean([c.lag1 for c in curves])),
+            "mean_abs_mean_r": float(np.mean([abs(c.mean) for c in curves])),
+            "coverage": float(np.mean(covs)) if covs else None,
+            "points_outside": int(sum(c.n_outside or 0 for c in curves)),
+            "points": int(sum(c.n_points for c in curves)), "screen_wall_s": report.wall_s}
+
+
+def _recommendation(verdict, ranked, report) -> str:
+    """The recommendation in one line, from the conclusion, the ranked candidates and the base class's screening."""
+    if report.verdict != "structured mismatch":
+        return "no structured mismatch: no enrichment recommended"
+    if verdict["omitted_physics"] != "none":
+        return f"adopt the enriched class that adds {verdict['omitted_physics']}"
+    named = [r["name"] for r in ranked if r["named"]]
+    if not named:
+        return "structured mismatch that no catalog signature explains: no enrichment recommended"
+    return f"candidates named ({', '.join(named)}) but none confirmed by the Bayes factor: no enrichment adopted"
+
+
+def _fmt(v, spec=".3g"):
+    return "-" if v is None else format(v, spec)
+
+
+def _engineer_summary(d) -> list:
+    """The conclusion in words, from the diagnosis dict."""
+    if d["verdict"] != "structured mismatch":
+        return ["The base model's residuals are consistent with the measurement noise (no test, curve or strain "
+                "range misfits beyond the false-alarm level): nothing is missing that these records can reveal, and "
+                "no enrichment is recommended."]
+    lines = []
+    by_test = {}
+    for r in d["mismatch_regions"]:
+        by_test.setdefault(r["test"], []).append(r)
+    def region_words(r):
+        where = "above" if r["sign"] == "+" else "below"
+        unit = "" if r.get("x_unit", "-") == "-" else f" {r['x_unit']}"
+        return (f"{r['curve']} at {r['x_start']:.3g}-{r['x_end']:.3g}{unit}: recorded {where} simulated by "
+                f"{abs(100 * r['mean_relative']):.1f} %")
+
+    parts = [f"{t} ({', '.join(region_words(r) for r in rs)})" for t, rs in by_test.items()]
+    lines.append("Misfit located in " + ("; ".join(parts) if parts else "the curves' overall scatter or trend "
+                                          "(no single contiguous region)") + ".")
+    sig = [a for a in d["attribution"] if a["p_adjusted"] <= d["alpha"] and a["name"] != POSITION]
+    if sig:
+        lines.append("The structured residual is explained by " + ", ".join(
+            f"{a['name']} ({a['kind']}-test, R^2 = {a['r2']:.2f}, p = {a['p_adjusted']:.2g})" for a in sig) + ".")
+    top = d["candidates"][0]
+    if top["named"]:
+        said = [f"{i['meaning']} (rank correlation {_fmt(i['rank_correlation'], '+.2f')})"
+                for i in top["items"] if i["status"] == "supports"]
+        lines.append(f"This is the signature of {top['name']}: " + "; ".join(said) + ".")
+    if d["omitted_physics"] != "none":
+        cl = next(c for c in d["classes"] if c["role"] == "enriched" and c["candidate"] == d["omitted_physics"])
+        lnb = d["log_bayes"][cl["name"]]
+        bf = f"{math.exp(lnb):.3g}" if lnb < 700 else f"e^{lnb:.0f}"
+        lines.append(f"The omitted physics is {d['omitted_physics']}: the evidence favours {cl['name']} over the "
+                     f"base model by ln B = {lnb:.1f} (Bayes factor {bf}).")
+    else:
+        lines.append(f"Conclusion: {d['recommendation']}.")
+    return lines
+
+
+def markdown(d) -> str:
+    """The diagnosis dict of `diagnose` as a Markdown report: the conclusion in words, the model classes before and
+    after, the enriched parameters, the ranked candidates and the screening of every class."""
+    lines = ["# Missing-physics diagnosis", ""]
+    if d["description"]:
+        lines += [d["description"], ""]
+    lines += ["## Conclusion", ""] + _engineer_summary(d) + ["", f"Omitted physics: **{d['omitted_physics']}**. "
+                                                              f"Recommendation: {d['recommendation']}.", ""]
+    lines += ["## Model classes (before / after)", "",
+              "| class | role | ln Z | ln B vs base | J_g at MAP (per test) | sigma_eps | verdict | structured curves | "
+              "regions | mean lag-1 | coverage (95 %) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in d["classes"]:
+        s = c["structure"]
+        jg = ", ".join(f"{t} {v:.3g}" for t, v in (c["J_g"] or {}).items() if isinstance(v, float))
+        lines.append(f"| {c['name']} | {c['role']} | {_fmt(c['log_evidence'], '.2f')} | "
+                     f"{_fmt(c['log_bayes_vs_base'], '+.2f')} | {jg} | {_fmt(c['sigma_eps'], '.4f')} | {s['verdict']} | "
+                     f"{s['structured_curves']}/{s['curves']} | {s['regions']} | {s['mean_lag1']:+.2f} | "
+                     f"{_fmt(None if s['coverage'] is None else 100 * s['coverage'], '.0f')} % |")
+    for c in d["classes"]:
+        if c["role"] == "enriched" and c.get("parameters"):
+            lines += ["", f"Parameters of {c['name']} (posterior):", "", "| parameter | MAP | mean | std | 95 % interval |",
+                      "|---|---|---|---|---|"]
+            for n, p in c["parameters"].items():
+                lines.append(f"| {n} | {p['map']:.4g} | {p['mean']:.4g} | {p['std']:.3g} | "
+                             f"[{p.get('q2.5', float('nan')):.4g}, {p.get('q97.5', float('nan')):.4g}] |")
+    lines += ["", "## Candidate physics ranked by signature score", "",
+              "Score = sum of weight x R^2 over the signature items the screening supports (significant after Holm and "
+              "in the expected direction), divided by the sum of the weights (inference.diagnosis.rank).", "",
+              "| rank | candidate | score | named | decision | items (covariate: status) |", "|---|---|---|---|---|---|"]
+    for k, c in enumerate(d["candidates"], 1):
+        items = "; ".join(f"{i['covariate']}: {i['status']}" for i in c["items"])
+        lines.append(f"| {k} | {c['name']} | {c['score']:.3f} | {'yes' if c['named'] else 'no'} | {c['decision']} | "
+                     f"{items} |")
+    for name, rep in d["screens"].items():
+        lines += ["", f"# Screening of {name}", "", _screen_report(rep).to_markdown()]
+    return "\n".join(lines) + "\n"
+
+
+def _screen_report(d) -> ScreenReport:
+    """A ScreenReport back from its ``to_dict()``."""
+    return ScreenReport(**{**d, "curves": [CurveStatistics(**c) for c in d["curves"]],
+                           "regions": [Region(**r) for r in d["regions"]],
+                           "attribution": [Attribution(**a) for a in d["attribution"]]})
+
+
+def to_json(d) -> str:
+    """The diagnosis dict as JSON text (numpy scalars and arrays as plain numbers and lists)."""
+    return json.dumps(d, indent=1, default=_json_default)
+
+
+def _json_default(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(f"not JSON-serializable: {type(obj).__name__}")
