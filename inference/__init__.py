@@ -3,17 +3,17 @@
 Generic: knows nothing of soil. A forward model is any callable from a parameter vector to simulated curves.
 """
 from .checkpoint import CheckpointError
-from .executors import Evaluator, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
+from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
 from .likelihood import ForwardModelError, Likelihood, goodness_of_fit
 from .diagnosis import ScreenReport, screen
 from .observations import Curve, DataError, Observations, Test
 from .priors import Bound, LogUniformPrior, Prior, PriorError, UniformPrior
 from .results import Posterior
-from .tmcmc import EXIT_CHECKPOINTED, SamplerError, tmcmc
+from .tmcmc import EXIT_CHECKPOINTED, SamplerError, TMCMCSettings, tmcmc
 
 __all__ = [
-    "CheckpointError", "Evaluator", "MPIExecutor", "PoolExecutor", "SerialExecutor", "default_executor",
+    "CheckpointError", "Evaluator", "Executor", "MPIExecutor", "PoolExecutor", "SerialExecutor", "default_executor",
     "ForwardModelError", "Likelihood", "goodness_of_fit", "Curve", "DataError", "Observations", "Test",
     "Bound", "LogUniformPrior", "Prior", "PriorError", "UniformPrior", "Posterior", "EXIT_CHECKPOINTED",
-    "SamplerError", "tmcmc", "ScreenReport", "screen",
+    "SamplerError", "TMCMCSettings", "tmcmc", "ScreenReport", "screen",
 ]

@@ -1,4 +1,4 @@
-"""Sampler benchmarks with known evidence (REFERENCE.md section 8) and dispatch overheads, as JSON lines.
+"""Sampler benchmarks with known evidence (docs/reference.md section 8) and dispatch overheads, as JSON lines.
 
     python -m inference.bench [--quick] [--seeds 10] [--samples 1000] [--problems B1,B2] [--methods ...]
         [--set max_steps=12 --set corr_threshold=0.3 ...]   # tmcmc keyword overrides
@@ -187,7 +187,7 @@ def main(argv=None):
         ap.error(f"unknown methods/problems {unknown}; methods: {list(METHODS)}; problems: {list(PROBLEMS)}")
     overrides = dict(_parse_override(kv) for kv in args.set)
     print(json.dumps({"benchmark": "info", "note": "DE-TMCMC and O-TMCMC on posteriors with known log-evidence "
-                      "(REFERENCE section 8); errors over seeds 0.." + str(seeds - 1)}), flush=True)
+                      "(docs/reference.md section 8); errors over seeds 0.." + str(seeds - 1)}), flush=True)
     for p in problems:
         for m in methods:
             print(json.dumps(evidence_benchmark(p, m, seeds, samples, **overrides)), flush=True)

@@ -1,4 +1,4 @@
-"""Posteriors with known log-evidence (REFERENCE.md section 8, B1-B6), as vectorized log-likelihoods.
+"""Posteriors with known log-evidence (docs/reference.md section 8, B1-B6), as vectorized log-likelihoods.
 
 Each problem gives a prior, a log-likelihood over (m, d) arrays, the exact ln Z and, where known, the exact
 posterior mean and standard deviation. Used by ``python -m inference.bench`` and the evidence tests.

@@ -10,7 +10,8 @@ MPI (mpi4py, chosen automatically under ``mpirun -n K`` with K > 1):
   computes vectors itself between polls, so every rank is busy even when forward-solve times differ;
 - ``spmd``: static round-robin, rank r evaluates particles k with k % K == r (the paper's ``labindex`` scheme).
 Every rank calls :func:`inference.tmcmc`; rank 0 runs the sampler, the others serve evaluations and receive the
-final posterior.
+final posterior. The sampler sees only :meth:`Executor.run` (its whole run, on the root rank), ``evaluate`` (one
+batch) and ``close``; every executor has them, so the sampler never asks which kind it has.
 """
 from __future__ import annotations
 
@@ -23,12 +24,16 @@ import traceback
 
 import numpy as np
 
-__all__ = ["EvaluationTimeout", "Evaluator", "SerialExecutor", "PoolExecutor", "MPIExecutor", "default_executor",
-           "mpi_world"]
+__all__ = ["EvaluationTimeout", "RootRankError", "Evaluator", "Executor", "SerialExecutor", "PoolExecutor",
+           "MPIExecutor", "default_executor", "mpi_world"]
 
 
 class EvaluationTimeout(RuntimeError):
     """A forward evaluation ran past the executor's per-evaluation time limit."""
+
+
+class RootRankError(RuntimeError):
+    """Raised on the other ranks when the root rank's run stopped with an error."""
 
 
 def _alarm(signum, frame):
@@ -111,16 +116,31 @@ class Evaluator:
         return values, list(reasons)
 
 
-class _BaseExecutor:
+class Executor:
+    """Where evaluations run. ``run(evaluator, main)`` calls ``main()`` on the root rank and returns its result on
+    every rank (other ranks serve ``evaluator`` meanwhile); ``evaluate`` evaluates one batch on the root rank."""
+
     name = "base"
     ranks = 1
     is_root = True
+
+    def run(self, evaluator, main):
+        """``main()`` (which calls ``evaluate``) on the root rank; its result, returned on every rank."""
+        return main()
 
     def evaluate(self, evaluator, thetas, callback=None, stop=None):
         """Evaluate every row of thetas. ``callback(indices, values, reasons, ranks)`` is called as results arrive;
         ``stop()`` returning True asks to stop early (rows not evaluated are returned as NaN with reason None).
         Returns (values, reasons, ranks)."""
         raise NotImplementedError
+
+    def finish(self, payload):
+        """Release the other ranks, handing them ``payload``; returns it (nothing to release in one process)."""
+        return payload
+
+    def serve(self, evaluator):
+        """Serve evaluations on a rank other than the root until released (only MPI has such ranks)."""
+        raise RuntimeError(f"the {self.name} executor has no ranks other than the root")
 
     def close(self):
         pass
@@ -132,7 +152,7 @@ class _BaseExecutor:
         self.close()
 
 
-class SerialExecutor(_BaseExecutor):
+class SerialExecutor(Executor):
     """Evaluates in this process, in chunks (a vectorized log-likelihood gets the whole chunk at once)."""
 
     name = "serial"
@@ -179,7 +199,7 @@ def _pool_task(args):
     return idx, values, reasons, os.getpid()
 
 
-class PoolExecutor(_BaseExecutor):
+class PoolExecutor(Executor):
     """A local process pool (the embedded default on a laptop or workstation without mpirun).
 
     Workers are forked with the evaluator already in memory (nothing but parameter vectors crosses processes);
@@ -271,7 +291,7 @@ def mpi_world():
     return comm if comm.Get_size() > 1 else None
 
 
-class MPIExecutor(_BaseExecutor):
+class MPIExecutor(Executor):
     """Evaluations on MPI ranks; ``mode`` is "dynamic" (master/worker, default) or "spmd" (static round-robin)."""
 
     name = "mpi"
@@ -363,8 +383,30 @@ class MPIExecutor(_BaseExecutor):
                 receive(block=True)
         return values, reasons, ranks
 
+    def run(self, evaluator, main):
+        """Rank 0 calls ``main()`` and hands its result (or how it stopped) to the workers, which serve ``evaluator``
+        meanwhile: a result is returned on every rank, SystemExit raises SystemExit with the same code on every
+        rank, another exception raises :class:`RootRankError` on the workers."""
+        if not self.is_root:
+            kind, value = self.serve(evaluator)
+            if kind == "exit":
+                raise SystemExit(value)
+            if kind == "error":
+                raise RootRankError(f"rank 0 stopped: {value}")
+            return value
+        try:
+            value = main()
+        except SystemExit as exc:
+            self.finish(("exit", exc.code))
+            raise
+        except BaseException as exc:
+            self.finish(("error", f"{type(exc).__name__}: {exc}"))
+            raise
+        self.finish(("ok", value))
+        return value
+
     def finish(self, payload):
-        """Release the workers and hand them ``payload`` (the posterior, or an ("error"|"exit", ...) marker)."""
+        """Release the workers and hand them ``payload``: ("ok", result), ("exit", status) or ("error", message)."""
         if self.mode == "spmd":
             self.comm.bcast(("stop", None), root=0)
         else:

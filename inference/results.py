@@ -17,12 +17,13 @@ __all__ = ["Posterior"]
 @dataclass
 class Posterior:
     names: tuple
-    samples: np.ndarray            # (N, d) final-stage samples (q = 1), equally weighted
+    samples: np.ndarray            # (N, d) final-stage samples (exponent p = 1), equally weighted
     log_like: np.ndarray           # (N,)
     log_evidence: float            # sum_j ln S_j
     map_theta: np.ndarray          # (d,) the evaluated sample of largest prior x likelihood, Eq. (7)
     map_log_posterior: float
-    stages: list                   # per-stage records: q, log_S, acceptance, n_evals, n_failed, sweeps, wall_s
+    stages: list                   # per-stage records: q (the tempering exponent p_j), log_S, acceptance, n_evals,
+                                   # n_failed, sweeps, wall_s, beta2
     stage_samples: list            # list of (N, d) arrays, stage 0 = prior
     stage_log_like: list
     failures: list                 # failed evaluations: stage, where, particle, rank, reason, theta
@@ -34,14 +35,15 @@ class Posterior:
     prior: list = field(default_factory=list)
 
     @classmethod
-    def from_state(cls, st, prior, settings, executor, wall_s):
+    def from_state(cls, st, prior, settings: dict, executor, wall_s):
+        """The posterior of a finished run: ``st`` an ``inference.tmcmc.state.RunState`` in phase "done"."""
         return cls(
-            names=tuple(prior.names), samples=st["theta"], log_like=st["log_like"],
-            log_evidence=float(st["log_evidence"]), map_theta=st["map"]["theta"],
-            map_log_posterior=st["map"]["log_posterior"], stages=st["records"], stage_samples=st["stage_theta"],
-            stage_log_like=st["stage_log_like"], failures=st["failures"], n_forward_solves=int(st["n_evals"]),
-            wall_s=float(wall_s), ranks=int(getattr(executor, "ranks", 1)), executor=executor.name,
-            settings={k: v for k, v in settings.items()}, prior=prior.describe())
+            names=tuple(prior.names), samples=st.theta, log_like=st.log_like,
+            log_evidence=float(st.log_evidence), map_theta=st.map.theta,
+            map_log_posterior=st.map.log_posterior, stages=[r.as_dict() for r in st.records],
+            stage_samples=st.stage_theta, stage_log_like=st.stage_log_like, failures=st.failures,
+            n_forward_solves=int(st.n_evals), wall_s=float(wall_s), ranks=int(getattr(executor, "ranks", 1)),
+            executor=executor.name, settings=dict(settings), prior=prior.describe())
 
     # ---- statistics keyed by parameter name
     def _named(self, values):

@@ -1,4 +1,4 @@
-"""Unit tests of the TMCMC formulas against direct computations (REFERENCE section 2)."""
+"""Unit tests of the TMCMC formulas against direct computations (docs/reference.md section 2)."""
 import math
 
 import numpy as np
@@ -16,19 +16,19 @@ def _cov(log_like, dq):
 def test_next_exponent_hits_cov_target():
     rng = np.random.default_rng(0)
     ll = rng.normal(-50, 20, 2000)
-    q1 = T.choose_next_exponent(ll, 0.0)
-    assert 0 < q1 < 1
-    assert _cov(ll, q1) == pytest.approx(1.0, abs=1e-6)
-    q2 = T.choose_next_exponent(ll, q1)
-    assert q2 > q1 and _cov(ll, q2 - q1) == pytest.approx(1.0, abs=1e-6)
+    p1 = T.choose_next_exponent(ll, 0.0)
+    assert 0 < p1 < 1
+    assert _cov(ll, p1) == pytest.approx(1.0, abs=1e-6)
+    p2 = T.choose_next_exponent(ll, p1)
+    assert p2 > p1 and _cov(ll, p2 - p1) == pytest.approx(1.0, abs=1e-6)
 
 
 def test_next_exponent_caps_at_one_and_ignores_failed_particles():
     ll = np.array([-1.0, -1.1, -0.9, -1.05])
     assert T.choose_next_exponent(ll, 0.5) == 1.0
     ll = np.concatenate([np.random.default_rng(1).normal(-30, 10, 500), np.full(20, -np.inf)])
-    q = T.choose_next_exponent(ll, 0.0)
-    w = np.exp(q * (ll - ll[np.isfinite(ll)].max()))
+    p = T.choose_next_exponent(ll, 0.0)
+    w = np.exp(p * (ll - ll[np.isfinite(ll)].max()))
     assert w.std() / w.mean() == pytest.approx(1.0, abs=1e-6)
 
 

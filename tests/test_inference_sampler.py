@@ -191,15 +191,15 @@ def test_adaptive_sweep_statistic_measures_within_mode_correlation(rho):
     """The stopping statistic recovers the within-mode correlation on a bimodal population (spread of the estimate
     over 50 constructions: std 0.033-0.038, mean within 0.015 of rho; tolerance 4 std), where the plain
     population correlation stays near 1 (0.92 at rho = 0.2)."""
-    from inference.tmcmc import _Run
+    from inference.tmcmc import start_correlation
     ch = _siblings(rho, seed=1)
-    assert _Run.start_correlation(ch) == pytest.approx(rho, abs=0.15)
+    assert start_correlation(ch["start"], ch["pos"]) == pytest.approx(rho, abs=0.15)
     # without siblings (every start distinct) the plain population correlation is used
     distinct = {"start": ch["start"][::2], "pos": ch["pos"][::2]}
     da, db = distinct["start"] - distinct["start"].mean(0), distinct["pos"] - distinct["pos"].mean(0)
     plain = np.mean((da * db).sum(0) / np.sqrt((da * da).sum(0) * (db * db).sum(0)))
     assert plain > 0.8
-    assert _Run.start_correlation(distinct) == pytest.approx(plain, rel=1e-12)
+    assert start_correlation(distinct["start"], distinct["pos"]) == pytest.approx(plain, rel=1e-12)
 
 
 def test_benchmark_constants_by_quadrature():

@@ -1,0 +1,95 @@
+"""The front of the sampler: :func:`tmcmc` turns its options into one :class:`TMCMCSettings` record, builds the move,
+the evaluator and the executor, and runs (or resumes) the run on the root rank.
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from ..checkpoint import load_checkpoint
+from ..executors import Evaluator, Executor, RootRankError, default_executor
+from ..likelihood import Likelihood
+from ..priors import Prior
+from ..results import Posterior
+from .moves import make_move
+from .run import Interrupted, Run
+from .settings import TMCMCSettings
+from .stage import SamplerError
+from .state import STATE_TYPES, RunState
+
+__all__ = ["tmcmc", "EXIT_CHECKPOINTED"]
+
+#: exit status after a SIGTERM/SIGUSR1 was turned into a checkpoint (EX_TEMPFAIL: "try again")
+EXIT_CHECKPOINTED = 75
+
+
+def tmcmc(loglike, prior: Prior, settings: TMCMCSettings | None = None, *, executor=None, checkpoint=None,
+          resume=False, progress=True, log=None, **options) -> Posterior:
+    """Sample the posterior p(theta | D) ∝ pi(theta) L(theta) by TMCMC and estimate the log-evidence.
+
+    loglike: an :class:`inference.Likelihood` (Eqs. (3)-(6), bound to the prior's parameter order here), a callable
+        theta (d,) -> ln L, or with ``vectorized=True`` thetas (m, d) -> (m,).
+    prior: :class:`inference.Prior` (``UniformPrior``/``LogUniformPrior``); theta is in its order.
+    settings: a :class:`TMCMCSettings`; ``options`` are its fields by name (n_samples, proposal, de_variant, chains,
+        n_steps, covariance, seed, ...), on their own or replacing those of ``settings``.
+    executor: None chooses MPI under mpirun (``dispatch`` "dynamic" or "spmd"), else a local process pool.
+    checkpoint / resume: a file written atomically after every stage and every ``checkpoint_every`` seconds (or
+        ``checkpoint_evals`` evaluations) inside a stage; SIGTERM/SIGUSR1 write it and exit with status 75
+        (:data:`EXIT_CHECKPOINTED`); ``resume=True`` continues from it when it exists.
+    progress: one line per stage on stderr (the tempering exponent as ``p=``); log: a file the lines are appended to.
+    Returns a :class:`inference.Posterior` on every rank.
+    """
+    if not isinstance(prior, Prior):
+        raise TypeError("prior must be an inference.Prior (UniformPrior / LogUniformPrior)")
+    if settings is None:
+        settings = TMCMCSettings(**options)
+    elif isinstance(settings, TMCMCSettings):
+        settings = dataclasses.replace(settings, **options)
+    else:
+        raise TypeError(f"settings = {settings!r}: pass an inference.tmcmc.TMCMCSettings or the options by name")
+    settings = settings.resolved(prior.dim)
+    if isinstance(loglike, Likelihood):
+        loglike.bind(prior.names)
+    evaluator = Evaluator(loglike, vectorized=settings.vectorized, timeout=settings.timeout)
+    if not (executor is None or isinstance(executor, Executor)):
+        raise TypeError(f"executor = {executor!r}: pass None (MPI under mpirun, else a process pool) or an instance "
+                        "of inference.SerialExecutor, PoolExecutor or MPIExecutor")
+    own_executor = executor is None
+    if own_executor:
+        executor = default_executor(settings.dispatch)
+
+    def sample():
+        fingerprint = _fingerprint(loglike, prior, settings)
+        run = Run(evaluator, prior, executor, settings, make_move(settings, prior), checkpoint, fingerprint,
+                  progress, log)
+        try:
+            if resume and checkpoint is not None and Path(checkpoint).exists():
+                st = load_checkpoint(checkpoint, fingerprint, STATE_TYPES)
+                run.say(f"resuming from {checkpoint}: stage {st.stage}, phase {st.phase}, "
+                        f"{st.n_evals} evaluations done")
+            else:
+                st = RunState()
+            st = run.run(st)
+        except Interrupted as intr:
+            run.say(f"signal {intr.signum} received: checkpoint written to {checkpoint}; rerun the same command "
+                    "with --resume (resume=True in Python) to continue")
+            raise SystemExit(EXIT_CHECKPOINTED) from None
+        return Posterior.from_state(st, prior, settings.as_dict(), executor, run.wall(st))
+
+    try:
+        return executor.run(evaluator, sample)
+    except RootRankError as exc:
+        raise SamplerError(str(exc)) from None
+    finally:
+        if own_executor:
+            executor.close()
+
+
+def _fingerprint(loglike, prior, settings: TMCMCSettings) -> dict:
+    """What a checkpoint must match to be resumed: the likelihood's fingerprint (or its name), the prior and the
+    settings that decide the numbers."""
+    if hasattr(loglike, "fingerprint"):
+        fp = loglike.fingerprint() if callable(loglike.fingerprint) else loglike.fingerprint
+    else:
+        fp = getattr(loglike, "__qualname__", type(loglike).__qualname__)
+    return {"likelihood": str(fp), "prior": str(prior.describe()), **settings.sampling()}
