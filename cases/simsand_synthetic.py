@@ -36,8 +36,9 @@ import numpy as np
 
 import inference
 from cases import study
-from cases.simsand_triaxial import CURVES, SimsandTriaxial, TriaxialTest, conditions_of, plot_csl, plot_curves, \
-    sampler_settings, write_runs
+from cases.study.lab_forward import LabForward
+from cases.study.programme import TestSpec
+from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, parameters, plot_csl, plot_curves, sampler_settings, sand_forward, write_runs
 
 CASE = "simsand_synthetic"
 DATA = Path(__file__).parent / "data" / "simsand_synthetic"
@@ -56,7 +57,6 @@ TESTS = (("T1", 0.6, 800.0), ("T2", 0.7, 200.0), ("T3", 0.8, 25.0))
 STRAIN_PCT = tuple(np.round(np.arange(1, 51) * 0.5, 10))
 NOISES = (0.0, 0.1)
 DATA_SEED = 20190101
-MAX_FAILURE_FRACTION = 0.5
 #: presets: particles per stage and the MCMC sweep cap per stage
 PRESETS = {"full": dict(n_samples=2000, max_steps=25), "quick": dict(n_samples=400, max_steps=8)}
 
@@ -70,8 +70,10 @@ def generate_data(noise: float, seed: int = DATA_SEED, out: Path | None = None) 
     {test: path}. Curves are the forward model at TRUE, each point multiplied by its own c ~ N(1, noise^2)."""
     out = Path(out or data_dir(noise))
     out.mkdir(parents=True, exist_ok=True)
-    specs = [TriaxialTest(n, e0, p0, True, STRAIN_PCT) for n, e0, p0 in TESTS]
-    (result,) = SimsandTriaxial(specs, {})([TRUE])
+    specs = [TestSpec(n, "triaxial", drainage="drained", direction="compression", consolidation="isotropic", p0=p0,
+                      e0=e0) for n, e0, p0 in TESTS]
+    (result,) = LabForward("SIMSAND", specs, {t.name: np.array(STRAIN_PCT) / 100.0 for t in specs},
+                           {t.name: tuple(CURVES[True]) for t in specs}, {}, grid=STRAIN_PCT)([TRUE])
     if isinstance(result, Exception):
         raise RuntimeError(f"the true values failed to integrate: {result}")
     rng = np.random.default_rng([seed, int(round(noise * 1000))])
@@ -118,7 +120,7 @@ def build(noise: float, free=None):
     if unknown:
         raise ValueError(f"--free: unknown parameters {sorted(unknown)}; choose among {list(BOUNDS)}")
     obs = load_data(noise)
-    forward = SimsandTriaxial([conditions_of(t) for t in obs], {k: v for k, v in TRUE.items() if k not in free})
+    forward = sand_forward(obs, {k: v for k, v in TRUE.items() if k not in free})
     like = inference.Likelihood(obs, forward, batch=True, sigma="sigma_eps")
     prior = inference.UniformPrior({**{k: BOUNDS[k] for k in free}, "sigma_eps": SIGMA_BOUNDS})
     return obs, forward, like, prior
@@ -152,7 +154,7 @@ def report_run(out, args, post, obs, forward, summary, truth):
     study.plot_stages(post, out / "stages.png")
     end = {f"{t.name} end of test (synthetic)": (obs[t.name].curves["q"].y[-1] / 3 + t.p0, obs[t.name].curves["e"].y[-1])
            for t in forward.tests}
-    plot_csl(out / "csl.png", {"MAP": forward.parameters(post.map), "true values": TRUE}, end,
+    plot_csl(out / "csl.png", {"MAP": parameters(forward, post.map), "true values": TRUE}, end,
              title=f"CSL (VI): MAP vs true values, {label}")
     jg = summary.get("J_g_at_map", {})
     text = [f"# {CASE}: {method}, seed {summary['seed']} — {label}", "",
@@ -178,7 +180,7 @@ def main(argv=None):
     settings = sampler_settings(args, preset, MAX_FAILURE_FRACTION)
     # the true-value curves of the figures, computed before sampling: the compiled kernel is then loaded once here,
     # before the process pool forks, instead of once in every worker
-    truth = SimsandTriaxial(forward.tests, {})([TRUE])[0]
+    truth = sand_forward(obs, {})([TRUE])[0]
 
     def finish(run_args, seed, out, post):
         summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={

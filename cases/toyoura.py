@@ -23,10 +23,10 @@ sigma_eps (0, 1]. n_p = 0 or n_d = 0 is valid in (VII) (phi_p = phi_pt = phi_mu)
 lower bounds are kept at 0 (no clipping). ``--free`` identifies a subset, the others held at the paper's
 optimisation reference values.
 
-Forward model (cases.simsand_triaxial): all calibration tests of a batch in one batched SIMSAND call, simulated at
+Forward model (cases.study.sand): all calibration tests of a batch in one batched SIMSAND call, simulated at
 0.1 % steps to 1 % and 0.25 % steps beyond, interpolated linearly to the recorded strains (0.1 % spacing).
 About 5 % of the prior box fails (drained path lost control): zero-likelihood particles, MAX_FAILURE_FRACTION 0.5
-as in cases.simsand_synthetic.
+(cases.study.sand).
 
 Outputs in DIR (cases.study contract): summary.json (with J_g of every test at MAP, calibration and prediction),
 report.md (MAP/mean/std beside the paper's Table 3), curves.png (Fig. 13 style: data, MAP and 95 % posterior
@@ -41,9 +41,8 @@ import numpy as np
 
 import inference
 from cases import study
-from cases.simsand_synthetic import MAX_FAILURE_FRACTION
-from cases.simsand_triaxial import CURVES, SimsandTriaxial, conditions_of, plot_csl, plot_curves, sampler_settings, \
-    write_runs
+from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, conditions_of, parameters, plot_csl, plot_curves, sampler_settings, \
+    sand_forward, write_runs
 from inference.observations import read_csv_table
 
 CASE = "toyoura"
@@ -132,8 +131,8 @@ def build(undrained=(), free=None):
     all_obs = inference.Observations(calibration + [t for n, t in drained.items() if n not in cal_obs.tests])
     fixed = {**FIXED, **{k: v for k, v in PAPER_REFERENCE.items() if k not in free}}
     grid = _grid(all_obs)
-    forward = SimsandTriaxial([conditions_of(t) for t in cal_obs], fixed, grid_pct=grid)
-    forward_all = SimsandTriaxial([conditions_of(t) for t in all_obs], fixed, grid_pct=grid)
+    forward = sand_forward(cal_obs, fixed, grid)
+    forward_all = sand_forward(all_obs, fixed, grid)
     like = inference.Likelihood(cal_obs, forward, batch=True, sigma="sigma_eps")
     prior = inference.UniformPrior({**{k: BOUNDS[k] for k in free}, "sigma_eps": SIGMA_BOUNDS})
     return cal_obs, all_obs, forward, forward_all, like, prior
@@ -184,9 +183,9 @@ def report_run(out, args, post, cal_obs, all_obs, forward_all, summary):
         if "e" in t.curves:
             c = conditions_of(t)
             end[f"{t.name} end (data)"] = (c.p0 + t.curves["q"].y[-1] / 3.0, t.curves["e"].y[-1])
-    plot_csl(out / "csl.png", {"MAP": forward_all.parameters(post.map),
+    plot_csl(out / "csl.png", {"MAP": parameters(forward_all, post.map),
                                "paper reference": {**FIXED, **PAPER_REFERENCE},
-                               "paper DE-TMCMC mean": forward_all.parameters(
+                               "paper DE-TMCMC mean": parameters(forward_all, 
                                    {k: v for k, v in PAPER_DE_MEAN.items() if k != "sigma_eps"})}, end,
              title="Toyoura sand: CSL (VI) of the MAP vs the paper's values")
     jg = summary["J_g_all_tests"]

@@ -1,0 +1,223 @@
+"""Triaxial studies of a sand from isotropic states (the paper's sections 3.1-3.2): test conditions from recorded data,
+the SIMSAND forward model on a strain grid, the posterior predictive, and the figures (curves, CSL, MAP spread over
+runs).
+
+Curves calibrated (docs/reference.md section 1): drained tests q(eps_a) and e(eps_a); undrained tests q(eps_a) and the
+excess pore pressure u(eps_a) (the paper's Fig. 13 choice). Axial strain is in percent in data files and figures, a
+fraction inside the model. Compression positive, kPa.
+
+Conditions of a test are read from its CSV ``#`` metadata (or given by the caller): ``e0`` (void ratio at the start
+of shearing), ``p0_kPa`` (isotropic p'_0 in kPa) and ``drained`` (true/false).
+
+The forward model is :class:`cases.study.lab_forward.LabForward` with SIMSAND: every test of a batch in one batched
+call per drainage type (SIMSAND's own triaxial integrator), simulated on a strain grid from 0 and interpolated by the
+likelihood to the recorded strains. A particle whose integration fails in any test is a zero-likelihood particle
+with its reason, never a crash.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+import inference
+from constitutive import SIMSAND
+from inference import DataError
+
+from .lab_forward import LabForward
+from .outputs import pyplot, runs_table
+from .programme import TestSpec
+
+__all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "predictive", "plot_curves", "plot_csl", "plot_map_spread",
+           "sampler_settings", "write_runs", "CURVES"]
+
+#: observed curves per drainage type (test curve name -> CSV quantity)
+CURVES = {True: {"q": "q", "e": "e"}, False: {"q": "q", "u": "u"}}
+#: failed forward evaluations allowed per stage: part of SIMSAND's prior box gives drained paths that lose control
+#: (notes/simsand.md), zero-likelihood particles that vanish as the population concentrates
+MAX_FAILURE_FRACTION = 0.5
+LABELS = {"q": "q (kPa)", "e": "void ratio e", "u": "excess pore pressure u (kPa)", "p": "p' (kPa)"}
+
+
+def _flag(value, path, field):
+    text = str(value).strip().lower()
+    if text in ("true", "1", "yes", "drained"):
+        return True
+    if text in ("false", "0", "no", "undrained"):
+        return False
+    raise DataError(f"{path}: field {field!r} = {value!r} is not true/false")
+
+
+def conditions_of(test: inference.Test) -> TestSpec:
+    """The triaxial test record (compression from an isotropic p'0) of an observed test's conditions (``e0``,
+    ``p0_kPa``, ``drained``), errors naming the file."""
+    cond, where = test.conditions, test.source or test.name
+    values = {}
+    for key in ("e0", "p0_kPa"):
+        if key not in cond:
+            raise DataError(f"{where}: missing condition {key!r} (a '# {key}: value' header line or an option)")
+        try:
+            values[key] = float(cond[key])
+        except (TypeError, ValueError):
+            raise DataError(f"{where}: condition {key!r} = {cond[key]!r} is not a number") from None
+    if not 0.0 < values["e0"] < 2.97:
+        raise DataError(f"{where}: condition 'e0' = {values['e0']} outside (0, 2.97)")
+    if not values["p0_kPa"] > 0.0:
+        raise DataError(f"{where}: condition 'p0_kPa' = {values['p0_kPa']} must be > 0")
+    drained = _flag(cond.get("drained", "true"), where, "drained")
+    x = np.unique(np.concatenate([c.x for c in test.curves.values()]))
+    if x.min() < 0:
+        raise DataError(f"{where}: axial strain {x.min()} % < 0 (compression tests only)")
+    return TestSpec(test.name, "triaxial", source_of(test), where, drainage="drained" if drained else "undrained",
+                    direction="compression", consolidation="isotropic", p0=values["p0_kPa"], e0=values["e0"])
+
+
+def source_of(test):
+    return Path(test.source) if test.source else None
+
+
+def sand_forward(observations, fixed: dict, grid_pct=None) -> LabForward:
+    """The SIMSAND forward model of the observed tests (:func:`conditions_of`) with ``fixed`` parameter values,
+    simulated on ``grid_pct`` (axial strains in %; default: every recorded strain) from 0."""
+    tests = [conditions_of(t) for t in observations]
+    strains = {t.name: np.unique(np.concatenate([c.x for c in t.curves.values()])) / 100.0 for t in observations}
+    if grid_pct is None:
+        grid_pct = np.unique(np.concatenate([np.unique(np.concatenate([c.x for c in t.curves.values()]))
+                                             for t in observations]))
+    curves = {t.name: tuple(CURVES[spec.drainage == "drained"]) for t, spec in zip(observations, tests)}
+    return LabForward("SIMSAND", tests, strains, curves, fixed, grid=grid_pct)
+
+
+def parameters(forward: LabForward, params: dict) -> dict:
+    """Full SIMSAND parameter dict: the forward model's fixed values updated with ``params`` (a sample's error
+    parameter sigma_eps, if present, is left out)."""
+    full = {**forward.fixed, **{k: v for k, v in params.items() if k != "sigma_eps"}}
+    missing = set(SIMSAND.parameter_names) - set(full)
+    if missing:
+        raise ValueError(f"SIMSAND parameters neither free nor fixed: {sorted(missing)}")
+    return full
+
+
+def predictive(forward: LabForward, post, n_draws=200, seed=0):
+    """Posterior predictive of Eq. (1): U = c U_num(b), c ~ N(1, sigma_eps^2), over ``n_draws`` final-stage samples
+    (one batched forward call). Returns ({test: {curve: (q2.5, q50, q97.5) arrays}}, {test: grid}, MAP curves)."""
+    rng = np.random.default_rng(seed)
+    names = list(post.names)
+    idx = rng.choice(len(post.samples), size=min(n_draws, len(post.samples)), replace=False)
+    draws = post.samples[idx]
+    sig = draws[:, names.index("sigma_eps")] if "sigma_eps" in names else np.zeros(len(draws))
+    rows = np.vstack([draws, post.map_theta])
+    soil = {n: rows[:, k] for k, n in enumerate(names) if n != "sigma_eps"}
+    raw, failed = forward.simulate(soil)
+    values, _ = forward.particle_values(soil)
+    table = forward.arrays(raw, values, names=lambda t: ("q", "e", "u", "p"))
+    band, at_map, grids = {}, {}, {}
+    for t in forward.tests:
+        band[t.name], at_map[t.name] = {}, {}
+        for k, (grid, v) in table[t.name].items():
+            grids[t.name] = grid
+            sims = v[:-1] * (1.0 + sig[:, None] * rng.standard_normal(v[:-1].shape))
+            ok = ~failed[t.name][:-1]
+            band[t.name][k] = np.nanquantile(sims[ok], [0.025, 0.5, 0.975], axis=0) if ok.any() else None
+            at_map[t.name][k] = v[-1]
+    return band, grids, at_map
+
+
+def plot_curves(path, observations, forward, post, title, reference=None, predict=(), seed=0):
+    """Data vs MAP curves with the 95 % posterior predictive band, one row per test (the paper's Figs. 2-4, 13).
+    ``reference``: optional {test: {curve: (x, y)}} drawn dashed (true-value curves); ``predict``: names of tests
+    not used in the calibration (titled "prediction")."""
+    plt = pyplot()
+    band, grids, at_map = predictive(forward, post, seed=seed)
+    tests = list(forward.tests)
+    ncol = max(len(CURVES[t.drainage == "drained"]) for t in tests)
+    fig, axes = plt.subplots(len(tests), ncol, figsize=(4.6 * ncol, 3.0 * len(tests)), squeeze=False)
+    for row, t in zip(axes, tests):
+        obs = observations[t.name] if t.name in observations.tests else None
+        for ax, k in zip(row, CURVES[t.drainage == "drained"]):
+            x = grids[t.name]
+            if band[t.name][k] is not None:
+                ax.fill_between(x, band[t.name][k][0], band[t.name][k][2], color="C0", alpha=0.25,
+                                label="95 % posterior predictive")
+            ax.plot(x, at_map[t.name][k], "C0-", lw=1.5, label="MAP")
+            if reference and t.name in reference:
+                ax.plot(*reference[t.name][k], "k--", lw=1, label="true values")
+            if obs is not None and k in obs.curves:
+                ax.plot(obs.curves[k].x, obs.curves[k].y, ".", color="C3", ms=3, label="data")
+            role = "prediction" if t.name in predict else "calibration"
+            ax.set_title(f"{t.name} ({role}): e0 {t.e0:g}, p'0 {t.p0:g} kPa", fontsize=9)
+            ax.set_xlabel("axial strain (%)")
+            ax.set_ylabel(LABELS[k])
+        for ax in row[len(CURVES[t.drainage == "drained"]):]:
+            ax.axis("off")
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def critical_void_ratio(params, p):
+    """(VI) e_c(p') for a full SIMSAND parameter dict (through the model, not a copy of the formula)."""
+    return SIMSAND(**params).critical_void_ratio(p)
+
+
+def plot_csl(path, lines: dict, end_states=None, title=""):
+    """CSL in e-log p' (Fig. 6/14 style): ``lines`` {label: full SIMSAND parameter dict}; ``end_states``
+    {label: (p', e)} of the data at the end of each test."""
+    plt = pyplot()
+    p = np.geomspace(5.0, 5000.0, 200)
+    fig, ax = plt.subplots(figsize=(5.2, 3.8))
+    for k, (label, prm) in enumerate(lines.items()):
+        ax.semilogx(p, critical_void_ratio(prm, p), ["C3-", "k--", "C0:", "C2-."][k % 4], label=label)
+    for label, (pe, ee) in (end_states or {}).items():
+        ax.semilogx(pe, ee, "o", mfc="none", label=label)
+    ax.set_xlabel("p' (kPa)")
+    ax.set_ylabel("critical void ratio e_c")
+    ax.legend(fontsize=7)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_map_spread(path, summaries, names, reference: dict, title):
+    """MAP of each run divided by the reference value, per parameter and method (the paper's Fig. 5 style)."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(names), 3.6))
+    methods = sorted({s["method"] for s in summaries})
+    for k, m in enumerate(methods):
+        runs = [s for s in summaries if s["method"] == m]
+        for j, n in enumerate(names):
+            maps = np.array([s["parameters"][n]["map"] for s in runs])
+            shift = 0.25 * (k - (len(methods) - 1) / 2)
+            ax.plot(np.full(maps.size, j + shift) + np.linspace(-0.08, 0.08, maps.size), maps / reference[n],
+                    "os"[k % 2], color=f"C{k}", mfc="none", label=m if j == 0 else None)
+    ax.axhline(1.0, color="k", lw=0.8)
+    ax.set_xticks(range(len(names)))
+    ax.set_xticklabels(names, rotation=45)
+    ax.set_ylabel("MAP / reference value")
+    ax.legend(fontsize=7)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def sampler_settings(args, preset, max_failure_fraction):
+    """tmcmc settings of a SIMSAND study: the preset's sweep cap, ``--sweeps`` (fixed count) or adaptive, and the
+    study's failure allowance."""
+    return dict(max_steps=preset["max_steps"], n_steps=args.sweeps or "adaptive", min_steps=min(2, args.sweeps or 2),
+                max_failure_fraction=max_failure_fraction)
+
+
+def write_runs(top, title, summaries, names, references, spread_reference, note=""):
+    """With several runs: runs.md (average MAP and spread per method beside the references) and map_spread.png."""
+    if len(summaries) < 2:
+        return
+    top = Path(top)
+    text = f"# {title}\n\n" + (f"**{note}**\n\n" if note else "")
+    (top / "runs.md").write_text(text + runs_table(summaries, names, references) + "\n")
+    shown = [n for n in names if n in spread_reference]
+    plot_map_spread(top / "map_spread.png", summaries, shown, spread_reference,
+                    f"MAP of {len(summaries)} runs / reference: {title}")
