@@ -3,8 +3,8 @@
 A move is built once from the settings (:func:`make_move`). Each stage, ``prepare`` fits what the move needs to the
 weighted population (no random numbers); each move of the chains, ``propose`` draws its arrays from the stream
 handed to it, row k belonging to chain k, so the numbers do not depend on the executor or the number of ranks:
-- :class:`GaussianMove` (O-TMCMC, step 5.2): N(theta, Sigma_j), Sigma_j = beta^2 x weighted covariance of the whole
-  stage population, Eqs. (11)-(12);
+- :class:`GaussianMove` (O-TMCMC, step 5; the paper's 5.2): N(theta, Sigma_j), Sigma_j = beta^2 x the weighted
+  covariance of the whole stage population, Eqs. (11)-(12);
 - :class:`MixtureMove` (O-TMCMC with a mixture covariance): a Gaussian mixture fitted to the weighted population
   (:func:`fit_gaussian_mixture`) gives each mode its own covariance; with probability ``independence`` an
   independence proposal from the mixture, else a random walk N(theta, beta^2 Sigma_c) with the component c drawn
