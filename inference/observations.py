@@ -87,7 +87,9 @@ def read_csv_table(path) -> tuple[dict, dict]:
     return meta, table
 
 
-def _converted(path, quantity, unit, values, wanted):
+def converted(path, quantity, unit, values, wanted):
+    """``values`` of column ``quantity`` in ``unit`` converted to the unit ``wanted`` (None: as they are); DataError
+    naming the file and the column when the dimensions differ or a unit is unknown."""
     if wanted is None or wanted == unit or (_UNITS.get(wanted, (None,))[0] == "percent" and unit in ("pct", "%")):
         return values
     have, want = _UNITS.get(unit), _UNITS.get(wanted)
@@ -185,11 +187,11 @@ class Observations:
                 if q not in table:
                     raise DataError(f"{path}: missing column {q!r} (found {list(table)})")
             xu, xv = table[x]
-            xv = _converted(path, x, xu, xv, units.get(x))
+            xv = converted(path, x, xu, xv, units.get(x))
             cs = {}
             for cname, q in curves.items():
                 yu, yv = table[q]
-                yv = _converted(path, q, yu, yv, units.get(q))
+                yv = converted(path, q, yu, yv, units.get(q))
                 cs[cname] = Curve(xv, yv, x, q, units.get(x, xu), units.get(q, yu))
             cond = dict(meta)
             cond.update((conditions or {}).get(test_name, {}))

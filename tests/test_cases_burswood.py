@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from cases import burswood_sbp as sbp
+from cases.study.records import load_sbp_recordings
 from inference.observations import DataError
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -25,8 +26,8 @@ def tiny_records(tmp_path_factory):
 def test_noise_free_recordings_equal_the_forward_model(tmp_path):
     """The generator writes what the forward model computes (9 significant digits), labelled synthetic."""
     paths = sbp.generate_recordings(tmp_path, noise=0.0, preset=TINY, n_points=12)
-    obs = sbp.load_recordings(paths, pore_pressure=True)
-    forward = sbp.SBPForward(TINY, curves=("cavity_pressure", "pore_pressure"))
+    obs = load_sbp_recordings(paths, pore_pressure=True)
+    forward = sbp.burswood_forward(TINY, curves=("cavity_pressure", "pore_pressure"))
     sim = forward(sbp.GENERATING)
     for t in obs:
         assert t.conditions["synthetic"].startswith("NOT MEASURED DATA")
@@ -34,7 +35,7 @@ def test_noise_free_recordings_equal_the_forward_model(tmp_path):
         for cname, c in t.curves.items():
             x, y = sim[t.name][cname]
             np.testing.assert_allclose(c.y, np.interp(c.x, x, y), rtol=1e-8)
-    # the slower test is weaker (viscosity dominates partial drainage for these parameters, REFERENCE 7)
+    # the slower test is weaker (viscosity dominates partial drainage for these parameters, docs/reference.md section 7)
     assert obs["slow"].curves["cavity_pressure"].y[-1] < obs["fast"].curves["cavity_pressure"].y[-1]
 
 
@@ -42,8 +43,8 @@ def test_one_layer_equals_four_layers():
     """Plane strain, top and bottom fixed vertically: the problem is 1D in r, so the quick preset's single layer
     of cells gives the paper mesh's 4-layer answer (the hourglass modes are not excited by a z-uniform field), to the
     Newton tolerance of the solver (relative residual 1e-6 per dof)."""
-    one = sbp.SBPForward(TINY).results(sbp.GENERATING)
-    four = sbp.SBPForward(sbp.Preset(radial_cells=8, layers=4, increments=10, outer_radius_a0=200.0)).results(
+    one = sbp.burswood_forward(TINY).results(sbp.GENERATING)
+    four = sbp.burswood_forward(sbp.Preset(radial_cells=8, layers=4, increments=10, outer_radius_a0=200.0)).results(
         sbp.GENERATING)
     for name in one:
         np.testing.assert_allclose(one[name].cavity_pressure, four[name].cavity_pressure, rtol=1e-6)
@@ -56,22 +57,23 @@ def _write(path, text):
 
 
 @pytest.mark.parametrize("body, message", [
-    ("cavity_strain_pct,cavity_pressure_kPa\n1,100\n0.5,110\n", "must increase"),
-    ("cavity_strain,cavity_pressure_kPa\n0.01,100\n0.02,110\n", "must be in %"),
-    ("strain_pct,cavity_pressure_kPa\n1,100\n2,110\n", "missing column 'cavity_strain'"),
-    ("cavity_strain_pct,cavity_pressure_kPa\n1,100\n2,-5\n", "non-positive"),
+    ("cavity_strain_pct,cavity_pressure_kPa\n1,100\n0.5,110\n", "line 3, column 'cavity_strain': value 0.5 does not increase"),
+    ("cavity_strain,cavity_pressure_kPa\n0.01,100\n0.02,110\n", "'cavity_strain' is in unit '-', expected '%'"),
+    ("strain_pct,cavity_pressure_kPa\n1,100\n2,110\n", "column 'strain'"),
+    ("cavity_strain_pct,cavity_pressure_kPa\n1,100\n2,-5\n", "line 3, column 'cavity_pressure': value -5 must be > 0"),
+    ("cavity_strain_pct,cavity_pressure_kPa\n1,100\n12,110\n", "value 12 % exceeds 10 %"),
     ("cavity_strain_pct,cavity_pressure [psi]\n1,100\n2,110\n", "unit 'psi'"),
 ])
 def test_bad_recordings_name_file_column_and_value(tmp_path, body, message):
     path = _write(tmp_path / "bad.csv", body)
     with pytest.raises(DataError, match=message) as err:
-        sbp.load_recordings({"fast": path})
+        load_sbp_recordings({"fast": path})
     assert "bad.csv" in str(err.value)
 
 
 def test_user_recordings_in_mpa_and_percent_are_converted(tmp_path):
     path = _write(tmp_path / "f.csv", "cavity_strain [%],cavity_pressure [MPa]\n1,0.1\n2,0.12\n")
-    obs = sbp.load_recordings({"fast": path})
+    obs = load_sbp_recordings({"fast": path})
     np.testing.assert_allclose(obs["fast"].curves["cavity_pressure"].y, [100.0, 120.0])
 
 
@@ -79,7 +81,7 @@ def test_a_forward_solve_that_raises_is_a_zero_likelihood_particle(tiny_records)
     """A forward solve that raises inside a calibration gives -inf with its reason, never a crash."""
     import inference
 
-    like = inference.Likelihood(sbp.load_recordings(tiny_records), sbp.SBPForward(TINY))
+    like = inference.Likelihood(load_sbp_recordings(tiny_records), sbp.burswood_forward(TINY))
     like.bind(tuple(sbp.BOUNDS))
     values, reasons = like.evaluate_many(np.array([[1.71, 58.4, 0.02, 0.05], [1.71, -5.0, 0.02, 0.05]]))
     assert np.isfinite(values[0]) and reasons[0] is None

@@ -156,7 +156,8 @@ def test_switches_on_are_the_default_model_and_off_equals_zero_interlocking():
 def test_compiled_kernel_equals_the_numpy_reference_with_the_switches_off(drained, sign):
     """Both switches off, 10 prior samples: the compiled kernel and the numpy reference (triaxial_integrator="numpy")
     give the same failures, curves within 1e-6 of the curve scale in a batch (the numpy crossing iteration is
-    batch-wide), and the same curves to rtol 1e-12 for single points."""
+    batch-wide), and the same curves to rtol 1e-9 for single points (round-off of two implementations amplified by
+    the local error estimate that sizes the substeps: test_simsand.IMPLEMENTATIONS_RTOL)."""
     rng = np.random.default_rng(5)
     params = dict(PLAIN, **{k: rng.uniform(lo, hi, 10) for k, (lo, hi) in SYNTHETIC_BOUNDS.items()})
     ea = sign * np.linspace(0.005, 0.25, 50)
@@ -173,8 +174,8 @@ def test_compiled_kernel_equals_the_numpy_reference_with_the_switches_off(draine
     for i in np.flatnonzero(ok)[:2]:
         one = SIMSAND(**{k: (v[i] if np.ndim(v) else v) for k, v in params.items()}, **kw,
                       triaxial_integrator="numpy").triaxial_test(0.7, 200.0, ea, drained=drained)
-        np.testing.assert_allclose(c["q"][i], one["q"][0], rtol=1e-12, atol=1e-12 * np.abs(one["q"]).max())
-        np.testing.assert_allclose(c["e"][i], one["e"][0], rtol=1e-12)
+        np.testing.assert_allclose(c["q"][i], one["q"][0], rtol=1e-9, atol=1e-9 * np.abs(one["q"]).max())
+        np.testing.assert_allclose(c["e"][i], one["e"][0], rtol=1e-9)
 
 
 # ----------------------------------------------------------------------------------------------- bad input
@@ -236,16 +237,18 @@ def test_study_switches_off_without_n_p_n_d_and_the_initial_state_parameter_cova
     model (phi_mu = 30: no peak above M_mu) and reports each test's initial state parameter psi_0 = e_0 - e_c(p'_0)
     (Been & Jefferies 1985), computed here from (VI) and the test conditions, as a between-test covariate."""
     import inference
-    from cases import calibrate as cal
+    from cases.study.problem import StudyProblem
+    from cases.study.records import load_observations
+    from cases.study.schema import load_study
 
-    study = cal.load_study(_drained_study(tmp_path))
+    study = load_study(_drained_study(tmp_path))
     assert study.switches == {"lode_dependence": False, "state_dependent_dilatancy": False}
-    obs, times = cal.load_observations(study)
-    problem = cal.StudyProblem(study, obs, times, quick=True)
+    obs, times = load_observations(study.tests)
+    problem = StudyProblem(study, obs, times, quick=True)
     assert problem.catalog_switches(study.switches)["state_dependent_dilatancy"] is False
     curves = problem.map_curves({"e_ref": 0.75, "phi_mu": 30.0, "k_p": 0.003}, study.switches)
     like = inference.Likelihood(obs, problem.forward(study.switches), batch=True)
-    cov = problem.covariates(like, curves)["initial state parameter"]
+    cov = problem.curve_covariates(like, curves)["initial state parameter"]
     assert set(cov) == {(t.name, c) for t in study.tests for c in ("q", "void_ratio")}
     for t in study.tests:  # (e0, p'0) = (0.7, 200 kPa) and (0.6, 800 kPa)
         assert np.all(curves[t.name]["stress_ratio"] <= M_C + 1e-8)
@@ -260,17 +263,19 @@ def test_study_switches_off_without_n_p_n_d_and_the_initial_state_parameter_cova
     ("", "n_d = [0.1, 10.0]\n", "model.free.n_d.*not used when state_dependent_dilatancy = false"),
 ])
 def test_study_refuses_interlocking_parameters_with_the_switch_off(tmp_path, interlocking, free, message):
-    from cases import calibrate as cal
+    from cases.study.checks import StudyError
+    from cases.study.schema import load_study
 
-    with pytest.raises(cal.StudyError, match=message):
-        cal.load_study(_drained_study(tmp_path, interlocking=interlocking, free=free))
+    with pytest.raises(StudyError, match=message):
+        load_study(_drained_study(tmp_path, interlocking=interlocking, free=free))
 
 
 def test_study_needs_n_p_n_d_with_state_dependent_dilatancy(tmp_path):
-    from cases import calibrate as cal
+    from cases.study.checks import StudyError
+    from cases.study.schema import load_study
 
-    with pytest.raises(cal.StudyError, match="state_dependent_dilatancy = true needs n_d"):
-        cal.load_study(_drained_study(tmp_path, switches="", interlocking="n_p = 2.0\n"))
+    with pytest.raises(StudyError, match="state_dependent_dilatancy = true needs n_d"):
+        load_study(_drained_study(tmp_path, switches="", interlocking="n_p = 2.0\n"))
 
 
 def test_sand_examples_are_synthetic_do_not_name_the_effect_and_equal_their_generator(tmp_path):
@@ -280,7 +285,7 @@ def test_sand_examples_are_synthetic_do_not_name_the_effect_and_equal_their_gene
     import importlib.util
     from pathlib import Path
 
-    from cases import calibrate as cal
+    from cases.study.schema import load_study
 
     examples = Path(__file__).resolve().parents[1] / "cases" / "examples"
     spec = importlib.util.spec_from_file_location("sand_lab_data", examples / "sand_lab_data.py")
@@ -288,7 +293,7 @@ def test_sand_examples_are_synthetic_do_not_name_the_effect_and_equal_their_gene
     spec.loader.exec_module(generator)
     assert set(generator.DATASETS) == {"sand_lab", "sand_lab_control", "sand_density", "sand_density_control"}
     for study in generator.DATASETS:
-        base = cal.load_study(examples / f"{study}.toml")
+        base = load_study(examples / f"{study}.toml")
         shipped = {t.name: t.file for t in base.tests}
         assert len(shipped) == (12 if study.startswith("sand_lab") else 8)
         fresh = {f.stem: f for f in generator.write(study, tmp_path / study)}

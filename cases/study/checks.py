@@ -1,0 +1,96 @@
+"""Reading a study file and checking its values: every error names the TOML file, the table and field, and the bad
+value."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+__all__ = ["StudyError", "Checker", "read_toml"]
+
+
+class StudyError(ValueError):
+    """An invalid study file: the message names the TOML file, the table and field, and the value."""
+
+
+def read_toml(path) -> dict:
+    """The parsed TOML file (tomllib, or the tomli package on Python 3.10)."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+        try:
+            import tomli as tomllib
+        except ModuleNotFoundError:
+            raise StudyError(f"{path}: reading a study file needs Python >= 3.11 (tomllib) or the 'tomli' package "
+                             "(pip install tomli)") from None
+    path = Path(path)
+    if not path.is_file():
+        raise StudyError(f"{path}: study file not found")
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError(f"{path}: not valid TOML: {exc}") from None
+
+
+class Checker:
+    """Error messages that name the TOML file, the table.field and the value."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+
+    def fail(self, where, value, why):
+        raise StudyError(f"{self.path}: {where} = {value!r}: {why}")
+
+    def table(self, value, where, allowed=None, required=()):
+        if not isinstance(value, dict):
+            self.fail(where, value, "expected a table")
+        if allowed is not None:
+            for k in value:
+                if k not in allowed:
+                    self.fail(f"{where}.{k}" if where else k, value[k],
+                              f"unknown field; expected one of {', '.join(allowed)}")
+        for k in required:
+            if k not in value:
+                raise StudyError(f"{self.path}: {where}.{k} is missing" if where else f"{self.path}: {k} is missing")
+        return value
+
+    def number(self, value, where, positive=False, non_negative=False):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.fail(where, value, "expected a finite number")
+        if positive and not value > 0:
+            self.fail(where, value, "must be > 0")
+        if non_negative and value < 0:
+            self.fail(where, value, "must be >= 0")
+        return float(value)
+
+    def integer(self, value, where, minimum):
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            self.fail(where, value, f"expected an integer >= {minimum}")
+        return int(value)
+
+    def text(self, value, where, choices=None):
+        if not isinstance(value, str) or not value.strip():
+            self.fail(where, value, "expected a non-empty string")
+        if choices is not None and value not in choices:
+            self.fail(where, value, f"expected one of {', '.join(choices)}")
+        return value
+
+    def flag(self, value, where):
+        if not isinstance(value, bool):
+            self.fail(where, value, "expected true or false")
+        return value
+
+    def bounds(self, value, where, kind="uniform"):
+        """[lower, upper] or {bounds = [lower, upper], prior = "uniform" | "log-uniform"} -> (lo, hi, kind)."""
+        if isinstance(value, dict):
+            self.table(value, where, ("bounds", "prior"), ("bounds",))
+            kind = self.text(value.get("prior", kind), f"{where}.prior", ("uniform", "log-uniform"))
+            value, where = value["bounds"], f"{where}.bounds"
+        if not isinstance(value, list) or len(value) != 2:
+            self.fail(where, value, "expected [lower, upper] or {bounds = [lower, upper], prior = \"log-uniform\"}")
+        lo, hi = (self.number(v, where) for v in value)
+        if not lo < hi:
+            self.fail(where, value, "lower bound must be < upper bound")
+        if kind == "log-uniform" and lo <= 0:
+            self.fail(where, value, "a log-uniform prior needs a lower bound > 0")
+        return lo, hi, kind

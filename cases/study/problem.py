@@ -1,0 +1,284 @@
+"""The soil side of the calibrate -> diagnose loop (``inference.diagnosis.run_loop``): a problem that calibrates a
+model class on request, gives the base class's per-point covariates and the candidate physics of
+``constitutive.physics_catalog``, and writes the run directory.
+
+:class:`LoopProblem` holds what every soil study shares (class names, priors, one class's calibration and its
+record, the enriched classes of ``physics_catalog.enriched_settings``); a study supplies its forward model per class,
+its covariates and its figures (:class:`StudyProblem` for a study file). :func:`run_loop` runs the loop in memory,
+then writes DIR/summary.json etc. of each class (the base class in DIR/<base_dir>, enriched ones in
+DIR/enriched_<candidate>/), DIR/diagnosis_input.json/.npz, DIR/diagnosis.json/.md, DIR/diagnosis.png and
+DIR/loop.json.
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+import inference
+from constitutive import physics_catalog
+from constitutive.registry import class_name
+from inference import diagnosis
+from inference.diagnosis import ModelClass
+from inference.priors import Bound
+
+from . import runner
+from .forward import StudyForward
+from .outputs import plot_loop, write_outputs
+from .presets import FE_FIELDS
+from .records import generating_values
+from .schema import Settings, Study
+
+__all__ = ["LoopProblem", "StudyProblem", "run_loop", "CASE"]
+
+CASE = "calibrate"
+
+
+class LoopProblem:
+    """A soil study as an ``inference.diagnosis.LoopProblem``.
+
+    A subclass sets the base class (``model``, ``base_switches``, ``base_bounds``, ``base_log_uniform``, the error
+    parameter's ``sigma_bounds`` and ``sigma_kind``) and supplies :meth:`forward`, :meth:`map_curves`,
+    :meth:`curve_covariates` and optionally :meth:`catalog_switches`, :meth:`also_enrich`, :meth:`executor`,
+    :meth:`summary_extra`, :meth:`describe`, :meth:`outputs` and :meth:`plot`. :meth:`start` binds the loop's data
+    and run (observations, run settings, directory, seed, class size, label); the loop then calls
+    :meth:`candidates`, :meth:`calibrate` and :meth:`covariates`.
+    """
+
+    case = "case"
+    model = "ANICREEP"
+    base_switches: dict = {}
+    base_bounds: dict = {}
+    base_log_uniform: tuple = ()
+    sigma_bounds = {"sigma_eps": (0.002, 0.3)}
+    sigma_kind = "uniform"
+    #: where the base class is calibrated, relative to the loop's directory
+    base_dir = "base"
+
+    # ---------------------------------------------------------------------------------------- what a study supplies
+    def forward(self, switches):
+        """Batched forward model (``inference.Likelihood(batch=True)``) of the class with ``switches``."""
+        raise NotImplementedError
+
+    def map_curves(self, params: dict, switches: dict) -> dict:
+        """{test: {curve: values at the records or (x, y)}} of one parameter set, with the extra curves the
+        covariates use (``stress_ratio``, ``mean_stress``)."""
+        raise NotImplementedError
+
+    def curve_covariates(self, like, map_curves) -> dict:
+        """Per-point covariates (``inference.diagnosis.screen``'s form) from the base class's MAP curves."""
+        raise NotImplementedError
+
+    def catalog_switches(self, switches: dict) -> dict:
+        """The switches the catalog's ``present_when`` is compared with."""
+        return switches
+
+    def also_enrich(self, first_diagnosis: dict) -> list:
+        """Further candidates (names, in this order) whose enriched class the loop calibrates after the best-ranked
+        named one, from the first diagnosis; none by default."""
+        return []
+
+    def executor(self):
+        return inference.SerialExecutor()
+
+    def summary_extra(self, switches: dict) -> dict:
+        return {}
+
+    def describe(self, label: str, base_name: str) -> str:
+        """The diagnosis report's line on the data and the base class."""
+        return f"Base class {base_name}; catalog: constitutive.physics_catalog ({label})."
+
+    def prior(self, bounds: dict, log_uniform) -> inference.Prior:
+        """Uniform free parameters, then sigma_eps, then the log-uniform ones (their order in theta)."""
+        entries = [Bound(k, *map(float, v)) for k, v in bounds.items() if k not in log_uniform]
+        entries += [Bound(k, *map(float, v), self.sigma_kind) for k, v in self.sigma_bounds.items()]
+        entries += [Bound(k, *map(float, bounds[k]), "log-uniform") for k in log_uniform]
+        return inference.Prior(entries)
+
+    def outputs(self, run, seed, out, post, like, cls: dict, map_curves):
+        """Figures and reports of one calibrated class (after summary.json)."""
+
+    def plot(self, path, like, classes: list, diag: dict, label: str):
+        """The loop's figure (diagnosis.png); ``classes`` as class dicts, the base class first."""
+
+    # ---------------------------------------------------------------------------------------- one class
+    def calibrate_class(self, observations, name, switches, bounds, log_uniform, run, out, seed,
+                        settings: Settings) -> tuple:
+        """Calibrate one model class in ``out``; returns (ModelClass, Posterior, Likelihood)."""
+        t0 = time.perf_counter()
+        like = inference.Likelihood(observations, self.forward(switches), batch=True)
+        prior = self.prior(bounds, log_uniform)
+        post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
+                                max_steps=settings.max_steps, progress=False)
+        cls, _ = self.finish_class(post, like, name, switches, run, out, seed, settings.predictive_draws,
+                                   time.perf_counter() - t0)
+        return cls, post, like
+
+    def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s) -> tuple:
+        """After one class's calibration: summary.json (with the class, its switches and ``wall_s``), the class
+        record (:meth:`class_record`) and the study's outputs. Returns (ModelClass, summary)."""
+        summary = runner.write_summary(out, self.case, run, seed, post, like, extra={
+            "model_class": name, "switches": switches, **self.summary_extra(switches), "calibration_wall_s": wall_s})
+        cls = self.class_record(post, like, name, switches, seed, draws, summary)
+        self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"])
+        return cls, summary
+
+    def class_record(self, post, like, name, switches, seed, draws, summary) -> ModelClass:
+        """The class as the diagnosis reads it: MAP curves, ``draws`` posterior-sample curves for the predictive
+        band (rows drawn with ``seed``); the MAP's raw curves in ``extra["map_curves"]``."""
+        params, sigma = like.split(post.map_theta)
+        map_raw = self.map_curves(params, switches)
+        rng = np.random.default_rng(seed)
+        rows = rng.choice(len(post.samples), size=min(draws, len(post.samples)), replace=False)
+        sample_sims, sample_sigma = diagnosis.simulate_samples(like, post.samples[rows])
+        q = post.quantiles()
+        return ModelClass(
+            name=name, role="base", candidate=None, log_evidence=float(post.log_evidence),
+            J_g=summary["J_g_at_map"],
+            parameters={n: {"map": post.map[n], "mean": post.mean[n], "std": post.std[n], "q2.5": q[n][0],
+                            "q97.5": q[n][2]} for n in post.names},
+            sigma_eps=float(sigma), map_simulated=like.simulated_at_observations(map_raw),
+            sample_simulated=sample_sims, sample_sigma=sample_sigma, wall_s=summary["calibration_wall_s"],
+            n_forward_solves=summary["n_forward_solves"], extra={"map_curves": map_raw})
+
+    # ---------------------------------------------------------------------------------------- the loop's protocol
+    def start(self, observations, run, out, seed: int, settings: Settings, label: str):
+        """Bind the loop's data and run: the classes are calibrated in ``out`` with ``seed`` and ``settings``."""
+        self.observations, self.run, self.out = observations, run, Path(out)
+        self.seed, self.settings, self.label = seed, settings, label
+        self.likelihood, self.description = None, ""
+
+    def candidates(self) -> list:
+        return physics_catalog.signatures(self.catalog_switches(self.base_switches), self.model)
+
+    def calibrate(self, candidate: str | None) -> ModelClass:
+        """The base class (candidate None, in DIR/<base_dir>) or the base class enriched with ``candidate``
+        (``physics_catalog.enriched_settings``, in DIR/enriched_<candidate>)."""
+        if candidate is None:
+            switches, bounds, log_uniform = self.base_switches, self.base_bounds, tuple(self.base_log_uniform)
+            out = self.out / self.base_dir
+        else:
+            switches, bounds, extra_log = physics_catalog.enriched_settings(candidate, self.base_switches,
+                                                                            self.base_bounds, self.model)
+            log_uniform = tuple(self.base_log_uniform) + tuple(extra_log)
+            out = self.out / f"enriched_{candidate.replace(' ', '_')}"
+        name = class_name(switches, self.model)
+        cls, _, like = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
+                                            self.seed, self.settings)
+        if candidate is None:
+            self.likelihood, self.description = like, self.describe(self.label, name)
+        return cls
+
+    def covariates(self, base: ModelClass) -> dict:
+        return self.curve_covariates(self.likelihood, base.extra["map_curves"])
+
+
+def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: Settings, label: str) -> dict:
+    """Calibrate, locate, explain, enrich, recalibrate, compare (``inference.diagnosis.run_loop``), then write the
+    loop's files into ``out``. Returns the final diagnosis with the loop's ``timing``."""
+    out = Path(out)
+    problem.start(observations, run, out, seed, settings, label)
+    result = diagnosis.run_loop(problem)
+    like, final = problem.likelihood, result.final
+    diagnosis.write_input(out, like, result.classes, result.covariates, problem.candidates(),
+                          description=problem.description)
+    diagnosis.write_diagnosis(out, final)
+    problem.plot(out / "diagnosis.png", like, [c.to_dict() for c in result.classes], final, label)
+    (out / "loop.json").write_text(json.dumps({
+        "label": label, "seed": seed, "verdict": final["verdict"], "omitted_physics": final["omitted_physics"],
+        "named": result.named, "named_without_enrichment": result.named_without_enrichment,
+        "log_bayes": final["log_bayes"], "timing": result.timing, "settings": vars(settings)},
+        indent=1, default=float))
+    return {**final, "timing": result.timing}
+
+
+class StudyProblem(LoopProblem):
+    """A study file's base model as a :class:`LoopProblem`; its classes are calibrated in the loop's directory
+    itself (base) and DIR/enriched_<candidate>/."""
+
+    case = CASE
+
+    def __init__(self, study: Study, observations, times: dict, quick: bool, processes=None, dispatch="dynamic"):
+        self.study = study
+        self.observations = observations
+        self.times = times
+        self.model = study.model
+        self.base_switches = dict(study.switches)
+        self.base_bounds = dict(study.free)
+        self.base_log_uniform = tuple(study.log_uniform)
+        self.sigma_bounds = {"sigma_eps": study.sigma_bounds}
+        self.sigma_kind = study.sigma_kind
+        self.base_dir = "."
+        self.preset = study.preset(quick)
+        self.processes, self.dispatch = processes, dispatch
+        self.synthetic = any("synthetic" in t.conditions for t in observations)
+        self.generating = generating_values(observations)
+
+    def forward(self, switches):
+        return StudyForward(self.study, self.observations, switches, self.preset)
+
+    def map_curves(self, params, switches):
+        return self.forward(switches)([params])[0]
+
+    def catalog_switches(self, switches):
+        return {**self.study.spec.catalog, **switches}
+
+    def executor(self):
+        return inference.default_executor(self.dispatch, self.processes)
+
+    def summary_extra(self, switches):
+        s = self.study
+        return {"study": s.name, "study_file": str(s.path), "model": s.model, "fixed": s.fixed,
+                "priors": {n: {"bounds": list(b), "prior": "log-uniform" if n in s.log_uniform else "uniform"}
+                           for n, b in s.free.items()},
+                "tests": {t.name: {"file": str(t.file), **t.conditions()} for t in s.tests},
+                "fe": ({k: getattr(self.preset, k) for k in FE_FIELDS} if any(t.type == "sbp" for t in s.tests)
+                       else None),
+                "synthetic_recordings": self.synthetic, "generating": self.generating}
+
+    def describe(self, label, base_name):
+        free = ", ".join(self.study.free)
+        return ((f"**SYNTHETIC data** ({label}). " if self.synthetic else f"Recordings ({label}). ")
+                + f"Study {self.study.name} ({self.study.path}); base class {base_name} with {free}, sigma_eps free; "
+                "catalog: constitutive.physics_catalog.")
+
+    def curve_covariates(self, like, map_curves) -> dict:
+        """Per-point covariates (names from physics_catalog.COVARIATES): strain rate (test condition), time, strain
+        level, the MAP's stress ratio and p', loading phase, stress-path direction, consolidation and (SIMSAND) the
+        initial state parameter at the MAP's critical state line (test conditions); a between-test covariate is kept
+        only when it takes at least two values."""
+        cov = {k: {} for k in ("strain rate", "time", "strain level", "stress ratio", "mean effective stress",
+                               "loading phase", "stress path direction", "consolidation", "initial state parameter")}
+        for spec in self.study.tests:
+            test = like.observations[spec.name]
+            for c, curve in test.curves.items():
+                k = (spec.name, c)
+                times = self.times.get(spec.name)
+                if spec.type == "oedometer_creep":
+                    cov["time"][k] = curve.x
+                    cov["strain level"][k] = np.abs(np.asarray(map_curves[spec.name]["axial_strain"])) / 100.0
+                else:
+                    cov["strain rate"][k] = spec.strain_rate
+                    cov["strain level"][k] = np.abs(curve.x) / 100.0
+                    cov["time"][k] = times if times is not None else np.abs(curve.x) / 100.0 / spec.strain_rate
+                if "stress_ratio" in map_curves[spec.name]:
+                    cov["stress ratio"][k] = np.asarray(map_curves[spec.name]["stress_ratio"])
+                    cov["mean effective stress"][k] = np.asarray(map_curves[spec.name]["mean_stress"])
+                if "initial_state_parameter" in map_curves[spec.name]:
+                    cov["initial state parameter"][k] = float(map_curves[spec.name]["initial_state_parameter"][0])
+                cov["loading phase"][k] = "hold" if spec.type == "oedometer_creep" else "load"
+                if spec.type == "triaxial":
+                    cov["stress path direction"][k] = spec.direction
+                    cov["consolidation"][k] = spec.consolidation
+        between = ("strain rate", "loading phase", "stress path direction", "consolidation",
+                   "initial state parameter")
+        return {k: v for k, v in cov.items()
+                if v and (k not in between or len({str(x) for x in v.values()}) > 1)}
+
+    def outputs(self, run, seed, out, post, like, cls, map_curves):
+        write_outputs(out, run.method, post, like, cls, self.study, self.synthetic, self.generating)
+
+    def plot(self, path, like, classes, diag, label):
+        plot_loop(path, like, classes, diag, label, self.synthetic)
