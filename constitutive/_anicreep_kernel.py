@@ -1,5 +1,5 @@
 """Compiled (numba) per-point integrator of ANICREEP: the equations are those of :mod:`constitutive.anicreep`
-(module docstring, REFERENCE.md section 4), numbered (E), (F), (V), (H), (R) as there.
+(module docstring, docs/reference.md section 4), numbered (E), (F), (V), (H), (R) as there.
 
 Compression positive, kPa, s. Voigt order (11, 22, 33, 12, 23, 31); stress-like vectors (sigma', s, alpha_d, g)
 carry tensor shear components, strain vectors engineering shear. Per point, one increment is integrated by

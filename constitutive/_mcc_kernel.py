@@ -1,5 +1,5 @@
 """Compiled (numba) per-point return mapping of Modified Cam Clay: the equations and the integration scheme of
-:mod:`constitutive.mcc` (module docstring, REFERENCE.md section 4).
+:mod:`constitutive.mcc` (module docstring, docs/reference.md section 4).
 
 Compression positive, kPa. Voigt order (11, 22, 33, 12, 23, 31); stresses with tensor shear, strains with
 engineering shear. Per point: elastic trial; if f > 0, Newton with backtracking on the two unknowns

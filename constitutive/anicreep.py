@@ -1,10 +1,10 @@
-"""ANICREEP: anisotropic elasto-viscoplastic model for soft clay (Yin et al. 2010, 2011), REFERENCE.md section 4.
+"""ANICREEP: anisotropic elasto-viscoplastic model for soft clay (Yin et al. 2010, 2011), docs/reference.md section 4.
 
 Compression positive, effective stresses in kPa, strains dimensionless, time in s. Voigt order
 (11, 22, 33, 12, 23, 31); stress-like vectors (sigma', s, the fabric tensor alpha_d, the surface gradient) carry
 tensor shear components, strain vectors carry engineering shear (gamma_12 = 2 eps_12).
 
-Equations (REFERENCE.md section 4; Yin, Karstunen et al. 2010, 2011; Wheeler et al. 2003 for the S-CLAY1 surfaces):
+Equations (docs/reference.md section 4; Yin, Karstunen et al. 2010, 2011; Wheeler et al. 2003 for the S-CLAY1 surfaces):
 
 (E)  elasticity     K = (1 + e0) p'/kappa, G = 3K(1 - 2nu)/(2(1 + nu)); integrated exactly along the increment of
                     elastic strain: p' = p'_n exp((1 + e0) d eps_v^e/kappa), s = s_n + 2 G_bar de^e with the secant
@@ -14,7 +14,7 @@ Equations (REFERENCE.md section 4; Yin, Karstunen et al. 2010, 2011; Wheeler et 
                     p'_m^d = p' + 3/2 (s - p' alpha_d):(s - p' alpha_d) / ((M^2 - alpha^2) p'); the reference surface
                     has size p'_m^r;
 (V)  flow           d eps^vp/dt = mu (p'_m^d/p'_m^r)^beta g,  g = (df/dsigma')/(p' (M^2 - alpha^2)), normalized so
-                    that the triaxial components are the REFERENCE ones: g_p = (M^2 - eta^2)/(M^2 - alpha^2),
+                    that the triaxial components are those of docs/reference.md: g_p = (M^2 - eta^2)/(M^2 - alpha^2),
                     g_q = 2(eta - alpha)/(M^2 - alpha^2);  beta = (lambda - kappa)/C_alpha_e,
                     mu = C_alpha_e/((1 + e0) tau) (M^2 - alpha_K0^2)/(M^2 - eta_K0^2);
 (H)  hardening      dp'_m^r = p'_m^r (1 + e0)/(lambda - kappa) d eps_v^vp  (integrated exactly: exponential);
@@ -32,7 +32,7 @@ Equations (REFERENCE.md section 4; Yin, Karstunen et al. 2010, 2011; Wheeler et 
                     p' = (1 + chi0 exp(-xi eps_v^vp)) p'_mi0 exp(c_p eps_v^vp), c_p = (1 + e0)/(lambda - kappa),
                     eps_v = eps_v^vp + kappa/(1 + e0) ln(p'/p'_0): a closed-form stress-strain curve (tested).
 (R)  rotational     d alpha_d = omega [(3s/(4p') - alpha_d) <d eps_v^vp> + omega_d (s/(3p') - alpha_d) d eps_d^vp],
-                    d eps_d^vp = sqrt(2/3 de^vp:de^vp) >= 0 (a magnitude, REFERENCE convention);
+                    d eps_d^vp = sqrt(2/3 de^vp:de^vp) >= 0 (a magnitude, the convention of docs/reference.md);
 (K)  from M         sin phi' = 3M/(6 + M), K0_nc = 1 - sin phi', eta_K0 = 3(1 - K0_nc)/(1 + 2K0_nc),
                     alpha_K0 = (eta_K0^2 + 3 eta_K0 - M^2)/3,
                     omega_d = 3(4M^2 - 4eta_K0^2 - 3eta_K0)/(8(eta_K0^2 + 2eta_K0 - M^2)),
@@ -89,7 +89,7 @@ REFERENCE_TIME = 86400.0
 
 
 def anisotropy_constants(M):
-    """K0_nc, eta_K0, alpha_K0 and omega_d from the critical-state ratio M (REFERENCE.md section 4, (K)).
+    """K0_nc, eta_K0, alpha_K0 and omega_d from the critical-state ratio M (docs/reference.md section 4, (K)).
 
     sin phi' = 3M/(6 + M); K0_nc = 1 - sin phi'; eta_K0 = 3(1 - K0_nc)/(1 + 2 K0_nc);
     alpha_K0 = (eta_K0^2 + 3 eta_K0 - M^2)/3; omega_d = 3(4M^2 - 4 eta_K0^2 - 3 eta_K0)/(8(eta_K0^2 + 2 eta_K0 - M^2)).
@@ -111,7 +111,7 @@ class ANICREEP(MaterialModel):
         lambda_   : slope of the NCL in e-ln p' (> kappa);
         kappa     : slope of the swelling line in e-ln p' (> 0);
         nu        : Poisson's ratio, -1 < nu < 0.5;
-        e0        : initial void ratio (> 0); (1 + e0) is used in K and in the hardening law, as REFERENCE.md states;
+        e0        : initial void ratio (> 0); (1 + e0) is used in K and in the hardening law, as docs/reference.md states;
         C_alpha_e : natural-log secondary compression index de/dln t (> 0; needed only when viscous);
         tau       : reference time of sigma'_p0 in s (> 0, default 86400 s = 24 h);
         sigma_p0  : vertical preconsolidation stress at the reference rate, kPa (> 0);

@@ -164,7 +164,7 @@ class MaterialModel:
         raise NotImplementedError(f"{self.name} has no compiled kernel")
 
     def parameters(self) -> dict:
-        """The parameter record as a dict (names as in REFERENCE.md)."""
+        """The parameter record as a dict (names as in docs/reference.md)."""
         return {k: getattr(self, k) for k in self.parameter_names}
 
     def __repr__(self):

@@ -1,9 +1,9 @@
-"""Modified Cam Clay (REFERENCE.md section 4, "Modified Cam Clay"), implicit return mapping per point, compiled
+"""Modified Cam Clay (docs/reference.md section 4, "Modified Cam Clay"), implicit return mapping per point, compiled
 (:mod:`constitutive._mcc_kernel`, numba; points are independent: a batch gives the bits of separate calls).
 
 Compression positive, effective stresses in kPa, Voigt order (11, 22, 33, 12, 23, 31), engineering shear strain.
 
-Equations (REFERENCE.md section 4):
+Equations (docs/reference.md section 4):
     elasticity      K = (1 + e) p'/kappa, and either a constant shear modulus G or a constant Poisson's ratio nu
                     (G = 3K(1 - 2nu)/(2(1 + nu)));
     yield surface   f = q^2 + M^2 p'(p' - p'_c);
@@ -40,7 +40,7 @@ def _kernel():
 
 
 class ModifiedCamClay(MaterialModel):
-    """Modified Cam Clay with pressure-dependent elasticity (REFERENCE.md section 4).
+    """Modified Cam Clay with pressure-dependent elasticity (docs/reference.md section 4).
 
     Parameters (scalars or arrays of shape (n,) over points):
         M       : critical-state stress ratio q/p' (> 0);

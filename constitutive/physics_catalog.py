@@ -126,8 +126,8 @@ CATALOG = (
          _item("loading phase", "supporting", 0, "holds (creep, relaxation) misfit differently from loading", None)),
         {"viscous": True},
         Enrichment("ANICREEP", {"viscous": True}, {"C_alpha_e": (0.001, 0.1)}, ("C_alpha_e",)),
-        references=("REFERENCE.md section 4: beta = (lambda - kappa)/C_alpha_e, CRS ratio (rate2/rate1)^(C_alpha_e/"
-                    "lambda)",)),
+        references=("docs/reference.md section 4: beta = (lambda - kappa)/C_alpha_e, CRS ratio "
+                    "(rate2/rate1)^(C_alpha_e/lambda)",)),
     Candidate(
         "partial drainage",
         "Pore water flows during the test: neither the drained nor the undrained idealization holds. The excess pore "
@@ -164,7 +164,7 @@ CATALOG = (
                "towards the rotated surface")),
         {"anisotropy": True},
         Enrichment("ANICREEP", {"anisotropy": True}, {}),
-        references=("REFERENCE.md section 4: alpha_K0, omega, omega_d from M",)),
+        references=("docs/reference.md section 4: alpha_K0, omega, omega_d from M",)),
     Candidate(
         "destructuration",
         "Bonding and structure of natural (sensitive) clay destroyed by plastic straining: the soil yields at an "
@@ -207,7 +207,7 @@ CATALOG = (
         # SIMSAND's interlocking (VII) on: n_p, n_d free with the paper's SIMSAND priors (uniform [0.1, 10] both,
         # cases.simsand_synthetic.BOUNDS; the printed table of the paper swaps them)
         Enrichment("SIMSAND", {"state_dependent_dilatancy": True}, {"n_p": (0.1, 10.0), "n_d": (0.1, 10.0)}),
-        references=("REFERENCE.md section 3 (VII): tan phi_p = (e_c/e)^n_p tan phi_mu, tan phi_pt = (e_c/e)^-n_d "
+        references=("docs/reference.md section 3 (VII): tan phi_p = (e_c/e)^n_p tan phi_mu, tan phi_pt = (e_c/e)^-n_d "
                     "tan phi_mu; Been & Jefferies (1985) state parameter",)),
     Candidate(
         "Lode dependence",
@@ -220,9 +220,9 @@ CATALOG = (
          _item("stress ratio", "supporting", 0, "the misfit grows as the stress ratio approaches failure (the Lode "
                "rule changes the failure ratio, not the elastic start)")),
         {"lode_dependence": True},
-        # no extra parameter: c follows from phi_p and phi_pt (REFERENCE section 3)
+        # no extra parameter: c follows from phi_p and phi_pt (docs/reference.md section 3)
         Enrichment("SIMSAND", {"lode_dependence": True}, {}),
-        references=("REFERENCE.md section 3: Sheng, Sloan & Yu (2000) M(theta) on M_p and M_pt",)),
+        references=("docs/reference.md section 3: Sheng, Sloan & Yu (2000) M(theta) on M_p and M_pt",)),
 )
 
 

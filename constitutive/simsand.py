@@ -1,10 +1,10 @@
-"""SIMSAND: critical-state sand model of the paper's appendix (REFERENCE.md section 3, Eqs. (I)-(VII)).
+"""SIMSAND: critical-state sand model of the paper's appendix (docs/reference.md section 3, Eqs. (I)-(VII)).
 
 Compression positive, effective stresses in kPa, Voigt order (11, 22, 33, 12, 23, 31) with engineering shear strain.
 p' = tr(sigma')/3, q = sqrt(3/2 s:s), eta = q/p', sin 3theta from :func:`constitutive.invariants.lode_sin3theta`
 (+1 in triaxial compression).
 
-Equations (numbers of REFERENCE.md section 3):
+Equations (numbers of docs/reference.md section 3):
 
 - (I)-(II) d eps = d eps^e + d eps^p; isotropic hypo-elasticity d sigma' = K d eps_v^e I + 2 G d e^e.
 - (III)    K = K_0 p_at (2.97 - e)^2 / (1 + e) (p'/p_at)^n,  E = 3 K (1 - 2 nu),  G = 3 K (1 - 2 nu) / (2 (1 + nu)).
@@ -17,7 +17,7 @@ Equations (numbers of REFERENCE.md section 3):
 - Lode dependence (Sheng, Sloan & Yu 2000) on M_p and M_pt, each with its own c = (3 - sin phi)/(3 + sin phi):
   M(theta) = M_c [2 c^4 / (1 + c^4 - (1 - c^4) sin 3theta)]^(1/4).
 
-Two physics switches of the one model (both True by default, the model of REFERENCE.md section 3; used by the
+Two physics switches of the one model (both True by default, the model of docs/reference.md section 3; used by the
 missing-physics catalog ``constitutive.physics_catalog`` to build a base class without the physics and its enriched
 class):
 
@@ -88,7 +88,7 @@ def friction_from_angle(phi_deg):
 
 
 class SIMSAND(ModifiedEulerSubstepping, MaterialModel):
-    """SIMSAND sand model (REFERENCE.md section 3).
+    """SIMSAND sand model (docs/reference.md section 3).
 
     Parameters (scalars or arrays of shape (n,), one per point or particle; stresses in kPa, compression positive):
         nu       Poisson's ratio, -1 < nu < 0.5

@@ -1,6 +1,6 @@
 """Elastic-perfectly plastic von Mises model for undrained (total-strength) clay, with radial return.
 
-Matching to Tresca (REFERENCE.md section 6, Gibson & Anderson): the yield stress in terms of the deviatoric stress
+Matching to Tresca (docs/reference.md section 6, Gibson & Anderson): the yield stress in terms of the deviatoric stress
 q = sqrt(3/2 s:s) is ``q_y = sqrt(3) s_u``. In plane strain with incompressible plastic flow (the cavity expansion,
 eps_z = 0) the out-of-plane stress is the mean of the in-plane ones, sigma_z = (sigma_r + sigma_theta)/2, so
 q = sqrt(3)/2 |sigma_r - sigma_theta| and yield q = q_y is exactly the Tresca condition |sigma_r - sigma_theta| = 2 s_u.

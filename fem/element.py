@@ -1,11 +1,11 @@
-"""Geometry of the CAX4RP-like axisymmetric element (REFERENCE.md section 7), precomputed once for all cells.
+"""Geometry of the CAX4RP-like axisymmetric element (docs/reference.md section 7), precomputed once for all cells.
 
 4 nodes, bilinear displacements (u_r, u_z) and bilinear pore pressure at the corners. All integrals are per radian
 (the factor 2 pi cancels everywhere) and r-weighted: dV = r dr dz. Tension-positive FE strain vector
 (eps_rr, eps_zz, eps_tt, gamma_rz).
 
 - Displacements: uniform-strain ("B-bar") one-point formulation of Flanagan & Belytschko (1981):
-  B_bar = (1/V) integral B dV, so the hoop row is (1/V) integral N/r dV = (1/V) integral N dA (REFERENCE 7).
+  B_bar = (1/V) integral B dV, so the hoop row is (1/V) integral N/r dV = (1/V) integral N dA (docs/reference.md section 7).
   The 2x2 Gauss rule integrates these exactly for any straight-sided quadrilateral (the integrands adj(J) dN/dxi r
   are polynomials of degree <= 3 per direction).
 - Hourglass control, stiffness type: K_hg = c_hg G_hg V (b_r.b_r + b_z.b_z) (gamma gamma^T (x) I_2) with the

@@ -1,6 +1,6 @@
 """Side-by-side check against OpenGeoSys (a peer, never a dependency): ``python -m fem.ogs_compare [--ogs PATH]``.
 
-Case (REFERENCE.md section 6): linear elastic coupled cavity expansion, E = 5 MPa, nu = 0.3, k = 3.3e-9 m/s, outer
+Case (docs/reference.md section 6): linear elastic coupled cavity expansion, E = 5 MPa, nu = 0.3, k = 3.3e-9 m/s, outer
 boundary fixed and drained at R = 50 a0, cavity impermeable, 10 % cavity strain in 60 s (100 equal steps, backward
 Euler in both codes); reference 438.83 kPa cavity pressure rise and 54.22 kPa wall excess pore pressure. The same
 mesh (100 x 2 cells, graded toward the cavity and toward the drained boundary) is written for OpenGeoSys with meshio

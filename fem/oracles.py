@@ -1,7 +1,7 @@
-"""Independent reference solutions for the FE solver (REFERENCE.md section 6). Soil convention: compression
+"""Independent reference solutions for the FE solver (docs/reference.md section 6). Soil convention: compression
 positive stresses (kPa); cavity strain eps_c = u_a/a0 > 0 for expansion.
 
-Small strain throughout, as the FE (the REFERENCE large-strain Gibson & Anderson form is available too).
+Small strain throughout, as the FE (the docs/reference.md large-strain Gibson & Anderson form is available too).
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def gibson_anderson(G, s_u, eps_c, large_strain=False):
     """Undrained expansion of a cavity in Tresca soil (plane strain); returns (pressure rise, R_p/a).
 
     Elastic while 2 G eps_c <= s_u. Beyond: s_u [1 + ln(G/s_u) + ln(dV/V)] with dV/V = 2 eps_c (small strain, the
-    FE's kinematics) or 1 - (1 + eps_c)^-2 (large strain, REFERENCE.md). Excess pore pressure (pressure-independent
+    FE's kinematics) or 1 - (1 + eps_c)^-2 (large strain, docs/reference.md). Excess pore pressure (pressure-independent
     material): 2 s_u ln(R_p/r) inside the plastic radius R_p = a sqrt(G dV/(s_u V)), zero outside.
     """
     eps = np.asarray(eps_c, dtype=float)
@@ -167,12 +167,12 @@ def radial_coupled_elastic(E, nu, k, a0, R, eps_c_rate, t_end, n_cells=400, n_st
 
 def consolidation_coefficient(k, G, nu, gamma_w=GAMMA_W):
     """Radial (plane strain) coefficient of consolidation c_h = (k/gamma_w) 2G(1 - nu)/(1 - 2 nu) (m2/s; k in m/s,
-    G in kPa, drained nu), Randolph & Wroth (1979), REFERENCE.md section 6."""
+    G in kPa, drained nu), Randolph & Wroth (1979), docs/reference.md section 6."""
     return k / gamma_w * 2.0 * G * (1.0 - nu) / (1.0 - 2.0 * nu)
 
 
 def _z0(x, alpha):
-    """Z_0(x) = J_0(x) Y_1(alpha) - Y_0(x) J_1(alpha) (REFERENCE.md section 6); its derivative is -Z_1."""
+    """Z_0(x) = J_0(x) Y_1(alpha) - Y_0(x) J_1(alpha) (docs/reference.md section 6); its derivative is -Z_1."""
     return j0(x) * y1(alpha) - y0(x) * j1(alpha)
 
 

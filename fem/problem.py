@@ -214,7 +214,7 @@ def pressuremeter(material, *, mesh=None, a0=0.0415, sigma_v0=31.0, K0=0.9, u0=3
                   hold_increments=20, hold_growth=1.15, unload_strain=None, unload_increments=20, outer="fixed",
                   monitor_radii=(),
                   stabilization=False, **options):
-    """A self-boring pressuremeter test (REFERENCE.md section 5, Burswood defaults) as a Problem.
+    """A self-boring pressuremeter test (docs/reference.md section 5, Burswood defaults) as a Problem.
 
     Expansion at cavity strain rate ``strain_rate`` (1/s; 0.00167 = 0.167 %/s, 0.000185 = 0.0185 %/s) to
     ``max_strain`` in ``n_increments`` equal displacement increments; an optional holding phase (cavity wall held,

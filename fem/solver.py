@@ -10,7 +10,7 @@ with B, Q, H, S, K_hg from fem.element:
   mass      R_p = -sum_e [Q^T (U - U_n) + dt (k/gamma_w) H p + tau S (p - p_n)] = 0
             (incompressible grains and water, Darcy flow q = -(k/gamma_w) grad p; backward Euler; the last term is
             the polynomial pressure projection of Dohrmann & Bochev / White & Borja, S = M - n_bar n_bar^T / V,
-            tau = 1/(2 G_hg), REFERENCE.md section 7).
+            tau = 1/(2 G_hg), docs/reference.md section 7).
 
 Jacobian [[V B^T D B + K_hg, -Q], [-Q^T, -(dt k/gamma_w H + tau S)]] with the material tangent D; Dirichlet dofs are
 eliminated (unit rows/columns). Nodes are numbered so that the band is narrow (the pressuremeter strip: 3 (n_z + 2)

@@ -608,7 +608,7 @@ def _isotropic_structured_closed_form(eps_v, p0, pm0, chi0, xi, c_p, c_e):
             p.append(p0 * np.exp(c_e * ev))
             chi.append(chi0)
             continue
-        e = brentq(lambda e: e + np.log(surface(e) / p0) / c_e - ev, 0.0, ev)
+        e = brentq(lambda e: e + np.log(surface(e) / p0) / c_e - ev, 0.0, ev, xtol=1e-15)
         p.append(surface(e))
         chi.append(chi0 * np.exp(-xi * e))
     return np.array(p), np.array(chi)
@@ -618,7 +618,7 @@ def _isotropic_structured_closed_form(eps_v, p0, pm0, chi0, xi, c_p, c_e):
 def test_isotropic_compression_of_structured_clay_follows_the_closed_form(n_steps):
     """Independent oracle of (D): strain-controlled isotropic compression (eps_1 = eps_2 = eps_3) of the rate-
     independent isotropic model with bonding: the exact exponential laws of (E), (H) and (D) make the update exact
-    for any step (errors at round-off for 40 and 400 steps), through yield, the post-yield collapse of structure
+    for any step (errors at the local Newton tolerance for 40 and 400 steps), through yield, the post-yield collapse of structure
     (p' falls while the specimen is compressed: chi0 = 5, xi = 15) and the approach to the intrinsic line."""
     chi0, xi = 5.0, 15.0
     m = ANICREEP(M=1.2, sigma_p0=60.0, viscous=False, anisotropy=False, **BURSWOOD,
@@ -639,8 +639,11 @@ def test_isotropic_compression_of_structured_clay_follows_the_closed_form(n_step
         evp.append(st["vp_strain"][0, :3].sum())
     c_e, c_p = 3.0 / 0.026, 3.0 / (0.40 - 0.026)
     p_exact, chi_exact = _isotropic_structured_closed_form(eps, 40.0, pm0, chi0, xi, c_p, c_e)
-    np.testing.assert_allclose(p, p_exact, rtol=1e-9)
-    np.testing.assert_allclose(chi, chi_exact, rtol=1e-9)
+    # each step is a local Newton solution (tolerance 1e-10 on residuals scaled by p'_m), and its error stays in the
+    # hardening state of the following steps: agreement to ~1e-10, not round-off (measured 9e-11 with the closed
+    # form's root found to 1e-15)
+    np.testing.assert_allclose(p, p_exact, rtol=1e-8)
+    np.testing.assert_allclose(chi, chi_exact, rtol=1e-8)
     np.testing.assert_allclose(chi, chi0 * np.exp(-xi * np.array(evp)), rtol=1e-12)  # chi = chi0 exp(-xi eps_v^vp)
     post = np.array(p)[eps > np.log(pm0 / 40.0) / c_e]     # past the elastic range
     k = int(np.argmin(post))

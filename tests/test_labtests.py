@@ -18,8 +18,11 @@ def test_drained_triaxial_reaches_critical_state():
     np.testing.assert_allclose(eta[-1], M, rtol=1e-6)
     np.testing.assert_allclose(c["e"][0, -1], e_cs[-1], atol=1e-7)
     assert np.all(np.diff(np.abs(eta - M)) < 0) and np.all(np.diff(np.abs(c["e"][0] - e_cs)) < 0)
-    np.testing.assert_allclose(c["radial_stress"][0], 100.0, rtol=1e-10)
-    np.testing.assert_allclose(c["q"][0], 3 * (c["p"][0] - 100.0), rtol=1e-9)  # stress path slope 3
+    # the driver holds sigma'_r to its Newton tolerance, 1e-10 x (1 kPa + max |sigma'|); q - 3 (p' - 100) is
+    # 3 (100 - sigma'_r): stress path slope 3 to three times that (measured 1.4e-10 kPa)
+    held = 1e-10 * (1.0 + np.abs(c["axial_stress"][0]).max())
+    np.testing.assert_allclose(c["radial_stress"][0], 100.0, rtol=0.0, atol=held)
+    np.testing.assert_allclose(c["q"][0], 3 * (c["p"][0] - 100.0), rtol=0.0, atol=3.0 * held)
 
 
 def test_convergence_order_of_driver_and_model():

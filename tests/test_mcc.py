@@ -64,8 +64,10 @@ def test_ncl_and_swelling_line_exact_for_any_step():
         c = lt.isotropic_compression(m, 1.2, 50.0, [200.0, 400.0, 100.0, 20.0], substeps=substeps)
         e, p = c["e"][0], c["p"][0]  # p' reached, as recorded
         np.testing.assert_allclose(p, [200.0, 400.0, 100.0, 20.0], atol=1e-6)  # 28 steps x 1e-10 x 401 kPa
-        np.testing.assert_allclose(e[:2], 1.2 - LAM * np.log(p[:2] / 50.0), rtol=1e-12)
-        np.testing.assert_allclose(e[2:], e[1] - KAP * np.log(p[2:] / p[1]), rtol=1e-12)
+        # e and p' are related through the local Newton solution (tolerance 1e-11 on the scaled residuals), so the
+        # laws hold to ~1e-11 relative whatever the step, not to round-off (measured 4e-14)
+        np.testing.assert_allclose(e[:2], 1.2 - LAM * np.log(p[:2] / 50.0), rtol=1e-10)
+        np.testing.assert_allclose(e[2:], e[1] - KAP * np.log(p[2:] / p[1]), rtol=1e-10)
 
 
 @pytest.mark.parametrize("elastic", [{"G": 2000.0}, {"nu": 0.3}])

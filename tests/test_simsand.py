@@ -13,6 +13,11 @@ TRUE = dict(nu=0.2, K_0=100.0, n=0.6, e_ref=0.75, lambda_c=0.03, xi=0.6, phi_mu=
             n_d=2.0)
 SYNTHETIC_BOUNDS = dict(e_ref=(0.5, 1.5), lambda_c=(0.001, 0.1), xi=(0.01, 1.0), phi_mu=(20.0, 50.0),
                         k_p=(1e-4, 1e-2), A_d=(0.5, 2.0), n_p=(0.1, 10.0), n_d=(0.1, 10.0))
+#: compiled kernel against the numpy reference, point by point: two implementations of the same adaptive integrator
+#: round differently (scalar loop; array operations and BLAS products), and the local error estimate that sizes the
+#: substeps is a difference of two stage increments, whose relative round-off eps |d sigma|/|d sigma_2 - d sigma_1|
+#: reaches ~1e-10 at small local errors; the curves then agree to ~1e-10 relative, not to eps (measured <= 7e-14)
+IMPLEMENTATIONS_RTOL = 1e-9
 TOYOURA_BOUNDS = dict(K_0=(50.0, 300.0), n=(0.1, 0.9), e_ref=(0.5, 1.5), lambda_c=(0.001, 0.1), xi=(0.1, 1.0),
                       phi_mu=(20.0, 50.0), k_p=(0.001, 0.1), A_d=(0.1, 2.0), n_p=(0.0, 10.0), n_d=(0.0, 10.0))
 
@@ -312,7 +317,7 @@ def test_compiled_triaxial_path_runs_in_forked_worker_processes():
 @pytest.mark.parametrize("stol", [1e-3, 1e-5])
 def test_compiled_triaxial_path_equals_the_numpy_reference(stol):
     """The compiled kernel against the numpy integrator in the triaxial space (its oracle, triaxial_integrator="numpy"):
-    the same failures; the same curves to round-off point by point; in a batch within 1e-6 of the curve scale (the
+    the same failures; the same curves point by point (IMPLEMENTATIONS_RTOL); in a batch within 1e-6 of the curve scale (the
     numpy crossing iteration runs until every crossing point of the batch has converged; measured <= 8e-9)."""
     params = sample_prior(SYNTHETIC_BOUNDS, 12 if stol >= 1e-3 else 6, seed=11)
     ea = np.linspace(0.005, 0.25, 50)
@@ -330,14 +335,15 @@ def test_compiled_triaxial_path_equals_the_numpy_reference(stol):
         for i in np.flatnonzero(ok)[:2]:
             one = SIMSAND(**{k: (v[i] if np.ndim(v) else v) for k, v in params.items()}, stol=stol,
                           triaxial_integrator="numpy").triaxial_test(e0, p0, ea, drained=drained)
-            np.testing.assert_allclose(c["q"][i], one["q"][0], rtol=1e-12, atol=1e-12 * np.abs(one["q"]).max())
-            np.testing.assert_allclose(c["e"][i], one["e"][0], rtol=1e-12)
+            np.testing.assert_allclose(c["q"][i], one["q"][0], rtol=IMPLEMENTATIONS_RTOL,
+                                       atol=IMPLEMENTATIONS_RTOL * np.abs(one["q"]).max())
+            np.testing.assert_allclose(c["e"][i], one["e"][0], rtol=IMPLEMENTATIONS_RTOL)
 
 
 @pytest.mark.parametrize("control", [(False, True), (True, False), (False, False), (True, True)])
 def test_compiled_update_triaxial_equals_the_numpy_reference(control):
     """One increment from sheared states on the yield surface, every combination of stress/strain control: the kernel
-    and the numpy reference give the same stress, state and strain to round-off."""
+    and the numpy reference give the same stress, state and strain (IMPLEMENTATIONS_RTOL)."""
     params = sample_prior({k: SYNTHETIC_BOUNDS[k] for k in ("phi_mu", "k_p", "A_d")}, 5, seed=2)
     start = SIMSAND(**params).triaxial_test(0.7, 200.0, [0.01])
     sig = np.stack([start["axial_stress"][:, 0], start["radial_stress"][:, 0]], axis=1)
@@ -353,10 +359,10 @@ def test_compiled_update_triaxial_equals_the_numpy_reference(control):
         results.append(model.update_triaxial(sig, state, load, control, active=np.arange(5) != 4))
     (s_c, st_c, d_c, f_c), (s_n, st_n, d_n, f_n) = results
     np.testing.assert_array_equal(f_c, f_n)
-    np.testing.assert_allclose(s_c, s_n, rtol=1e-12)
-    np.testing.assert_allclose(d_c, d_n, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(s_c, s_n, rtol=IMPLEMENTATIONS_RTOL)
+    np.testing.assert_allclose(d_c, d_n, rtol=IMPLEMENTATIONS_RTOL, atol=IMPLEMENTATIONS_RTOL * np.abs(d_n).max())
     for k in ("void_ratio", "eps_dp", "substep"):
-        np.testing.assert_allclose(st_c[k], st_n[k], rtol=1e-12)
+        np.testing.assert_allclose(st_c[k], st_n[k], rtol=IMPLEMENTATIONS_RTOL)
     np.testing.assert_array_equal(s_c[4], sig[4])  # inactive point unchanged
 
 
