@@ -2,13 +2,17 @@
 """
 from __future__ import annotations
 
+import ctypes
 import math
 import os
 import signal
+import sys
+import threading
+import time
 
 import numpy as np
 
-__all__ = ["Executor", "SerialExecutor", "PoolExecutor"]
+__all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S"]
 
 
 class Executor:
@@ -76,15 +80,49 @@ class SerialExecutor(Executor):
 
 _POOL_EVALUATOR = None
 
+#: how often a pool worker's watchdog compares its parent process id with the pool owner's (s)
+WATCHDOG_INTERVAL_S = 0.5
 
-def _pool_init(evaluator):
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def _pool_init(evaluator, owner_pid, death_signal):
+    """Worker start-up: the evaluator (spawn start method only), signals, and death with the pool's owner.
+
+    The parent handles SIGTERM/SIGINT (checkpoint and exit), so workers ignore them and never die half-way through a
+    task. Because they ignore SIGTERM, a worker must notice by itself that its parent is gone (SIGKILL, a crash):
+    the kernel's death signal (``death_signal``, Linux) and a watchdog thread, see :class:`PoolExecutor`. The check
+    after the request closes the race of an owner that died before the request was made.
+    """
     global _POOL_EVALUATOR
     if evaluator is not None:
         _POOL_EVALUATOR = evaluator
-    # the parent handles SIGTERM/SIGINT (checkpoint and exit); workers must not die half-way through a task
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGUSR1, signal.SIG_IGN)
+    if death_signal:
+        _request_parent_death_signal()
+    if os.getppid() != owner_pid:  # the owner died before (or while) this worker started
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(owner_pid,), name="pool-parent-watchdog", daemon=True).start()
+
+
+def _request_parent_death_signal():
+    """Linux: ask the kernel for SIGKILL when the parent dies (prctl PR_SET_PDEATHSIG); elsewhere nothing."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - no usable libc: the watchdog alone
+        pass
+
+
+def _watch_parent(owner_pid):
+    """The portable fallback: exit as soon as the parent process is no longer the pool's owner (re-parented)."""
+    while os.getppid() == owner_pid:
+        time.sleep(WATCHDOG_INTERVAL_S)
+    os._exit(1)
 
 
 def _pool_task(args):
@@ -100,6 +138,13 @@ class PoolExecutor(Executor):
     where fork is unavailable the evaluator is pickled once per worker. Workers ignore SIGTERM/SIGINT so that a
     signal sent to the whole process group (Slurm) reaches only the parent, which checkpoints; the pool is shut down
     with sentinels (running evaluations finish, queued ones are cancelled), never with signals.
+
+    Workers die with their parent, even when it is killed with SIGKILL (no clean shut-down): on Linux the kernel
+    sends them SIGKILL (prctl PR_SET_PDEATHSIG); everywhere a watchdog thread in each worker exits it within
+    :data:`WATCHDOG_INTERVAL_S` once its parent process id changes (the watchdog needs the GIL, so a worker inside
+    a long compiled call exits when the call returns). The kernel's signal follows the *thread* that started the
+    workers, so it is requested only when the pool is started from the main thread; from any other thread the
+    watchdog alone applies (a pool started in a thread that ends would otherwise lose its workers).
     """
 
     name = "pool"
@@ -125,7 +170,9 @@ class PoolExecutor(Executor):
             ctx, initarg = mp.get_context("fork"), None
         else:  # pragma: no cover - not on Linux
             ctx, initarg = mp.get_context("spawn"), evaluator
-        self._pool = ProcessPoolExecutor(self.processes, mp_context=ctx, initializer=_pool_init, initargs=(initarg,))
+        death_signal = threading.current_thread() is threading.main_thread()
+        self._pool = ProcessPoolExecutor(self.processes, mp_context=ctx, initializer=_pool_init,
+                                         initargs=(initarg, os.getpid(), death_signal))
         self._evaluator = evaluator
 
     def evaluate(self, evaluator, thetas, callback=None, stop=None):

@@ -1,4 +1,7 @@
 """Evaluations on MPI ranks (mpi4py): dynamic master/worker or static round-robin (spmd); rank 0 runs the sampler.
+
+The ranks are processes of the MPI launcher, which ends the whole job when one rank dies; unlike the local pool's
+workers (:class:`inference.executors.PoolExecutor`), no rank here watches for its parent's death.
 """
 from __future__ import annotations
 
