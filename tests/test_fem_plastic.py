@@ -142,7 +142,9 @@ def test_extrapolated_predictor_is_exact_for_a_linear_steady_path():
         out[predictor] = (solver.solve().cavity_pressure, dict(solver.stats))
     (p_ex, n_ex), (p_tan, n_tan) = out["extrapolate"], out["tangent"]
     assert n_ex["residuals"] == 2 + 4 and n_tan["residuals"] == 2 * 5
-    assert np.allclose(p_ex, p_tan, rtol=1e-7)
+    # two Newton paths to the same undrained answer: each agrees with it to round-off times the condition number of
+    # the (equilibrated) Jacobian, ~1e9 here (measured; k = 1e-14 m/s), i.e. ~2e-7 (measured difference 7e-9)
+    assert np.allclose(p_ex, p_tan, rtol=1e-6)
     with pytest.raises(fem.ProblemError, match="predictor"):
         undrained_problem(C.LinearElastic(5000.0, 0.3), predictor="linear")
 
