@@ -11,7 +11,7 @@ SYNTHETIC data with a hidden effect, a rate-independent base class, and the cali
 The data are SYNTHETIC (not measurements): two SBP expansions at the Burswood site (REFERENCE section 5: 0.167 %/s
 and 0.0185 %/s to 10 % cavity strain, sigma'_v0 31 kPa, K0 0.9, u0 38.8 kPa, probe radius 41.5 mm; ANICREEP with
 lambda 0.40, kappa 0.026, e0 2.0, nu 0.3 fixed, M 1.71 and sigma'_p0 58.4 kPa), simulated by the coupled FE of
-``cases.burswood_sbp`` with the generating model of :data:`EFFECTS` (stated here, never in the data files), times
+``cases.study.sbp_forward`` with the generating model of :data:`EFFECTS` (stated here, never in the data files), times
 independent multiplicative noise c ~ N(1, 0.02^2) per point on the total cavity pressure and the total wall pore
 pressure (Eq. 1). Data generation and calibration use the SAME coarse FE (:data:`PRESET`: 30 radial cells x 1 layer,
 30 increments, outer boundary moved as the elastic field at 200 a0), so there is no discretization bias.
@@ -31,22 +31,29 @@ from pathlib import Path
 import numpy as np
 
 import inference
-from constitutive import ANICREEP, physics_catalog
-from fem.oracles import consolidation_coefficient
-from inference import ForwardModelError, diagnosis
+from constitutive import physics_catalog
+from inference import diagnosis
 
-from . import burswood_sbp, study
-from .calibrate import LoopProblem, Settings, class_name, run_loop
-from .study import write_records
+from . import study
+from .study.covariates import drainage_time_factor, programme_covariates
+from .study.outputs import plot_loop
+from .study.presets import FE_FIELDS, Preset
+from .study.problem import LoopProblem, run_loop
+from .study.programme import TestSpec
+from .study.records import load_sbp_recordings, write_records
+from .study.sbp_forward import SBPForward
+from .study.schema import Settings
 
 CASE = "concealed_sbp"
 DATA = Path(__file__).parent / "data" / "concealed_sbp"
 #: coarse FE (same for data and calibration) and the sampler size
-PRESET = burswood_sbp.Preset(radial_cells=30, layers=1, increments=30, outer="field", outer_radius_a0=200.0)
+PRESET = Preset(radial_cells=30, layers=1, increments=30, outer="field", outer_radius_a0=200.0)
 SETTINGS = Settings(n_samples=48, max_steps=3, predictive_draws=16)
-RATES = burswood_sbp.RATES
-SITE = burswood_sbp.SITE
-FIXED = burswood_sbp.FIXED
+#: the Burswood site at 5.25 m (docs/reference.md section 5; kPa, m/s, m) and the two expansion rates (1/s)
+SITE = {"sigma_v0": 31.0, "K0": 0.9, "u0": 38.8, "permeability": 3.3e-9, "a0": 0.0415}
+RATES = {"fast": 0.00167, "slow": 0.000185}
+#: ANICREEP values held fixed (docs/reference.md section 5 defaults)
+FIXED = {"nu": 0.3, "lambda_": 0.40, "kappa": 0.026, "e0": 2.0, "tau": 86400.0}
 NOISE = 0.02
 N_POINTS = 40
 CURVES = ("cavity_pressure", "pore_pressure")
@@ -63,49 +70,25 @@ EFFECTS = {
     "partial drainage": {"switches": {}, "values": {}, "k_true": 1.0e-7, "k_assumed": 1.0e-9, "dataset": "set_2"},
     "none": {"switches": {}, "values": {}, "k_true": 3.3e-9, "k_assumed": 3.3e-9, "dataset": "set_3"},
 }
-#: switches and parameters that go to the FE rather than ANICREEP (the catalog's "coupled": permeability calibrated
-#: in the FE)
-FE_ARGUMENTS = tuple(physics_catalog.candidate("partial drainage").enrichment.forward_arguments)
 
 
-# ------------------------------------------------------------------------------------------------ forward model
-class Forward(burswood_sbp.SBPForward):
-    """One model class in the coupled FE: a batch of parameter dicts -> a list of {test: {curve: (strain %, kPa)}}
-    (a ForwardModelError for a failed particle). ``switches``: ANICREEP switches plus ``coupled`` (permeability a
-    free parameter ``permeability`` in m/s); otherwise the permeability is ``permeability``."""
+def programme(permeability: float) -> list:
+    """The two SBP tests at the site with the permeability ``permeability`` (m/s)."""
+    return [TestSpec(name, "sbp", sigma_v0=SITE["sigma_v0"], K0=SITE["K0"], u0=SITE["u0"], permeability=permeability,
+                     probe_radius=SITE["a0"], strain_rate=rate, depth=5.25) for name, rate in RATES.items()]
 
-    def __init__(self, switches: dict, permeability: float, curves=CURVES, preset=PRESET):
-        super().__init__(preset, rates=RATES, curves=curves)
-        self.switches = dict(switches)
-        self.model_switches = {k: v for k, v in self.switches.items() if k not in FE_ARGUMENTS}
-        self.permeability = float(permeability)
 
-    def material(self, params):
-        values = {k: v for k, v in params.items() if k not in FE_ARGUMENTS}
-        return ANICREEP(**self.fixed, **self.model_switches, **values, vertical_axis=2)
-
-    def results(self, params, save_fields="none") -> dict:
-        material = self.material(params)
-        k = params.get("permeability", self.permeability)
-        return {name: s.solve(material=material, permeability=k) for name, s in self.solvers(save_fields).items()}
-
-    def one(self, params) -> dict:
-        return self.curves_of(self.results(params))
-
-    def __call__(self, batch):
-        out = []
-        for params in batch:
-            try:
-                out.append(self.one(params))
-            except Exception as exc:  # noqa: BLE001 - an FE failure is this particle's zero likelihood
-                out.append(ForwardModelError(f"{class_name(self.switches)}: {type(exc).__name__}: {exc}"))
-        return out
+def forward(switches: dict, permeability: float, curves=CURVES) -> SBPForward:
+    """One ANICREEP class (``switches``, ``coupled``: the permeability a free parameter) in the coupled FE of
+    :data:`PRESET` at the site with ``permeability`` (m/s)."""
+    return SBPForward(PRESET, {**SITE, "permeability": permeability}, RATES, FIXED, "ANICREEP", switches,
+                      curves=curves)
 
 
 def generating_forward(effect: str) -> tuple:
-    """(Forward, parameters) of the generating model of ``effect``."""
+    """(SBPForward, parameters) of the generating model of ``effect``."""
     e = EFFECTS[effect]
-    return Forward({**BASE_SWITCHES, **e["switches"]}, e["k_true"]), {**GENERATING, **e["values"]}
+    return forward({**BASE_SWITCHES, **e["switches"]}, e["k_true"]), {**GENERATING, **e["values"]}
 
 
 # ------------------------------------------------------------------------------------------------ data
@@ -116,8 +99,8 @@ def strains() -> np.ndarray:
 
 def synthetic_curves(effect: str, seed: int, noise=NOISE) -> dict:
     """{test: {column: values}} of the SYNTHETIC records with hidden ``effect`` ("none": the control)."""
-    forward, params = generating_forward(effect)
-    results = forward.results(params)
+    fw, params = generating_forward(effect)
+    results = fw.results(params)
     rng = np.random.default_rng(np.random.SeedSequence([seed, list(EFFECTS).index(effect), 11]))
     x = strains()
     out = {}
@@ -157,14 +140,14 @@ def observations_from(curves: dict, pore_pressure: bool, label: str) -> inferenc
 
 def load_data(effect: str, pore_pressure=True) -> inference.Observations:
     files = {t: DATA / EFFECTS[effect]["dataset"] / f"sbp_{t}.csv" for t in RATES}
-    obs = burswood_sbp.load_recordings(files, pore_pressure=pore_pressure)
+    obs = load_sbp_recordings(files, pore_pressure=pore_pressure)
     return inference.Observations([inference.Test(t.name, t.curves, {**t.conditions, "synthetic": "yes"})
                                    for t in obs])
 
 
 # ------------------------------------------------------------------------------------------------ the loop problem
 class SBPProblem(LoopProblem):
-    """The base class of this case as a :class:`cases.calibrate.LoopProblem`."""
+    """The base class of this case as a loop problem (``cases.study.problem.LoopProblem``)."""
 
     case = CASE
     model = "ANICREEP"
@@ -180,10 +163,10 @@ class SBPProblem(LoopProblem):
         self.all_enrichments = all_enrichments
 
     def forward(self, switches):
-        return Forward(switches, self.k_assumed, self.curves)
+        return forward(switches, self.k_assumed, self.curves).batch
 
     def map_curves(self, params, switches):
-        return self.forward(switches).one(params)
+        return forward(switches, self.k_assumed, self.curves)(params)
 
     def catalog_switches(self, switches):
         return {"coupled": False, **switches}
@@ -198,66 +181,28 @@ class SBPProblem(LoopProblem):
 
     def summary_extra(self, switches):
         return {"k_assumed": self.k_assumed, "curves": list(self.curves),
-                "fe": {k: getattr(PRESET, k) for k in burswood_sbp.FE_FIELDS}}
+                "fe": {k: getattr(PRESET, k) for k in FE_FIELDS}}
 
-    def description(self, label, base_name):
+    def describe(self, label, base_name):
         return (f"**SYNTHETIC data** ({label}). Two SBP expansions (0.167 %/s, 0.0185 %/s); base class {base_name} "
                 f"in the coupled FE with k = {self.k_assumed:g} m/s assumed, M, sigma'_p0, sigma_eps free; curves "
                 f"{', '.join(self.curves)}; catalog: constitutive.physics_catalog.")
 
-    def covariates(self, like, map_curves) -> dict:
+    def curve_covariates(self, like, map_curves) -> dict:
         """Per-point covariates: strain rate (test condition), time since the start of the expansion, cavity strain
-        level and the drainage time factor T = c_h t / a0^2 (c_h of Randolph & Wroth from the assumed permeability
-        and the in-situ elastic shear modulus of the fixed kappa, nu)."""
+        level (``cases.study.covariates.programme_covariates``) and the drainage time factor T = c_h t / a0^2 (c_h of
+        Randolph & Wroth from the assumed permeability and the in-situ elastic shear modulus of the fixed kappa,
+        nu)."""
         p0 = SITE["sigma_v0"] * (1.0 + 2.0 * SITE["K0"]) / 3.0
         bulk = (1.0 + FIXED["e0"]) * p0 / FIXED["kappa"]
         shear = 3.0 * bulk * (1.0 - 2.0 * FIXED["nu"]) / (2.0 * (1.0 + FIXED["nu"]))
-        c_h = consolidation_coefficient(self.k_assumed, shear, FIXED["nu"])
-        cov = {k: {} for k in ("strain rate", "time", "strain level", "drainage time factor")}
-        for test in like.observations:
-            rate = RATES[test.name]
-            for c, curve in test.curves.items():
-                t = curve.x / 100.0 / rate
-                cov["strain rate"][test.name, c] = rate
-                cov["time"][test.name, c] = t
-                cov["strain level"][test.name, c] = curve.x / 100.0
-                cov["drainage time factor"][test.name, c] = c_h * t / SITE["a0"] ** 2
+        cov = programme_covariates(programme(self.k_assumed), like.observations, {t: {} for t in RATES})
+        cov["drainage time factor"] = {k: drainage_time_factor(t, self.k_assumed, shear, FIXED["nu"], SITE["a0"])
+                                       for k, t in cov["time"].items()}
         return cov
 
     def plot(self, path, like, classes, diag, label):
-        plot_loop(path, like, classes, diag, label)
-
-
-def plot_loop(path, like, classes, diag, label):
-    """Records, base and enriched MAP curves, and the base residuals with the mismatch regions shaded."""
-    plt = study.pyplot()
-    curves = list(next(iter(like.observations)).curves)
-    fig, axes = plt.subplots(2, len(curves), figsize=(5.5 * len(curves), 7.5), squeeze=False)
-    base = classes[0]
-    for j, c in enumerate(curves):
-        ax, axr = axes[0, j], axes[1, j]
-        for i, t in enumerate(like.observations):
-            cur = t.curves[c]
-            ax.plot(cur.x, cur.y, "o", ms=3, mfc="none", color=f"C{i}", label=f"{t.name}: SYNTHETIC record")
-            for k, cl in enumerate(classes):
-                ax.plot(cur.x, cl["map_simulated"][t.name, c], ("--", "-", ":")[min(k, 2)], color=f"C{i}", lw=1.2,
-                        label=f"{t.name}: {cl['name']} MAP")
-            axr.plot(cur.x, cur.y / base["map_simulated"][t.name, c] - 1.0, "o-", ms=3, color=f"C{i}", label=t.name)
-        for r in diag["mismatch_regions"]:
-            if r["curve"] == c:
-                axr.axvspan(r["x_start"], r["x_end"], color="0.85")
-        ax.set_ylabel({"cavity_pressure": "total cavity pressure (kPa)",
-                       "pore_pressure": "total pore pressure at the wall (kPa)"}[c])
-        axr.set_ylabel(f"base residual U_obs/U_sim - 1 ({c})")
-        axr.axhline(0.0, color="k", lw=0.5)
-        for a in (ax, axr):
-            a.set_xlabel("cavity strain (%)")
-            a.legend(fontsize=6)
-    fig.suptitle(f"SYNTHETIC SBP records ({label}): {diag['verdict']}; omitted physics: {diag['omitted_physics']}",
-                 fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        plot_loop(path, like, classes, diag, label, True)
 
 
 # ------------------------------------------------------------------------------------------------ the case's loop
@@ -336,8 +281,8 @@ def design_limits(diag: dict, pore_pressure: bool) -> tuple:
 
 def run_case(effect: str, seed: int, out: Path, pore_pressure=True, settings=SETTINGS, args=None, generated=None,
              processes=None, all_enrichments=False, data_seed=None) -> dict:
-    """The loop on one data set (cases.calibrate.run_loop): calibrate the base class, diagnose, calibrate the enriched
-    class of the best named candidate and, with ``all_enrichments`` (or when several are named), every other
+    """The loop on one data set (cases.study.problem.run_loop): calibrate the base class, diagnose, calibrate the
+    enriched class of the best named candidate and, with ``all_enrichments`` (or when several are named), every other
     enrichable candidate (:meth:`SBPProblem.also_enrich`); the diagnosis compares every class. Returns a row for the
     confusion table. ``seed``: the sampler's seed; ``data_seed``: the noise seed of ``generated`` (default ``seed``;
     the shipped data have noise seed 1)."""
@@ -349,7 +294,7 @@ def run_case(effect: str, seed: int, out: Path, pore_pressure=True, settings=SET
     obs = (observations_from(generated, pore_pressure, "yes") if generated is not None
            else load_data(effect, pore_pressure))
     problem = SBPProblem(EFFECTS[effect]["k_assumed"], pore_pressure, processes, all_enrichments)
-    diag = run_loop(obs, args or study.arguments(__doc__, []), out, seed, settings, label, problem)
+    diag = run_loop(problem, obs, args or study.arguments(__doc__, []), out, seed, settings, label)
     limits, answer = design_limits(diag, pore_pressure)
     row = {"effect": effect, "dataset": EFFECTS[effect]["dataset"], "seed": seed, "data_seed": data_seed,
            "pore_pressure": pore_pressure,

@@ -38,7 +38,8 @@ import inference
 from cases import study
 from cases.study.lab_forward import LabForward
 from cases.study.programme import TestSpec
-from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, parameters, plot_csl, plot_curves, sampler_settings, sand_forward, write_runs
+from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, parameters, plot_csl, plot_curves, sampler_settings, \
+    sand_forward, write_runs
 
 CASE = "simsand_synthetic"
 DATA = Path(__file__).parent / "data" / "simsand_synthetic"

@@ -41,8 +41,8 @@ import numpy as np
 
 import inference
 from cases import study
-from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, conditions_of, parameters, plot_csl, plot_curves, sampler_settings, \
-    sand_forward, write_runs
+from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, conditions_of, parameters, plot_csl, plot_curves, \
+    sampler_settings, sand_forward, write_runs
 from inference.observations import read_csv_table
 
 CASE = "toyoura"

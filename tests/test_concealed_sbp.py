@@ -75,7 +75,7 @@ def test_enriched_forward_reproduces_the_data_noise_free_at_the_generating_value
 def test_covariates_report_the_drainage_time_factor():
     obs = cs.load_data("none")
     problem = cs.SBPProblem(cs.EFFECTS["none"]["k_assumed"], True)
-    cov = problem.covariates(type("L", (), {"observations": obs})(), None)
+    cov = problem.curve_covariates(type("L", (), {"observations": obs})(), None)
     assert set(cov) <= set(physics_catalog.COVARIATES)
     T = cov["drainage time factor"]
     assert T["slow", "pore_pressure"][-1] / T["fast", "pore_pressure"][-1] == pytest.approx(
@@ -100,7 +100,7 @@ def _planted_sbp(cavity, pore, seed=0):
     out = []
     for pp in (True, False):
         like = Likelihood(cs.observations_from(recorded, pp, "yes"), lambda p: {}, sigma=cs.NOISE)
-        cov = cs.SBPProblem(cs.EFFECTS["none"]["k_assumed"], pp).covariates(like, None)
+        cov = cs.SBPProblem(cs.EFFECTS["none"]["k_assumed"], pp).curve_covariates(like, None)
         out.append((like, {(t.name, c): sim[c] for t in like.observations for c in t.curves}, cov, pp))
     return out
 

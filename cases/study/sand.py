@@ -28,7 +28,8 @@ from .lab_forward import LabForward
 from .outputs import pyplot, runs_table
 from .programme import TestSpec
 
-__all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "predictive", "plot_curves", "plot_csl", "plot_map_spread",
+__all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "predictive", "plot_curves",
+           "plot_csl", "plot_map_spread",
            "sampler_settings", "write_runs", "CURVES"]
 
 #: observed curves per drainage type (test curve name -> CSV quantity)

@@ -13,7 +13,7 @@ import numpy as np
 import constitutive
 import fem
 from constitutive import physics_catalog
-from constitutive.registry import build_model
+from constitutive.registry import build_model, class_name
 from inference import ForwardModelError
 
 __all__ = ["SBPForward", "pressuremeter_problem", "MAX_STRAIN", "FE_ARGUMENTS"]
@@ -43,7 +43,8 @@ def pressuremeter_problem(rate: float, preset, site: dict, void_ratio0: float, s
 class SBPForward:
     """params -> {test: {curve: (cavity strain %, values kPa)}} from one FE solve per test.
 
-    preset: FE discretization; site: the in situ state of the tests (:func:`pressuremeter_problem`); rates: {test: cavity strain rate (1/s)}; fixed: the model's parameter values not
+    preset: FE discretization; site: the in situ state of the tests (:func:`pressuremeter_problem`); rates:
+    {test: cavity strain rate (1/s)}; fixed: the model's parameter values not
     identified (merged under each particle's); model, switches: the model class (``constitutive.registry``); a
     switch or parameter of :data:`FE_ARGUMENTS` goes to the FE (``permeability``: k in m/s, replacing the site's);
     void_ratio0: the initial void ratio of the FE (default ``fixed["e0"]``); curves: "cavity_pressure" (total, kPa)
@@ -105,7 +106,8 @@ class SBPForward:
         out = {}
         for name, res in results.items():
             strain = 100.0 * res.cavity_strain
-            sim = {"cavity_pressure": (strain, res.cavity_pressure), "pore_pressure": (strain, res.cavity_pore_pressure)}
+            sim = {"cavity_pressure": (strain, res.cavity_pressure),
+                   "pore_pressure": (strain, res.cavity_pore_pressure)}
             out[name] = {c: sim[c] for c in self.curves}
         return out
 
@@ -119,5 +121,5 @@ class SBPForward:
             try:
                 out.append(self(params))
             except Exception as exc:  # noqa: BLE001 - an FE failure is this particle's zero likelihood
-                out.append(ForwardModelError(f"{type(exc).__name__}: {exc}"))
+                out.append(ForwardModelError(f"{class_name(self.switches, self.model)}: {type(exc).__name__}: {exc}"))
         return out
