@@ -1,7 +1,15 @@
-"""The result of a TMCMC run: posterior samples, MAP (7), moments, quantiles, log-evidence and stage records.
+"""What a TMCMC run yields: a :class:`Posterior` when it reaches p = 1, a :class:`RunProgress` when it stops before.
 
-Saved as ``posterior.npz`` (every stage's samples and log-likelihoods, readable with numpy alone) plus
-``summary.json``; ``to_arviz()`` builds an ArviZ InferenceData when arviz is installed.
+Posterior: samples, MAP (7), moments, quantiles, log-evidence and stage records, saved as ``posterior.npz`` (every
+stage's samples and log-likelihoods, readable with numpy alone), ``summary.json`` and ``failed_solves.jsonl``;
+``to_arviz()`` builds an ArviZ InferenceData when arviz is installed.
+
+RunProgress: what a run did before it stopped without a posterior (too many failed solves, no convergence, a
+signal), saved as ``progress.json`` and ``failed_solves.jsonl``.
+
+Wall times (s): ``wall_s`` is the run's wall time summed over its sessions (a session killed without a checkpoint
+at the end counts up to its last checkpoint); ``wall_s_this_session`` is the time of the sampler call that wrote
+the file, shorter after a resume.
 """
 from __future__ import annotations
 
@@ -11,7 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Posterior"]
+__all__ = ["Posterior", "RunProgress", "write_failures", "FAILURES_FILE", "PROGRESS_FILE"]
+
+#: one JSON object per failed forward evaluation: stage, where, particle, rank, reason, theta
+FAILURES_FILE = "failed_solves.jsonl"
+#: where a run stopped without a posterior (:class:`RunProgress`); a finished run's summary.json supersedes it
+PROGRESS_FILE = "progress.json"
 
 
 @dataclass
@@ -28,14 +41,15 @@ class Posterior:
     stage_log_like: list
     failures: list                 # failed evaluations: stage, where, particle, rank, reason, theta
     n_forward_solves: int
-    wall_s: float
+    wall_s: float                  # summed over the run's sessions (s)
     ranks: int
     executor: str
     settings: dict = field(default_factory=dict)
     prior: list = field(default_factory=list)
+    wall_s_this_session: float = float("nan")   # this sampler call's wall time (s); = wall_s without a resume
 
     @classmethod
-    def from_state(cls, st, prior, settings: dict, executor, wall_s):
+    def from_state(cls, st, prior, settings: dict, executor, wall_s, wall_s_this_session):
         """The posterior of a finished run: ``st`` an ``inference.tmcmc.state.RunState`` in phase "done"."""
         return cls(
             names=tuple(prior.names), samples=st.theta, log_like=st.log_like,
@@ -43,7 +57,8 @@ class Posterior:
             map_log_posterior=st.map.log_posterior, stages=[r.as_dict() for r in st.records],
             stage_samples=st.stage_theta, stage_log_like=st.stage_log_like, failures=st.failures,
             n_forward_solves=int(st.n_evals), wall_s=float(wall_s), ranks=int(getattr(executor, "ranks", 1)),
-            executor=executor.name, settings=dict(settings), prior=prior.describe())
+            executor=executor.name, settings=dict(settings), prior=prior.describe(),
+            wall_s_this_session=float(wall_s_this_session))
 
     # ---- statistics keyed by parameter name
     def _named(self, values):
@@ -79,17 +94,18 @@ class Posterior:
         return {
             "n_samples": int(self.samples.shape[0]), "n_stages": self.n_stages,
             "n_forward_solves": self.n_forward_solves, "n_failed_solves": len(self.failures),
-            "wall_s": self.wall_s, "ranks": self.ranks, "executor": self.executor,
+            "wall_s": self.wall_s, "wall_s_this_session": self.wall_s_this_session, "ranks": self.ranks,
+            "executor": self.executor,
             "log_evidence": self.log_evidence, "map_log_posterior": self.map_log_posterior,
             "parameters": {n: {"map": self.map[n], "mean": mean[n], "std": std[n], "q2.5": quant[n][0],
                                "median": quant[n][1], "q97.5": quant[n][2]} for n in self.names},
-            "stages": [{k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in r.items()}
-                       for r in self.stages],
+            "stages": _plain_records(self.stages),
             "settings": {k: v for k, v in self.settings.items()}, "prior": self.prior,
         }
 
     def save(self, out_dir, extra: dict | None = None) -> Path:
-        """Write posterior.npz and summary.json (with ``extra`` merged at the top level) into out_dir."""
+        """Write posterior.npz, summary.json (with ``extra`` merged at the top level) and failed_solves.jsonl (empty
+        when nothing failed) into out_dir; a progress.json left by an earlier stopped session is removed."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(
@@ -99,13 +115,9 @@ class Posterior:
             stage_samples=np.stack(self.stage_samples), stage_log_like=np.stack(self.stage_log_like))
         summary = self.summary()
         summary.update(extra or {})
-        tmp = out / "summary.json.tmp"
-        tmp.write_text(json.dumps(summary, indent=2, default=_json_default))
-        tmp.replace(out / "summary.json")
-        if self.failures:
-            with open(out / "failed_solves.jsonl", "w") as fh:
-                for f in self.failures:
-                    fh.write(json.dumps(f, default=_json_default) + "\n")
+        _write_text(out / "summary.json", json.dumps(summary, indent=2, default=_json_default))
+        write_failures(out, self.failures)
+        (out / PROGRESS_FILE).unlink(missing_ok=True)
         return out
 
     def to_arviz(self):
@@ -119,6 +131,93 @@ class Posterior:
         post = {n: self.samples[None, :, i] for i, n in enumerate(self.names)}
         return az.from_dict(posterior=post, log_likelihood={"total": self.log_like[None, :]},
                             attrs={"log_evidence": self.log_evidence, "sampler": "TMCMC"})
+
+
+@dataclass
+class RunProgress:
+    """What a run did before it stopped without a posterior; carried by the stop (``progress`` of the
+    :class:`inference.SamplerError` or of the ``SystemExit`` that :func:`inference.tmcmc` raises).
+
+    ``stages`` holds the records of the finished stages (as :attr:`Posterior.stages`), ``stage_under_way`` the
+    record of the stage that was running (its evaluations and failures so far) or None; ``failures`` every failed
+    evaluation of the finished batches (those of a batch cut by a signal are in the checkpoint); ``exponent`` the
+    tempering exponent p_j reached and ``log_evidence_so_far`` sum_j ln S_j over the stages begun (ln Z only at
+    p = 1); the MAP so far (Eq. (7)) when any evaluation succeeded; ``checkpoint`` the file to resume from, or None.
+    """
+
+    reason: str                    # one line: why the run stopped
+    names: tuple
+    stages: list
+    stage_under_way: dict | None
+    failures: list
+    n_forward_solves: int
+    exponent: float
+    log_evidence_so_far: float
+    map_theta: np.ndarray | None
+    map_log_posterior: float | None
+    wall_s: float                  # summed over the run's sessions (s)
+    wall_s_this_session: float
+    checkpoint: str | None = None
+
+    @classmethod
+    def from_state(cls, st, prior, reason: str, wall_s, wall_s_this_session, checkpoint=None):
+        """The progress of ``st``, an ``inference.tmcmc.state.RunState`` of a run that stopped."""
+        return cls(
+            reason=reason, names=tuple(prior.names), stages=[r.as_dict() for r in st.records],
+            stage_under_way=st.current.as_dict() if st.current is not None else None, failures=list(st.failures),
+            n_forward_solves=int(st.n_evals), exponent=float(st.exponent),
+            log_evidence_so_far=float(st.log_evidence),
+            map_theta=None if st.map is None else np.array(st.map.theta),
+            map_log_posterior=None if st.map is None else float(st.map.log_posterior),
+            wall_s=float(wall_s), wall_s_this_session=float(wall_s_this_session),
+            checkpoint=None if checkpoint is None else str(checkpoint))
+
+    @property
+    def map(self) -> dict | None:
+        return None if self.map_theta is None else {n: float(v) for n, v in zip(self.names, self.map_theta)}
+
+    def summary(self) -> dict:
+        under_way = self.stage_under_way
+        return {
+            "stopped": self.reason, "n_stages_finished": max(len(self.stages) - 1, 0), "exponent": self.exponent,
+            "log_evidence_so_far": self.log_evidence_so_far, "n_forward_solves": self.n_forward_solves,
+            "n_failed_solves": len(self.failures), "wall_s": self.wall_s,
+            "wall_s_this_session": self.wall_s_this_session, "checkpoint": self.checkpoint,
+            "map": self.map, "map_log_posterior": self.map_log_posterior, "stages": _plain_records(self.stages),
+            "stage_under_way": None if under_way is None else _plain_records([under_way])[0],
+        }
+
+    def save(self, out_dir, extra: dict | None = None) -> Path:
+        """Write progress.json (with ``extra`` merged at the top level) and failed_solves.jsonl (empty when nothing
+        failed) into out_dir."""
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        summary = self.summary()
+        summary.update(extra or {})
+        _write_text(out / PROGRESS_FILE, json.dumps(summary, indent=2, default=_json_default))
+        write_failures(out, self.failures)
+        return out
+
+
+def write_failures(out_dir, failures) -> Path:
+    """Write failed_solves.jsonl into out_dir: one JSON object per failed evaluation (stage, where, particle, rank,
+    reason, theta by name), an empty file when the list is empty. Returns the file's path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / FAILURES_FILE
+    _write_text(path, "".join(json.dumps(f, default=_json_default) + "\n" for f in failures))
+    return path
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write a file whole or not at all (a temporary file renamed over it)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def _plain_records(records) -> list:
+    return [{k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in r.items()} for r in records]
 
 
 def _json_default(obj):

@@ -16,12 +16,13 @@ resumed from a checkpoint continues with exactly the numbers it would have drawn
 from .mixture import GaussianMixture, fit_gaussian_mixture
 from .moves import (DEMove, GaussianMove, MixtureMove, Move, Proposal, RedBlueDEMove, SymmetricDEMove, de_proposal,
                     make_move, mixture_proposal)
-from .sampler import EXIT_CHECKPOINTED, tmcmc
+from .sampler import EXIT_CHECKPOINTED, Checkpointed, RunStopped, tmcmc
 from .settings import TMCMCSettings
 from .stage import (SamplerError, choose_next_exponent, resample, stage_weights, start_correlation,
                     weighted_covariance)
 
-__all__ = ["tmcmc", "TMCMCSettings", "SamplerError", "EXIT_CHECKPOINTED", "choose_next_exponent", "stage_weights",
-           "weighted_covariance", "resample", "start_correlation", "GaussianMixture", "fit_gaussian_mixture",
+__all__ = ["tmcmc", "TMCMCSettings", "SamplerError", "RunStopped", "Checkpointed", "EXIT_CHECKPOINTED",
+           "choose_next_exponent", "stage_weights", "weighted_covariance", "resample", "start_correlation",
+           "GaussianMixture", "fit_gaussian_mixture",
            "Move", "Proposal", "GaussianMove", "MixtureMove", "DEMove", "SymmetricDEMove", "RedBlueDEMove",
            "make_move", "de_proposal", "mixture_proposal"]

@@ -9,6 +9,10 @@ batch are kept. SIGTERM/SIGUSR1 write a checkpoint and stop the run (:class:`Int
 Chains: "particles" moves every resampled particle for a number of sweeps, fixed or adaptive (stop when
 :func:`start_correlation` falls below ``corr_threshold``); "ching-chen" grows one chain per distinct resampled
 point with length equal to its multiplicity (the original algorithm; every chain state is a sample).
+
+Progress lines: one per stage with its exponent, ln S_j, acceptance, sweeps, failures, evaluations per second,
+``elapsed`` (the run's wall time summed over its sessions, as ``wall_s`` of the results) and an ETA
+(:func:`eta_text`).
 """
 from __future__ import annotations
 
@@ -27,7 +31,7 @@ from .stage import (SamplerError, choose_next_exponent, random_stream, resample,
                     start_correlation)
 from .state import ChainState, MapPoint, RunState, StageRecord
 
-__all__ = ["Run", "Interrupted"]
+__all__ = ["Run", "Interrupted", "remaining_evaluations", "eta_text"]
 
 
 class Interrupted(Exception):
@@ -78,8 +82,15 @@ class Run:
         self.evals_since_save = 0
 
     def wall(self, st: RunState):
-        """Wall time of the run so far, including the time before a resume (s)."""
-        return st.wall_before + (time.perf_counter() - self.t_start)
+        """Wall time of the run summed over its sessions (s), :meth:`walls`."""
+        return self.walls(st)[0]
+
+    def walls(self, st: RunState):
+        """(wall time of the run summed over its sessions, of this session) (s), from one clock reading. A session is
+        one call of the sampler; the earlier sessions' time, ``st.wall_before``, counts up to their last
+        checkpoint (time after it was lost with the work it did)."""
+        session = time.perf_counter() - self.t_start
+        return st.wall_before + session, session
 
     # ---- evaluation of one batch with partial checkpoints
     def evaluate(self, st: RunState, thetas, where):
@@ -168,15 +179,9 @@ class Run:
         st.stage_log_like.append(st.log_like.copy())
         elapsed = self.wall(st)
         rate = rec.n_evals / rec.wall_s if rec.wall_s > 0 else float("inf")
-        ps = [r.exponent for r in st.records if r.exponent > 0]
-        eta = ""
-        if len(ps) >= 2 and ps[-1] < 1:
-            per_stage = math.log(ps[-1] / ps[0]) / (len(ps) - 1)
-            if per_stage > 0:
-                remaining = -math.log(ps[-1]) / per_stage
-                eta = f", ETA ~{remaining * elapsed / len(st.records):.0f} s"
         self.say(f"stage {rec.stage:3d}  p={rec.exponent:.4e}  ln S={log_s:+.4f}  acc={acceptance:.3f}  "
-                 f"sweeps={sweeps}  failed={rec.n_failed}  {rate:.1f} evals/s  elapsed {elapsed:.1f} s{eta}")
+                 f"sweeps={sweeps}  failed={rec.n_failed}  {rate:.1f} evals/s  elapsed {elapsed:.1f} s"
+                 f"{eta_text(st.records)}")
 
     # ---- stage selection and resampling (steps 1-4)
     def select(self, st: RunState):
@@ -313,3 +318,42 @@ class Run:
     def restore_signals(self):
         for sig, prev in self._previous.items():
             signal.signal(sig, prev)
+
+
+def remaining_evaluations(records):
+    """Estimate of the evaluations still to come after the last finished stage, from its records
+    (:class:`StageRecord`, stage 0 first). Returns (evaluations, settled) or None when no estimate can be made yet.
+
+    Stages continue until p = 1. Once the prior no longer dominates, each stage multiplies the exponent by about the
+    same factor, so the remaining stage count is ceil(ln(1 / p_j) / ln(p_j / p_{j-1})) with the latest step, and
+    each remaining stage costs the evaluations of the latest stage. Early steps in ln p are larger than later ones
+    and early stages need fewer sweeps, so an average over all stages (or over time including the cheap prior
+    stage) underestimates; the latest stage is used instead. ``settled`` is False while the step in ln p still
+    shrinks by more than 10 % or the latest stage cost 10 % more evaluations than the one before: the estimate is
+    then a lower bound. No estimate before two stages with p > 0 have finished.
+    """
+    p = [r.exponent for r in records]
+    j = len(records) - 1
+    if j < 2 or p[-1] >= 1.0 or p[-2] <= 0.0:
+        return None
+    step = math.log(p[-1] / p[-2])
+    if step <= 0.0:
+        return None
+    stages = math.ceil(-math.log(p[-1]) / step)
+    settled = (j >= 3 and p[-3] > 0.0 and step >= 0.9 * math.log(p[-2] / p[-3])
+               and records[-1].n_evals <= 1.1 * records[-2].n_evals)
+    return stages * records[-1].n_evals, settled
+
+
+def eta_text(records):
+    """The ETA of a progress line: the remaining evaluations (:func:`remaining_evaluations`) at the latest stage's
+    rate (evaluations per second of wall time), as ", ETA ~N s", ", ETA >N s" (a lower bound, while stages are
+    still getting longer) or ", ETA unknown"; nothing once p = 1."""
+    if records[-1].exponent >= 1.0:
+        return ""
+    estimate = remaining_evaluations(records)
+    last = records[-1]
+    if estimate is None or last.wall_s <= 0 or last.n_evals == 0:
+        return ", ETA unknown"
+    evaluations, settled = estimate
+    return f", ETA {'~' if settled else '>'}{evaluations * last.wall_s / last.n_evals:.0f} s"

@@ -10,17 +10,35 @@ from ..checkpoint import load_checkpoint
 from ..executors import Evaluator, Executor, RootRankError, default_executor
 from ..likelihood import Likelihood
 from ..priors import Prior
-from ..results import Posterior
+from ..results import Posterior, RunProgress
 from .moves import make_move
 from .run import Interrupted, Run
 from .settings import TMCMCSettings
 from .stage import SamplerError
 from .state import STATE_TYPES, RunState
 
-__all__ = ["tmcmc", "EXIT_CHECKPOINTED"]
+__all__ = ["tmcmc", "EXIT_CHECKPOINTED", "RunStopped", "Checkpointed"]
 
 #: exit status after a SIGTERM/SIGUSR1 was turned into a checkpoint (EX_TEMPFAIL: "try again")
 EXIT_CHECKPOINTED = 75
+
+
+class RunStopped(SamplerError):
+    """The run stopped without a posterior: too many failed forward solves, no convergence to p = 1, or no particle
+    with a finite likelihood. ``progress`` (:class:`inference.results.RunProgress`) is what it did."""
+
+    def __init__(self, message, progress: RunProgress):
+        super().__init__(message)
+        self.progress = progress
+
+
+class Checkpointed(SystemExit):
+    """SIGTERM or SIGUSR1 stopped the run after its checkpoint was written; uncaught, the process exits with
+    :data:`EXIT_CHECKPOINTED`. ``progress`` (:class:`inference.results.RunProgress`) is what it did."""
+
+    def __init__(self, progress: RunProgress):
+        super().__init__(EXIT_CHECKPOINTED)
+        self.progress = progress
 
 
 def tmcmc(loglike, prior: Prior, settings: TMCMCSettings | None = None, *, executor=None, checkpoint=None,
@@ -34,10 +52,14 @@ def tmcmc(loglike, prior: Prior, settings: TMCMCSettings | None = None, *, execu
         n_steps, covariance, seed, ...), on their own or replacing those of ``settings``.
     executor: None chooses MPI under mpirun (``dispatch`` "dynamic" or "spmd"), else a local process pool.
     checkpoint / resume: a file written atomically after every stage and every ``checkpoint_every`` seconds (or
-        ``checkpoint_evals`` evaluations) inside a stage; SIGTERM/SIGUSR1 write it and exit with status 75
-        (:data:`EXIT_CHECKPOINTED`); ``resume=True`` continues from it when it exists.
-    progress: one line per stage on stderr (the tempering exponent as ``p=``); log: a file the lines are appended to.
-    Returns a :class:`inference.Posterior` on every rank.
+        ``checkpoint_evals`` evaluations) inside a stage; SIGTERM/SIGUSR1 write it and raise :class:`Checkpointed`
+        (a ``SystemExit`` with status 75, :data:`EXIT_CHECKPOINTED`); ``resume=True`` continues from it when it
+        exists.
+    progress: one line per stage on stderr (the tempering exponent as ``p=``, the ETA of
+        :func:`inference.tmcmc.run.eta_text`); log: a file the lines are appended to.
+    Returns a :class:`inference.Posterior` on every rank. A run that stops before p = 1 raises :class:`RunStopped`
+    (a :class:`SamplerError`) or :class:`Checkpointed` on the root rank, both carrying ``progress``, what the run did
+    (``progress.save(out)`` writes progress.json and failed_solves.jsonl); other ranks get a plain SamplerError.
     """
     if not isinstance(prior, Prior):
         raise TypeError("prior must be an inference.Prior (UniformPrior / LogUniformPrior)")
@@ -62,19 +84,25 @@ def tmcmc(loglike, prior: Prior, settings: TMCMCSettings | None = None, *, execu
         fingerprint = _fingerprint(loglike, prior, settings)
         run = Run(evaluator, prior, executor, settings, make_move(settings, prior), checkpoint, fingerprint,
                   progress, log)
+        if resume and checkpoint is not None and Path(checkpoint).exists():
+            st = load_checkpoint(checkpoint, fingerprint, STATE_TYPES)
+            run.say(f"resuming from {checkpoint}: stage {st.stage}, phase {st.phase}, "
+                    f"{st.n_evals} evaluations done")
+        else:
+            st = RunState()
+
+        def progress_of(reason):
+            return RunProgress.from_state(st, prior, reason, *run.walls(st), checkpoint)
+
         try:
-            if resume and checkpoint is not None and Path(checkpoint).exists():
-                st = load_checkpoint(checkpoint, fingerprint, STATE_TYPES)
-                run.say(f"resuming from {checkpoint}: stage {st.stage}, phase {st.phase}, "
-                        f"{st.n_evals} evaluations done")
-            else:
-                st = RunState()
             st = run.run(st)
         except Interrupted as intr:
             run.say(f"signal {intr.signum} received: checkpoint written to {checkpoint}; rerun the same command "
                     "with --resume (resume=True in Python) to continue")
-            raise SystemExit(EXIT_CHECKPOINTED) from None
-        return Posterior.from_state(st, prior, settings.as_dict(), executor, run.wall(st))
+            raise Checkpointed(progress_of(f"signal {intr.signum}; resume from {checkpoint}")) from None
+        except SamplerError as exc:
+            raise RunStopped(str(exc), progress_of(str(exc).splitlines()[0])) from exc
+        return Posterior.from_state(st, prior, settings.as_dict(), executor, *run.walls(st))
 
     try:
         return executor.run(evaluator, sample)
