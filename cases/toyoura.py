@@ -1,5 +1,5 @@
 """Toyoura sand: SIMSAND identified from Verdugo & Ishihara's (1996) drained triaxial tests (the paper's section 3.2,
-REFERENCE.md section 5). The curves are measurements (digitised, CC-BY-4.0; cases/data/toyoura/SOURCE.md).
+docs/reference.md section 5). The curves are measurements (digitised, CC-BY-4.0; cases/data/toyoura/SOURCE.md).
 
     python -m cases.toyoura [--quick] [--method de|o|both] [--samples N] [--seed S] [--runs R] [--out DIR] [--resume]
                             [--undrained FILE[:E0:P0_KPA] ...] [--free NAMES] [--sweeps K]

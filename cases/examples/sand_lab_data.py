@@ -15,7 +15,7 @@ differing from its study's base class by at most one switch:
   study's base class (``lode_dependence=false``) lacks; ``sand_lab_control``: the base class itself;
 - ``sand_density``: SIMSAND with the state-dependent interlocking of (VII) (``state_dependent_dilatancy=True``, n_p
   1.60, n_d 4.10), which the study's base class lacks; ``sand_density_control``: the base class itself.
-Values: the paper's Toyoura reference (REFERENCE section 5): nu 0.2, K_0 130, n 0.5, e_ref 0.920, lambda 0.0131,
+Values: the paper's Toyoura reference (docs/reference.md section 5): nu 0.2, K_0 130, n 0.5, e_ref 0.920, lambda 0.0131,
 xi 0.78, phi_mu 32.4 deg, k_p 0.0030, A_d 0.50, n_p 1.60, n_d 4.10.
 """
 from __future__ import annotations
