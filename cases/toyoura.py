@@ -41,8 +41,8 @@ import numpy as np
 
 import inference
 from cases import study
-from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, conditions_of, parameters, plot_csl, plot_curves, \
-    sampler_settings, sand_forward, write_runs
+from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, add_options, free_subset, parameters, run_line, \
+    sampler_settings, sand_forward, write_figures, write_runs
 from inference.observations import read_csv_table
 
 CASE = "toyoura"
@@ -120,10 +120,7 @@ def load_undrained(specs) -> list:
 
 def build(undrained=(), free=None):
     """(calibration observations, all observations, calibration forward, all-tests forward, likelihood, prior)."""
-    free = list(BOUNDS) if not free else list(free)
-    unknown = set(free) - set(BOUNDS)
-    if unknown:
-        raise ValueError(f"--free: unknown parameters {sorted(unknown)}; choose among {list(BOUNDS)}")
+    free = free_subset(free, BOUNDS)
     drained = {n: load_drained(n) for n in FILES}
     user = load_undrained(undrained)
     calibration = [drained["test2"]] + user if user else [drained[n] for n in CALIBRATION]
@@ -148,10 +145,7 @@ def _grid(obs):
 def _options(ap):
     ap.add_argument("--undrained", nargs="+", default=[], metavar="FILE[:E0:P0_KPA]",
                     help="undrained recordings (eps_a_pct, q_kPa, u_kPa) to calibrate on as the paper did")
-    ap.add_argument("--free", type=lambda s: [x.strip() for x in s.split(",") if x.strip()],
-                    help=f"comma-separated subset of {','.join(BOUNDS)} (others at the paper's reference values)")
-    ap.add_argument("--sweeps", type=int, help="fixed number of MCMC sweeps per stage (default: adaptive, "
-                                              "capped by the preset)")
+    add_options(ap, BOUNDS, "at the paper's reference values")
 
 
 REFERENCES = {"paper reference (optimisation)": PAPER_REFERENCE, "paper DE-TMCMC mean MAP": PAPER_DE_MEAN,
@@ -168,39 +162,26 @@ def jg_all(like_all, post) -> dict:
 
 
 def report_run(out, args, post, cal_obs, all_obs, forward_all, summary):
-    out = Path(out)
     method = study.method_name(args.method)
     note = "" if args.undrained else SUBSTITUTION_NOTE
     predicted = [t.name for t in all_obs if t.name not in cal_obs.tests]
-    plot_curves(out / "curves.png", all_obs, forward_all, post,
-                f"Toyoura sand (Verdugo & Ishihara 1996, measured): {method}, calibrated on "
-                f"{', '.join(cal_obs.tests)}; predicted {', '.join(predicted)}", predict=predicted)
-    study.plot_marginals(post, out / "marginals.png", marks={"paper ref.": PAPER_REFERENCE,
-                                                             "paper DE mean": PAPER_DE_MEAN})
-    study.plot_stages(post, out / "stages.png")
-    end = {}
-    for t in all_obs:
-        if "e" in t.curves:
-            c = conditions_of(t)
-            end[f"{t.name} end (data)"] = (c.p0 + t.curves["q"].y[-1] / 3.0, t.curves["e"].y[-1])
-    plot_csl(out / "csl.png", {"MAP": parameters(forward_all, post.map),
-                               "paper reference": {**FIXED, **PAPER_REFERENCE},
-                               "paper DE-TMCMC mean": parameters(forward_all, 
-                                   {k: v for k, v in PAPER_DE_MEAN.items() if k != "sigma_eps"})}, end,
-             title="Toyoura sand: CSL (VI) of the MAP vs the paper's values")
+    write_figures(out, all_obs, forward_all, post, f"Toyoura sand (Verdugo & Ishihara 1996, measured): {method}, "
+                  f"calibrated on {', '.join(cal_obs.tests)}; predicted {', '.join(predicted)}",
+                  {"paper ref.": PAPER_REFERENCE, "paper DE mean": PAPER_DE_MEAN},
+                  {"paper reference": {**FIXED, **PAPER_REFERENCE}, "paper DE-TMCMC mean": parameters(
+                      forward_all, PAPER_DE_MEAN)}, "Toyoura sand: CSL (VI) of the MAP vs the paper's values",
+                  "end (data)", predict=predicted)
     jg = summary["J_g_all_tests"]
     text = [f"# {CASE}: {method}, seed {summary['seed']} (measured data: Verdugo & Ishihara 1996, CC-BY-4.0)", ""]
     if note:
         text += [f"**{note}**", ""]
-    text += [f"N_s = {summary['n_samples']}, stages = {summary['n_stages']}, forward solves = "
-             f"{summary['n_forward_solves']} (failed {summary['n_failed_solves']}), wall {summary['wall_s']:.1f} s on "
-             f"{summary['ranks']} process(es), ln Z = {summary['log_evidence']:.3f}", "",
+    text += [run_line(summary), "",
              "J_g (Eq. 5) at MAP: " + ", ".join(
                  f"{k} {v:.3g} ({'calibration' if k in cal_obs.tests else 'prediction'})"
                  for k, v in jg.items() if isinstance(v, float)), "",
              study.parameter_table(post, REFERENCES), "",
              "Figures: curves.png (Fig. 13 style), marginals.png, stages.png, csl.png."]
-    (out / "report.md").write_text("\n".join(text) + "\n")
+    (Path(out) / "report.md").write_text("\n".join(text) + "\n")
 
 
 def main(argv=None):
@@ -226,6 +207,7 @@ def main(argv=None):
         write_runs(args.out or DEFAULT_OUT, f"{CASE} (measured data, Verdugo & Ishihara 1996)", summaries,
                    list(prior.names), REFERENCES, PAPER_DE_MEAN, note="" if args.undrained else SUBSTITUTION_NOTE)
     return summaries
+
 
 if __name__ == "__main__":
     main()

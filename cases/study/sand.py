@@ -25,11 +25,11 @@ from constitutive import SIMSAND
 from inference import DataError
 
 from .lab_forward import LabForward
-from .outputs import pyplot, runs_table
+from .outputs import plot_marginals, plot_stages, pyplot, runs_table
 from .programme import TestSpec
 
-__all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "predictive", "plot_curves",
-           "plot_csl", "plot_map_spread",
+__all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
+           "predictive", "plot_curves", "plot_csl", "plot_map_spread", "write_figures", "run_line",
            "sampler_settings", "write_runs", "CURVES"]
 
 #: observed curves per drainage type (test curve name -> CSV quantity)
@@ -97,6 +97,43 @@ def parameters(forward: LabForward, params: dict) -> dict:
     if missing:
         raise ValueError(f"SIMSAND parameters neither free nor fixed: {sorted(missing)}")
     return full
+
+
+def free_subset(free, bounds: dict) -> list:
+    """The parameters to identify: ``free`` (a subset of ``bounds``' names) or all of them."""
+    free = list(bounds) if not free else list(free)
+    unknown = set(free) - set(bounds)
+    if unknown:
+        raise ValueError(f"--free: unknown parameters {sorted(unknown)}; choose among {list(bounds)}")
+    return free
+
+
+def add_options(ap, bounds: dict, held: str):
+    """The options of a SIMSAND study: ``--free`` (a subset of ``bounds``, the others ``held``) and ``--sweeps``."""
+    ap.add_argument("--free", type=lambda s: [x.strip() for x in s.split(",") if x.strip()],
+                    help=f"comma-separated subset of {','.join(bounds)} to identify (others {held})")
+    ap.add_argument("--sweeps", type=int, help="fixed number of MCMC sweeps per stage (default: adaptive, "
+                                              "capped by the preset)")
+
+
+def run_line(summary: dict) -> str:
+    """The run's size, cost and evidence in one line of a report."""
+    return (f"N_s = {summary['n_samples']}, stages = {summary['n_stages']}, forward solves = "
+            f"{summary['n_forward_solves']} (failed {summary['n_failed_solves']}), wall {summary['wall_s']:.1f} s on "
+            f"{summary['ranks']} process(es), ln Z = {summary['log_evidence']:.3f}")
+
+
+def write_figures(out, observations, forward, post, title, marks, csl_lines, csl_title, end_label,
+                  reference=None, predict=(), marginals_title=None):
+    """curves.png (:func:`plot_curves`), marginals.png (``marks`` {label: values}), stages.png and csl.png (the CSL
+    of ``csl_lines`` {label: parameter dict}, ``"MAP"`` added, with the end states of the drained records)."""
+    out = Path(out)
+    plot_curves(out / "curves.png", observations, forward, post, title, reference=reference, predict=predict)
+    plot_marginals(post, out / "marginals.png", marks=marks, title=marginals_title)
+    plot_stages(post, out / "stages.png")
+    end = {f"{t.name} {end_label}": (conditions_of(t).p0 + t.curves["q"].y[-1] / 3.0, t.curves["e"].y[-1])
+           for t in observations if "e" in t.curves}
+    plot_csl(out / "csl.png", {"MAP": parameters(forward, post.map), **csl_lines}, end, title=csl_title)
 
 
 def predictive(forward: LabForward, post, n_draws=200, seed=0):
