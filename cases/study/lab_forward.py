@@ -105,7 +105,7 @@ class LabForward:
         self.model = model
         self.switches = dict(switches or {})
         self.fixed = dict(fixed)
-        self.tests = [t for t in tests]
+        self.tests = list(tests)
         self.curves = {t.name: tuple(curves[t.name]) for t in self.tests}
         self.max_strain_step = max_strain_step
         self.e0_parameter = e0_parameter
