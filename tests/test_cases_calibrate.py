@@ -377,7 +377,7 @@ def test_concealed_viscosity_study_has_the_case_data_and_forward_model():
     for switches, extra in ((cv.BASE_SWITCHES, {}), ({"viscous": True, "anisotropy": True}, {"C_alpha_e": 0.02})):
         batch = [{"M": 1.4, "sigma_p0": 90.0, **extra}, {"M": 1.6, "sigma_p0": 120.0, **extra}]
         mine = StudyProblem(study, obs, {}, quick=False).forward(switches)(batch)
-        theirs = cv.LabForward(cv.TESTS, switches)(batch)
+        theirs = cv.PROBLEM.forward(switches)(batch)
         for m, r in zip(mine, theirs):
             for t in r:
                 for c in r[t]:
