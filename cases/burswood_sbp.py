@@ -6,18 +6,18 @@
 
 Two SBP expansions at 5.25 m depth (Lee & Fahey), 0.167 %/s and 0.0185 %/s to 10 % cavity strain, in situ
 sigma'_v0 = 31 kPa, K0 = 0.9, u0 = 38.8 kPa, k = 3.3e-9 m/s; ANICREEP with nu = 0.3, lambda = 0.40, kappa = 0.026,
-e0 = 2.0 fixed (docs/reference.md section 5: the printed Table 5 is garbled; these are the documented defaults, ``--fixed`` overrides)
-and M, sigma'_p0 (kPa), C_alpha_e and the error sigma_eps identified (Table 4 bounds). One particle's forward model
-is both coupled FE solves (fem.pressuremeter, CAX4RP-like elements, cavity wall displacement control, partial
-drainage); each solve runs whole on one process or MPI rank.
+e0 = 2.0 fixed (docs/reference.md section 5: the printed Table 5 is garbled; these are the documented defaults,
+``--fixed`` overrides) and M, sigma'_p0 (kPa), C_alpha_e and the error sigma_eps identified (Table 4 bounds). One
+particle's forward model is both coupled FE solves (``cases.study.sbp_forward``); each runs whole on one process or
+MPI rank.
 
 Recordings. The measured Burswood curves are not public. The shipped recordings (cases/data/burswood_sbp/) are
 SYNTHETIC: our FE at the paper's DE-TMCMC MAP (M 1.71, sigma'_p0 58.4 kPa, C_alpha_e 0.020) with the paper preset's
 mesh and increments, times independent multiplicative noise c ~ N(1, 0.02^2) per point (Eq. 1), made by
 :func:`generate_recordings` (``--generate``). Real recordings load from CSV files with columns
 ``cavity_strain_pct, cavity_pressure_kPa`` and optionally ``pore_pressure_kPa`` (total pore pressure at the wall) and
-``time_s``; units are checked and converted, cavity strain must increase. The wall pore pressure is used whenever
-every record has it (``--pressure-only`` drops it): the cavity pressure alone leaves a ridge in (M, sigma'_p0)
+``time_s``, read and checked as a study's ``sbp`` tests (``cases.study.records``). The wall pore pressure is used
+whenever every record has it (``--pressure-only`` drops it): the cavity pressure alone leaves a ridge in (M, sigma'_p0)
 (a weaker critical-state ratio and a larger preconsolidation pressure give nearly the same pressure curves), which
 the pore pressure, set by the effective stress path, breaks.
 
@@ -43,7 +43,7 @@ from .study.sbp_forward import SBPForward
 from .study.sbp_outputs import SBPCase, write_sbp_outputs
 
 __all__ = ["SITE", "FIXED", "RATES", "BOUNDS", "GENERATING", "PAPER", "Preset", "PRESETS", "FE_FIELDS",
-           "burswood_forward", "generate_recordings", "load_recordings", "main"]
+           "burswood_forward", "generate_recordings", "main"]
 
 CASE = "burswood_sbp"
 DATA = Path(__file__).parent / "data" / "burswood_sbp"
@@ -73,8 +73,6 @@ def burswood_forward(preset, fixed=None, site=None, rates=None, curves=("cavity_
 
 OUTPUTS = SBPCase(CASE, "Burswood clay SBP", "Burswood SBP", "ANICREEP", PAPER, BOUNDS, UNITS,
                   "; the measured Burswood curves are not public", {"paper_table5": PAPER})
-#: the pressuremeter records reader of cases.study.records, under the name the other SBP studies use
-load_recordings = load_sbp_recordings
 
 
 def generate_recordings(directory=DATA, params=None, noise=RECORD_NOISE, seed=2019, preset=PRESETS["paper"],
