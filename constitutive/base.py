@@ -1,6 +1,6 @@
 """The material-point interface shared by every constitutive model (the UMAT equivalent).
 
-Conventions (DESIGN.md):
+Conventions (docs/reference.md, "Conventions used everywhere"):
 - soil-mechanics signs: compression positive, for stresses and strains;
 - stresses are effective stresses in kPa;
 - Voigt order (11, 22, 33, 12, 23, 31) with engineering shear strains (gamma_12 = 2 eps_12);

@@ -1,7 +1,7 @@
 """The one place where the FE meets the constitutive models: component mapping and sign conversion.
 
 FE mechanics is tension positive (stress and strain), with the axisymmetric vector (rr, zz, tt, rz). The material
-models are compression positive with Voigt order (11, 22, 33, 12, 23, 31) (DESIGN.md). Mapping r -> 1, z -> 2,
+models are compression positive with Voigt order (11, 22, 33, 12, 23, 31) (docs/reference.md, "Conventions used everywhere"). Mapping r -> 1, z -> 2,
 theta -> 3, rz -> 12 and a sign flip of every component:
 
     eps_soil = -eps_fe (padded with gamma_23 = gamma_31 = 0),   sigma_fe = -sigma'_soil[:4],

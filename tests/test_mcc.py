@@ -1,4 +1,4 @@
-"""Modified Cam Clay: undrained closed form (REFERENCE.md section 4), exact NCL/kappa lines, consistent tangent
+"""Modified Cam Clay: undrained closed form (docs/reference.md section 4), exact NCL/kappa lines, consistent tangent
 against finite differences, robustness over wide parameter ranges, parameter validation."""
 import numpy as np
 import pytest
@@ -7,12 +7,12 @@ from constitutive import IntegrationError, ModifiedCamClay, ParameterError
 from constitutive import labtests as lt
 from constitutive.invariants import deviatoric_stress, mean_stress
 
-# REFERENCE.md section 4 check case
+# docs/reference.md section 4 check case
 M, LAM, KAP, V, P0, R0, G = 1.2, 0.2, 0.04, 2.0, 100.0, 1.5, 2000.0
 
 
 def closed_form(eta):
-    """p'/p'_0 and eps_q (elastic q/(3G) + plastic from first yield) of the undrained MCC test (REFERENCE.md s. 4)."""
+    """p'/p'_0 and eps_q (elastic q/(3G) + plastic from first yield) of the undrained MCC test (docs/reference.md section 4)."""
     Lam = (LAM - KAP) / LAM
     ratio = (R0 / (1 + eta**2 / M**2)) ** Lam
     eta_y = M * np.sqrt(R0 - 1)
@@ -22,7 +22,7 @@ def closed_form(eta):
 
 
 def test_closed_form_reproduces_published_check_values():
-    """The formula coded in this test reproduces REFERENCE.md's check values (guards the oracle itself)."""
+    """The formula coded in this test reproduces the check values of docs/reference.md section 4 (guards the oracle itself)."""
     r, e = closed_form(np.array([1.0, 1.15]))
     np.testing.assert_allclose(r, [0.90709, 0.82134], atol=5e-6)
     np.testing.assert_allclose(e, [0.021473, 0.039610], atol=5e-7)

@@ -1,4 +1,4 @@
-"""SIMSAND (REFERENCE.md section 3): parameter checks, closed-form pieces, oracles of the expected behaviour,
+"""SIMSAND (docs/reference.md section 3): parameter checks, closed-form pieces, oracles of the expected behaviour,
 integration accuracy and batching. Compression positive, kPa."""
 import numpy as np
 import pytest
@@ -8,7 +8,7 @@ from constitutive import IntegrationError, ParameterError, labtests
 from constitutive.invariants import deviatoric_stress, isotropic_stiffness, lode_sin3theta, mean_stress
 from constitutive.simsand import P_AT, SIMSAND, friction_from_angle, friction_ratio
 
-#: synthetic-study true values (REFERENCE section 5)
+#: synthetic-study true values (docs/reference.md section 5)
 TRUE = dict(nu=0.2, K_0=100.0, n=0.6, e_ref=0.75, lambda_c=0.03, xi=0.6, phi_mu=30.0, k_p=0.003, A_d=1.0, n_p=2.0,
             n_d=2.0)
 SYNTHETIC_BOUNDS = dict(e_ref=(0.5, 1.5), lambda_c=(0.001, 0.1), xi=(0.01, 1.0), phi_mu=(20.0, 50.0),
@@ -233,7 +233,7 @@ def test_drained_compression_reaches_the_critical_state():
 
 
 def test_true_value_curves_dense_peaks_and_dilates_loose_contracts():
-    """The three synthetic tests of REFERENCE section 5 with the true values: (0.6, 800) peaks then softens and
+    """The three synthetic tests of docs/reference.md section 5 with the true values: (0.6, 800) peaks then softens and
     dilates; (0.8, 25) contracts monotonically without a peak; all stay below the peak envelope."""
     model = SIMSAND(**TRUE)
     ea = np.linspace(0.0025, 0.25, 100)

@@ -1,5 +1,5 @@
 """SIMSAND's physics switches (constitutive/simsand.py module docstring): ``lode_dependence`` and
-``state_dependent_dilatancy``, against closed forms of REFERENCE.md section 3. Compression positive, kPa."""
+``state_dependent_dilatancy``, against closed forms of docs/reference.md section 3. Compression positive, kPa."""
 import numpy as np
 import pytest
 
@@ -7,7 +7,7 @@ from constitutive import ParameterError, labtests
 from constitutive.invariants import isotropic_stiffness, lode_sin3theta, mean_stress
 from constitutive.simsand import P_AT, SIMSAND
 
-#: synthetic-study true values (REFERENCE section 5)
+#: synthetic-study true values (docs/reference.md section 5)
 TRUE = dict(nu=0.2, K_0=100.0, n=0.6, e_ref=0.75, lambda_c=0.03, xi=0.6, phi_mu=30.0, k_p=0.003, A_d=1.0, n_p=2.0,
             n_d=2.0)
 #: the same sand without the interlocking exponents of (VII)
