@@ -1,26 +1,132 @@
-"""The test record of a study: one :class:`TestSpec` for every test type, with its conditions.
+"""The test record of a study: one :class:`TestSpec` per test, an apparatus, the specimen's initial state and its
+stages in order (:class:`Stage`, :class:`InitialState`).
 
-Test types (units kPa, m, s, 1/s; compression positive):
+Apparatus: ``triaxial`` (axial strain or axial stress controlled, radial total stress controlled), ``oedometer``
+(radial strain zero), ``sbp`` (self-boring pressuremeter, coupled FE). Stage kinds per apparatus:
+:data:`STAGE_KINDS`; each stage's fields are listed with :class:`Stage` (units kPa, s, 1/s; strains are fractions
+here and % in the files; compression positive).
+
+The flat test types of a study file (``triaxial``, ``oedometer_crs``, ``oedometer_creep``, ``sbp`` with their
+conditions) are shorthand for one- or few-stage programmes; :func:`programme_of` expands them (the flat fields stay
+on the record, and the forward models of the flat types keep using them):
 - ``triaxial``: drained or undrained, compression or extension, consolidated isotropically (``p0``) or along K0
-  (``sigma_v0``, ``K0``), sheared at the axial strain rate ``strain_rate``;
-- ``oedometer_crs``: constant rate of strain from ``sigma_v0`` (``K0`` the initial sigma'_h/sigma'_v);
+  (``sigma_v0``, ``K0``), sheared at the axial strain rate ``strain_rate``: one ``shear`` stage;
+- ``oedometer_crs``: constant rate of strain from ``sigma_v0`` (``K0`` the initial sigma'_h/sigma'_v): one ``crs``
+  stage;
 - ``oedometer_creep``: incremental oedometer, load stages ``stage_stress`` each ramped over ``load_time`` and held
-  for ``stage_duration``, recorded at ``n_times`` log-spaced hold times per stage;
+  for ``stage_duration``, recorded at ``n_times`` log-spaced hold times per stage: one ``load`` stage per stress;
 - ``sbp``: self-boring pressuremeter expansion at the cavity strain rate ``strain_rate`` from the in situ state
-  (``sigma_v0``, ``K0``, pore pressure ``u0``, permeability in m/s, probe radius in m).
-``e0`` is the void ratio at the start of the test (for a model whose void ratio is a parameter, the parameter).
-The record holds conditions only; the recorded abscissae (strains in %, times in s) come with the observations.
+  (``sigma_v0``, ``K0``, pore pressure ``u0``, permeability in m/s, probe radius in m): one ``expansion`` stage.
+A test written as a programme has ``type = "programme"``.
+``e0`` is the void ratio at the start of the test (for a model whose void ratio is a parameter, the parameter unless
+a programme's initial state gives it). The record holds conditions only; the recorded abscissae come with the
+observations.
+
+Curve keys: the quantity name for a one-stage test and for the flat types (``q``, ``void_ratio``, ...), else
+``<quantity>@<stage name>`` (:func:`curve_key`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["TestSpec", "TEST_TYPES"]
+__all__ = ["TestSpec", "Stage", "InitialState", "TEST_TYPES", "APPARATUS", "STAGE_KINDS", "programme_of",
+           "curve_key", "split_key"]
 
 TEST_TYPES = ("triaxial", "oedometer_crs", "oedometer_creep", "sbp")
+APPARATUS = ("triaxial", "oedometer", "sbp")
+#: stage kinds each apparatus runs
+STAGE_KINDS = {"triaxial": ("consolidation", "shear", "creep", "relaxation"),
+               "oedometer": ("consolidation", "creep", "relaxation", "crs", "load"),
+               "sbp": ("expansion", "hold", "unloading")}
+#: the apparatus of each flat test type
+APPARATUS_OF = {"triaxial": "triaxial", "oedometer_crs": "oedometer", "oedometer_creep": "oedometer", "sbp": "sbp"}
+#: cavity strain reached by the flat ``sbp`` type's expansion (fraction)
+SBP_EXPANSION_STRAIN = 0.10
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage of a test (units kPa, s, 1/s; strains as fractions; compression positive).
+
+    kind: ``consolidation`` | ``shear`` | ``creep`` | ``relaxation`` | ``crs`` | ``load`` | ``expansion`` | ``hold``
+    | ``unloading``; name: unique within the test (default ``<kind><number>``, 1-based).
+    duration: consolidation ramp, creep, relaxation, load stage total (ramp included), sbp hold (s).
+    p: consolidation target mean effective stress (isotropic path); sigma_v: consolidation / load target vertical
+    effective stress; K0: consolidation in a triaxial cell along sigma'_h = K0 sigma'_v.
+    drainage: ``drained`` | ``undrained`` (shear, creep, relaxation); direction: shear ``compression`` |
+    ``extension``. strain_rate: shear (magnitude), crs (SIGNED: < 0 unloading), sbp cavity strain rate (magnitude).
+    to_strain: shear: the stage's own axial strain magnitude; crs: total axial strain of the test reached;
+    expansion / unloading: cavity strain reached. to_sigma_v: crs alternative end (kPa); to_pressure: sbp unloading
+    alternative end (total cavity pressure, kPa); ramp_time: load stage ramp (s).
+    abscissa: what the stage's records are plotted and simulated against: ``axial_strain``, ``time`` (since the stage
+    start), ``p``, ``sigma_v``, ``cavity_strain``; curves: the recorded quantities of this stage (from the records).
+    """
+
+    kind: str
+    name: str
+    duration: float | None = None
+    p: float | None = None
+    sigma_v: float | None = None
+    K0: float | None = None
+    drainage: str = "drained"
+    direction: str | None = None
+    strain_rate: float | None = None
+    to_strain: float | None = None
+    to_sigma_v: float | None = None
+    to_pressure: float | None = None
+    ramp_time: float | None = None
+    abscissa: str = "time"
+    curves: tuple = ()
+
+    def describe(self) -> str:
+        """One line, e.g. ``shear3: undrained compression at 1e-05 1/s``."""
+        parts = {"consolidation": lambda: (f"to p' {self.p:g} kPa" if self.p is not None else
+                                           f"to sigma'_v {self.sigma_v:g} kPa"
+                                           + ("" if self.K0 is None else f" (K0 {self.K0:g})")),
+                 "shear": lambda: f"{self.drainage} {self.direction} at {self.strain_rate:g} 1/s",
+                 "creep": lambda: f"{self.drainage}, stresses held {self.duration:g} s",
+                 "relaxation": lambda: f"{self.drainage}, strain held {self.duration:g} s",
+                 "crs": lambda: f"{self.strain_rate:g} 1/s to " + (f"{100 * self.to_strain:g} %" if self.to_strain
+                                                                   is not None else f"{self.to_sigma_v:g} kPa"),
+                 "load": lambda: f"sigma'_v {self.sigma_v:g} kPa, ramp {self.ramp_time:g} s, {self.duration:g} s",
+                 "expansion": lambda: f"{self.strain_rate:g} 1/s to {100 * self.to_strain:g} %",
+                 "hold": lambda: f"cavity strain held {self.duration:g} s",
+                 "unloading": lambda: f"{self.strain_rate:g} 1/s to " + (f"{100 * self.to_strain:g} %" if
+                                                                         self.to_strain is not None else
+                                                                         f"{self.to_pressure:g} kPa")}
+        try:
+            return f"{self.name}: {parts[self.kind]()}"
+        except (TypeError, KeyError):
+            return f"{self.name}: {self.kind}"
+
+
+@dataclass(frozen=True)
+class InitialState:
+    """The specimen at the start of the first stage (kPa): void ratio ``e0``; effective stresses ``p0`` (isotropic)
+    or ``sigma_v0`` with sigma'_h0 = ``K0`` sigma'_v0; preconsolidation ``ocr`` (relative to sigma'_v0, or p0 when
+    isotropic) or ``preconsolidation`` (vertical, kPa) -- None: the model's parameter (MCC ocr/pc0, ANICREEP
+    sigma_p0) applies; pore pressure ``u0``."""
+
+    e0: float | None = None
+    p0: float | None = None
+    sigma_v0: float | None = None
+    K0: float = 1.0
+    ocr: float | None = None
+    preconsolidation: float | None = None
+    u0: float = 0.0
+
+    @property
+    def p(self) -> float:
+        """Mean effective stress at the start (kPa)."""
+        return self.p0 if self.p0 is not None else self.sigma_v0 * (1.0 + 2.0 * self.K0) / 3.0
+
+    @property
+    def vertical(self) -> float:
+        """Vertical effective stress at the start (kPa)."""
+        return self.sigma_v0 if self.sigma_v0 is not None else self.p0
 
 
 @dataclass(frozen=True)
@@ -52,6 +158,19 @@ class TestSpec:
     probe_radius: float | None = None
     depth: float | None = None
     curves: tuple | None = None
+    apparatus: str | None = None
+    initial: InitialState = field(default_factory=InitialState)
+    stages: tuple = ()
+    weight: float = 1.0
+
+    @property
+    def staged(self) -> bool:
+        """Whether the test was written as a stage programme (not a flat type)."""
+        return self.type == "programme"
+
+    def stage(self, name: str) -> Stage:
+        """The stage called ``name``."""
+        return next(s for s in self.stages if s.name == name)
 
     @property
     def k0(self) -> float:
@@ -84,12 +203,23 @@ class TestSpec:
         return stage, t - stage * d
 
     def conditions(self) -> dict:
-        """The test conditions as plain data (for summaries and the diagnosis input)."""
-        skip = ("name", "file", "where")
-        return {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(self)
-                for v in [getattr(self, f.name)] if f.name not in skip and v not in (None, ())}
+        """The test conditions as plain data (for summaries and the diagnosis input): the flat fields of a flat type,
+        the apparatus, initial state and stages of a programme; the weight when it is not 1."""
+        skip = ("name", "file", "where", "apparatus", "initial", "stages", "weight")
+        out = {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(self)
+               for v in [getattr(self, f.name)] if f.name not in skip and v not in (None, ())}
+        if self.staged:
+            out = {"type": self.type, "apparatus": self.apparatus, **plain(self.initial),
+                   "stages": [plain(s) for s in self.stages]}
+            if self.permeability is not None:
+                out.update(permeability=self.permeability, probe_radius=self.probe_radius)
+        if self.weight != 1.0:
+            out["weight"] = self.weight
+        return out
 
     def describe(self) -> str:
+        if self.staged:
+            return f"{self.apparatus} programme: " + "; ".join(s.describe() for s in self.stages)
         if self.type == "triaxial":
             start = (f"isotropic p'0 {self.p0:g} kPa" if self.consolidation == "isotropic"
                      else f"K0 {self.K0:g}, sigma'_v0 {self.sigma_v0:g} kPa")
@@ -102,3 +232,47 @@ class TestSpec:
                     f"{self.stage_duration:g} s each")
         return (f"SBP expansion (sigma'_v0 {self.sigma_v0:g} kPa, K0 {self.K0:g}, u0 {self.u0:g} kPa, "
                 f"k {self.permeability:g} m/s, {self.strain_rate:g} 1/s)")
+
+
+def plain(record) -> dict:
+    """The fields of a Stage or InitialState that are set, as plain data (tuples as lists)."""
+    return {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(record)
+            for v in [getattr(record, f.name)] if v not in (None, ())}
+
+
+def programme_of(spec: TestSpec) -> TestSpec:
+    """The test with ``apparatus``, ``initial`` and ``stages`` filled from its flat type's fields (see the module
+    docstring); a programme (stages given) is returned as it is."""
+    if spec.stages:
+        return spec
+    kind = spec.type
+    k0 = (1.0 if spec.consolidation == "isotropic" else spec.K0) if kind == "triaxial" else spec.K0
+    initial = InitialState(e0=spec.e0, p0=spec.p0 if kind == "triaxial" and spec.consolidation == "isotropic"
+                           else None, sigma_v0=None if spec.consolidation == "isotropic" else spec.sigma_v0,
+                           K0=1.0 if k0 is None else k0, u0=spec.u0 or 0.0)
+    if kind == "triaxial":
+        stages = (Stage("shear", "shear1", drainage=spec.drainage or "drained", direction=spec.direction,
+                        strain_rate=spec.strain_rate, abscissa="axial_strain"),)
+    elif kind == "oedometer_crs":
+        stages = (Stage("crs", "crs1", strain_rate=spec.strain_rate, abscissa="axial_strain"),)
+    elif kind == "oedometer_creep":
+        stages = tuple(Stage("load", f"load{k}", sigma_v=s, ramp_time=spec.load_time, duration=spec.stage_duration)
+                       for k, s in enumerate(spec.stage_stress, start=1))
+    else:
+        stages = (Stage("expansion", "expansion1", strain_rate=spec.strain_rate, to_strain=SBP_EXPANSION_STRAIN,
+                        abscissa="cavity_strain"),)
+    if spec.curves is not None and len(stages) == 1:
+        stages = (replace(stages[0], curves=tuple(spec.curves)),)
+    return replace(spec, apparatus=APPARATUS_OF[kind], initial=initial, stages=stages)
+
+
+def curve_key(spec: TestSpec, quantity: str, stage: Stage) -> str:
+    """The curve name of ``quantity`` recorded in ``stage`` of ``spec``: the quantity for a flat type or a one-stage
+    programme, else ``<quantity>@<stage name>``."""
+    return quantity if not spec.staged or len(spec.stages) == 1 else f"{quantity}@{stage.name}"
+
+
+def split_key(key: str) -> tuple:
+    """(quantity, stage name or None) of a curve key."""
+    quantity, _, stage = key.partition("@")
+    return quantity, stage or None
