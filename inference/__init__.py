@@ -7,14 +7,14 @@ from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExe
 from .likelihood import ForwardModelError, Likelihood, goodness_of_fit
 from .diagnosis import ScreenReport, screen
 from .observations import Curve, DataError, Observations, Test
-from .priors import Bound, LogUniformPrior, Prior, PriorError, UniformPrior
+from .priors import Bound, Constraint, LogUniformPrior, Prior, PriorError, UniformPrior
 from .results import Posterior, RunProgress, write_failures
 from .tmcmc import EXIT_CHECKPOINTED, Checkpointed, RunStopped, SamplerError, TMCMCSettings, tmcmc
 
 __all__ = [
     "CheckpointError", "Evaluator", "Executor", "MPIExecutor", "PoolExecutor", "SerialExecutor", "default_executor",
     "ForwardModelError", "Likelihood", "goodness_of_fit", "Curve", "DataError", "Observations", "Test",
-    "Bound", "LogUniformPrior", "Prior", "PriorError", "UniformPrior", "Posterior", "RunProgress", "write_failures",
+    "Bound", "Constraint", "LogUniformPrior", "Prior", "PriorError", "UniformPrior", "Posterior", "RunProgress", "write_failures",
     "EXIT_CHECKPOINTED", "SamplerError", "RunStopped", "Checkpointed", "TMCMCSettings", "tmcmc", "ScreenReport",
     "screen",
 ]

@@ -4,6 +4,11 @@ Eq. (1): U_obs = c U_num(b), c ~ N(1, sigma_eps^2).
 Eq. (5): J_g = 1/N_0 sum_j [1/N_j sum_i ((U_obs_i - U_num_i)/U_obs_i)^2] over the N_0 curves of one test.
 Eq. (4): ln p(D|theta) = -N/2 ln(2 pi sigma_eps^2) - N/(2 sigma_eps^2) J_g, N = number of points used.
 Eq. (6): ln p(D|theta) = sum_i w_i ln p(D_i|theta) over tests, w_i = 1 by default.
+Eq. (6g), error groups (docs/reference.md section 1): the curves are split into groups G, each with its own error
+parameter sigma_g, and each test's term of Eq. (6) becomes
+    ln p(D_i|theta) = sum_g [ -N_ig/2 ln(2 pi sigma_g^2) - N_i J_ig / (2 sigma_g^2) ],
+    J_ig = 1/N_0 sum_{j in g} 1/N_j sum_k ((U_obs_k - U_num_k)/U_obs_k)^2,
+N_ig the points of the test's curves in group g (sum_g N_ig = N_i, sum_g J_ig = J_g). One group is Eq. (4).
 
 Near-zero recorded values (the origin of a stress-strain curve) make relative errors explode; the paper is silent.
 Points with |U_obs| below ``floor`` times the curve's max |U_obs| (default 1 %) are excluded and counted
@@ -29,31 +34,42 @@ import numpy as np
 
 from .observations import Observations
 
-__all__ = ["ForwardModelError", "Likelihood", "goodness_of_fit", "log_likelihood_test"]
+__all__ = ["ForwardModelError", "Likelihood", "goodness_of_fit", "curve_mean_squares", "log_likelihood_test"]
 
 
 class ForwardModelError(RuntimeError):
     """The forward model gave no usable curves for this parameter vector (reason in the message)."""
 
 
+def curve_mean_squares(observed, simulated) -> list:
+    """The inner mean of Eq. (5) per curve: 1/N_j sum_i ((U_obs_i - U_num_i)/U_obs_i)^2, a float or (m,) per curve
+    (arguments as :func:`goodness_of_fit`). The squares are summed in point order (a cumulative sum): numpy's sum
+    and dot order their additions differently for a vector and for the rows of a matrix, and one parameter set must
+    get the same bits whatever batch it is in."""
+    out = []
+    for o, s in zip(observed, simulated):
+        rel = (o - s) / o
+        out.append(np.cumsum(rel * rel, axis=-1)[..., -1] / rel.shape[-1])
+    return out
+
+
 def goodness_of_fit(observed, simulated):
     """Eq. (5): mean over curves of the mean squared relative error.
 
     observed: list of recorded value arrays (n_j,); simulated: the list of the matching simulated arrays, each (n_j,)
-    (returns a float) or (m, n_j) for a batch of m parameter sets (returns J_g per set, (m,)).
-    The squares are summed in point order (a cumulative sum): numpy's sum and dot order their additions differently
-    for a vector and for the rows of a matrix, and one parameter set must get the same bits whatever batch it is in."""
+    (returns a float) or (m, n_j) for a batch of m parameter sets (returns J_g per set, (m,))."""
     total = 0.0
-    for o, s in zip(observed, simulated):
-        rel = (o - s) / o
-        total = total + np.cumsum(rel * rel, axis=-1)[..., -1] / rel.shape[-1]
+    for mean_square in curve_mean_squares(observed, simulated):
+        total = total + mean_square
     total = total / len(observed)
     return float(total) if np.ndim(total) == 0 else total
 
 
-def log_likelihood_test(j_g, n_points, sigma_eps):
-    """Eq. (4) for one test with N points (vectorizes over sigma_eps and j_g)."""
-    return -0.5 * n_points * np.log(2.0 * np.pi * sigma_eps**2) - n_points * j_g / (2.0 * sigma_eps**2)
+def log_likelihood_test(j_g, n_points, sigma_eps, n_test=None):
+    """Eq. (4) for one test with N points (vectorizes over sigma_eps and j_g); with ``n_test`` the term of one error
+    group of Eq. (6g): ``j_g`` is then J_ig, ``n_points`` N_ig and ``n_test`` the test's N_i."""
+    n_test = n_points if n_test is None else n_test
+    return -0.5 * n_points * np.log(2.0 * np.pi * sigma_eps**2) - n_test * j_g / (2.0 * sigma_eps**2)
 
 
 class Likelihood:
@@ -63,14 +79,19 @@ class Likelihood:
     ----------
     observations: Observations
     forward: callable, params dict -> {test: {curve: values or (x, y)}} (or a list -> list with batch=True)
-    weights: {test: w_i} of Eq. (6), default 1 for every test
-    sigma: name of the error parameter in the prior ("sigma_eps"), or a fixed float
+    weights: {test: w_i} of Eq. (6), default 1 for every test (w_i multiplies the test's log-likelihood: give a test
+        recorded much more densely than the others less weight, or a test repeated n times 1/n)
+    sigma: name of the error parameter in the prior ("sigma_eps"), or a fixed float (every group)
     floor: relative near-zero floor of Eq. (5) (fraction of the curve's max |U_obs|)
     batch: the forward model is vectorized over parameter sets
+    groups: None (one error parameter for every curve, the paper's setting) or {group: [curve name or (test, curve)
+        key, ...]}, Eq. (6g): a curve name stands for that curve of every test; every curve falls in exactly one
+        group. With two or more groups the error parameters are ``<sigma>_<group>`` (e.g. sigma_eps_volume) in the
+        prior, in the order of ``groups``; with one group the name stays ``sigma``.
     """
 
     def __init__(self, observations: Observations, forward, weights=None, sigma="sigma_eps", floor=0.01,
-                 batch=False):
+                 batch=False, groups=None):
         if not isinstance(observations, Observations):
             raise TypeError("observations must be an inference.Observations")
         self.observations = observations
@@ -101,32 +122,103 @@ class Likelihood:
                 self._used[t.name, cname] = c.y[mask]
                 self._kept[t.name, cname] = slice(None) if mask.all() else np.flatnonzero(mask)
         self.n_points = {t.name: int(sum(self.masks[t.name, c].sum() for c in t.curves)) for t in observations}
+        self.curve_keys = tuple((t.name, c) for t in observations for c in t.curves)
+        self.group_of = self._resolve_groups(groups)
+        self.groups = tuple(dict.fromkeys(self.group_of.values()))
+        if isinstance(sigma, str):
+            self.sigma_names = ((sigma,) if len(self.groups) == 1 else
+                                tuple(f"{sigma}_{g}" for g in self.groups))
+        else:
+            self.sigma_names = ()
+        # per test: (group column, the group's curve indices in the test, its points N_ig) of Eq. (6g)
+        self._test_groups = {}
+        for t in observations:
+            names = list(t.curves)
+            self._test_groups[t.name] = [
+                (k, [i for i, c in enumerate(names) if self.group_of[t.name, c] == g],
+                 int(sum(self.masks[t.name, c].sum() for c in names if self.group_of[t.name, c] == g)))
+                for k, g in enumerate(self.groups) if any(self.group_of[t.name, c] == g for c in names)]
         self._plans = {}  # (test, curve) -> (simulation abscissa bytes, interpolation plan), the last one seen
         self.names = None
-        self._soil_names, self._soil_columns, self._sigma_column = None, None, None
+        self._soil_names, self._soil_columns, self._sigma_columns = None, None, None
+
+    def _resolve_groups(self, groups) -> dict:
+        """{(test, curve): group} from ``groups`` (see the class docstring); ValueError naming the curve or entry."""
+        if groups is None or len(groups) <= 1:
+            name = next(iter(groups)) if groups else "all"
+            return {k: name for k in self.curve_keys}
+        out = {}
+        for g, members in groups.items():
+            if not isinstance(g, str) or not g.isidentifier():
+                raise ValueError(f"error group name {g!r} must be an identifier (it names sigma_eps_<group>)")
+            if isinstance(members, (str, tuple)):
+                members = [members]
+            for entry in members:
+                keys = ([entry] if isinstance(entry, tuple) and entry in self.curve_keys else
+                        [k for k in self.curve_keys if k[1] == entry])
+                if not keys:
+                    raise ValueError(f"error group {g}: {entry!r} names no recorded curve; curves are "
+                                     f"{sorted({c for _, c in self.curve_keys})}")
+                for k in keys:
+                    if out.get(k, g) != g:
+                        raise ValueError(f"test {k[0]}, curve {k[1]} is in two error groups: {out[k]} and {g}")
+                    out[k] = g
+        missing = [k for k in self.curve_keys if k not in out]
+        if missing:
+            raise ValueError(f"test {missing[0][0]}, curve {missing[0][1]} is in no error group; every curve must "
+                             f"be in exactly one of {list(groups)}")
+        return {k: out[k] for k in self.curve_keys}
 
     # ----------------------------------------------------------------- binding to a prior's parameter order
     def bind(self, names):
         """Fix the parameter order (the prior's). Returns self."""
         names = tuple(names)
-        if isinstance(self.sigma, str) and self.sigma not in names:
-            raise ValueError(f"the prior has no error parameter {self.sigma!r}: add it or pass sigma=<float>")
+        for n in self.sigma_names:
+            if n not in names:
+                raise ValueError(f"the prior has no error parameter {n!r}: add it or pass sigma=<float>")
         self.names = names
-        self._soil_columns = [k for k, n in enumerate(names) if not (isinstance(self.sigma, str) and n == self.sigma)]
+        self._soil_columns = [k for k, n in enumerate(names) if n not in self.sigma_names]
         self._soil_names = tuple(names[k] for k in self._soil_columns)
-        self._sigma_column = names.index(self.sigma) if isinstance(self.sigma, str) else None
+        self._sigma_columns = [names.index(n) for n in self.sigma_names]
         return self
 
     def split(self, theta):
-        """theta (prior order) -> (soil parameter dict, sigma_eps)."""
+        """theta (prior order) -> (soil parameter dict, sigma_eps): a float with one error group, else
+        {group: sigma_g}."""
         if self.names is None:
             raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
         params = {n: float(v) for n, v in zip(self.names, theta)}
-        sigma = params.pop(self.sigma) if isinstance(self.sigma, str) else float(self.sigma)
-        return params, sigma
+        if not self.sigma_names:
+            sigma = float(self.sigma)
+            return params, sigma if len(self.groups) == 1 else {g: sigma for g in self.groups}
+        sigmas = [params.pop(n) for n in self.sigma_names]
+        return params, sigmas[0] if len(self.groups) == 1 else dict(zip(self.groups, sigmas))
+
+    def sigma_arrays(self, thetas):
+        """The error parameters of m parameter sets (rows of ``thetas`` in the prior's order): (m,) with one group,
+        else (m, number of groups) in the order of ``groups``."""
+        thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
+        if self.names is None:
+            raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
+        if self.sigma_names:
+            sigma = thetas[:, self._sigma_columns]
+        else:
+            sigma = np.full((len(thetas), len(self.groups)), float(self.sigma))
+        return sigma[:, 0] if len(self.groups) == 1 else sigma
+
+    def curve_sigmas(self, thetas):
+        """Each curve's sigma (of its group) for m parameter sets: (m,) with one group (every curve's), else
+        (m, number of curves) in the order of ``curve_keys``."""
+        sigma = self.sigma_arrays(thetas)
+        if sigma.ndim == 1:
+            return sigma
+        column = {g: k for k, g in enumerate(self.groups)}
+        return sigma[:, [column[self.group_of[key]] for key in self.curve_keys]]
 
     def fingerprint(self) -> str:
-        return f"{self.observations.fingerprint()}|w={sorted(self.weights.items())}|floor={self.floor}|s={self.sigma}"
+        groups = "" if len(self.groups) == 1 else f"|groups={sorted(self.group_of.items())}"
+        return (f"{self.observations.fingerprint()}|w={sorted(self.weights.items())}|floor={self.floor}"
+                f"|s={self.sigma}{groups}")
 
     # ----------------------------------------------------------------- simulated curves at the recorded abscissae
     def _interpolation(self, test, cname, xs):
@@ -223,15 +315,45 @@ class Likelihood:
                 for t in self.observations}
 
     def _log_likelihood(self, simulated, sigma):
-        """Eqs. (4)-(6) for m parameter sets from {(test, curve): (m, n_recorded)} and sigma (m,)."""
-        jg = self.goodness_of_fit(simulated)
-        return sum(self.weights[t] * log_likelihood_test(jg[t], self.n_points[t], sigma) for t in jg)
+        """Eqs. (4)-(6) for m parameter sets from {(test, curve): (m, n_recorded)} and sigma (m,), or Eq. (6g) with
+        sigma (m, number of groups)."""
+        if sigma.ndim == 1:
+            jg = self.goodness_of_fit(simulated)
+            return sum(self.weights[t] * log_likelihood_test(jg[t], self.n_points[t], sigma) for t in jg)
+        total = 0.0
+        for t in self.observations:
+            names = list(t.curves)
+            mean_squares = curve_mean_squares([self._used[t.name, c] for c in names],
+                                              [simulated[t.name, c][..., self._kept[t.name, c]] for c in names])
+            term = 0.0
+            for column, members, n_group in self._test_groups[t.name]:
+                j_group = sum(mean_squares[i] for i in members) / len(names)
+                term = term + log_likelihood_test(j_group, n_group, sigma[:, column], self.n_points[t.name])
+            total = total + self.weights[t.name] * term
+        return total
+
+    def _sigma_reason(self, sigma):
+        """The reason a parameter set's error parameters are refused (one row of :meth:`sigma_arrays`), or None."""
+        if np.ndim(sigma) == 0:
+            return None if sigma > 0 else f"sigma_eps = {sigma} must be > 0"
+        for name, s in zip(self.sigma_names or [f"sigma_eps_{g}" for g in self.groups], sigma.tolist()):
+            if not s > 0:
+                return f"{name} = {s} must be > 0"
+        return None
 
     def log_likelihood_from(self, result, sigma) -> float:
-        """Eqs. (4) and (6) from one forward result (computed as a batch of one: the same bits as in any batch)."""
-        if not sigma > 0:
-            raise ForwardModelError(f"sigma_eps = {sigma} must be > 0")
-        return float(self._log_likelihood(self._simulated_one(result), np.array([float(sigma)]))[0])
+        """Eqs. (4) and (6) (Eq. (6g) with ``sigma`` {group: sigma_g}) from one forward result (computed as a batch
+        of one: the same bits as in any batch)."""
+        if isinstance(sigma, dict):
+            sigma = np.array([[float(sigma[g]) for g in self.groups]])
+        else:
+            sigma = np.array([float(sigma)])
+            if len(self.groups) > 1:
+                sigma = np.repeat(sigma[:, None], len(self.groups), axis=1)
+        reason = self._sigma_reason(sigma[0])
+        if reason:
+            raise ForwardModelError(reason)
+        return float(self._log_likelihood(self._simulated_one(result), sigma)[0])
 
     def _forward_one(self, params):
         return self.forward([params])[0] if self.batch else self.forward(params)
@@ -279,10 +401,12 @@ class Likelihood:
         """Eqs. (4)-(6) for a batch from ``simulate_arrays``' result: the same reasons, in the same precedence, as
         the per-particle path (sigma_eps, then the forward model's failure, then the first unusable curve)."""
         m = len(thetas)
-        sigma = thetas[:, self._sigma_column] if self._sigma_column is not None else np.full(m, float(self.sigma))
+        sigma = self.sigma_arrays(thetas)
         error = ForwardModelError.__name__
-        reasons = [f"{error}: sigma_eps = {s} must be > 0" if not s > 0 else
-                   (None if r is None else f"{error}: {r}") for s, r in zip(sigma.tolist(), failed)]
+        reasons = []
+        for s, r in zip(sigma, failed):
+            bad = self._sigma_reason(s)
+            reasons.append(f"{error}: {bad}" if bad else (None if r is None else f"{error}: {r}"))
         try:
             simulated, failures = self._simulated_batch(curves, m)
         except ForwardModelError as exc:  # unusable for every parameter set

@@ -157,6 +157,8 @@ class Run:
 
     # ---- stage 0
     def prior_stage(self, st: RunState):
+        """Stage 0: N_s draws of the prior (a constrained prior is drawn by rejection from its box, so ln Z is the
+        evidence under the constrained, renormalized prior: :class:`inference.Prior`) and their likelihoods."""
         if st.current is None:  # (a resumed stage 0 keeps its record)
             st.current = self.new_record(st, 0, 0.0)
         thetas = self.prior.sample(random_stream(self.s.seed, 0, 0, 0), self.s.n_samples)
