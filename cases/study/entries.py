@@ -1,5 +1,6 @@
-"""The ``[[tests]]`` entries of a study file: the fields each test type takes, checked into a
-:class:`~cases.study.programme.TestSpec`."""
+"""The ``[[tests]]`` entries of a study file: the fields each flat test type takes, checked into a
+:class:`~cases.study.programme.TestSpec` (a programme entry, ``apparatus`` with ``[[tests.stages]]``, is read by
+:mod:`cases.study.stage_entries`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,8 +8,9 @@ from pathlib import Path
 from constitutive.registry import SBP_MODELS
 
 from .checks import StudyError
-from .programme import TEST_TYPES, TestSpec
+from .programme import TEST_TYPES, TestSpec, programme_of
 from .records import COLUMNS, CURVE_OF, DRAINED_ONLY, UNDRAINED_ONLY
+from .stage_entries import programme_spec
 
 __all__ = ["TEST_FIELDS", "test_spec"]
 
@@ -23,7 +25,8 @@ TEST_FIELDS = {
     "sbp": (("sigma_v0", "K0", "u0", "permeability", "probe_radius", "strain_rate"), ("depth", "e0", "curves")),
 }
 #: number fields: > 0, >= 0 (u0, depth) or an integer >= minimum
-POSITIVE = ("p0", "sigma_v0", "K0", "e0", "strain_rate", "permeability", "probe_radius", "stage_duration", "load_time")
+POSITIVE = ("p0", "sigma_v0", "K0", "e0", "strain_rate", "permeability", "probe_radius", "stage_duration", "load_time",
+            "weight")
 NON_NEGATIVE = ("u0", "depth")
 INTEGERS = {"substeps": 1, "n_times": 2}
 CHOICES = {"drainage": ("drained", "undrained"), "direction": ("compression", "extension"),
@@ -31,16 +34,26 @@ CHOICES = {"drainage": ("drained", "undrained"), "direction": ("compression", "e
 
 
 def test_spec(ck, t, i, spec, model, check_files) -> TestSpec:
+    """The TestSpec of the entry ``t`` (``tests[i]``): a flat type (``type`` and its conditions, expanded by
+    :func:`~cases.study.programme.programme_of`) or a programme (``apparatus`` and ``[[tests.stages]]``,
+    :mod:`cases.study.stage_entries`)."""
     where = f"tests[{i}]"
-    ck.table(t, where, None, ("type", "file"))
-    kind = ck.text(t["type"], f"{where}.type", TEST_TYPES)
-    required, optional = TEST_FIELDS[kind]
-    ck.table(t, where, ("name", "type", "file", *required, *optional), ("type", "file", *required))
+    ck.table(t, where, None, ("file",) if "apparatus" in t else ("type", "file"))
     file = Path(ck.text(t["file"], f"{where}.file"))
     file = file if file.is_absolute() else ck.path.parent / file
     if check_files and not file.is_file():
         ck.fail(f"{where}.file", t["file"], f"data file not found ({file})")
     name = ck.text(t.get("name", file.stem), f"{where}.name")
+    if "apparatus" in t:
+        return programme_spec(ck, t, i, spec, model, file, name)
+    kind = ck.text(t["type"], f"{where}.type", TEST_TYPES)
+    for k in ("stages", "initial", "ocr", "preconsolidation"):
+        if k in t:
+            ck.fail(f"{where}.{k}", t[k], f"{k} is a field of a stage programme (apparatus = \"triaxial\" | "
+                    "\"oedometer\" | \"sbp\" with [[tests.stages]]), not of the one-stage shorthand type = "
+                    f"{kind!r}")
+    required, optional = TEST_FIELDS[kind]
+    ck.table(t, where, ("name", "type", "file", "weight", *required, *optional), ("type", "file", *required))
     values = {}
     for k, v in t.items():
         w = f"{where}.{k}"
@@ -84,8 +97,8 @@ def test_spec(ck, t, i, spec, model, check_files) -> TestSpec:
     if kind == "sbp" and model not in SBP_MODELS:
         ck.fail(f"{where}.type", kind, f"the pressuremeter FE runs {' or '.join(SBP_MODELS)} here, not {model}")
     if spec.e0_parameter and "e0" in values:
-        ck.fail(f"{where}.e0", t["e0"], f"e0 is a parameter of {model}: set it in [model.fixed] (or [model.free]), "
-                "not per test")
+        ck.fail(f"{where}.e0", t["e0"], f"e0 is a parameter of {model}: set it in [model.fixed] (or [model.free]); a "
+                "stage programme's initial state (apparatus = ...) may give it per test")
     if not spec.e0_parameter and "e0" not in values:
         raise StudyError(f"{ck.path}: {where}.e0 is missing: {model} needs the void ratio at the start of each test")
-    return TestSpec(name=name, type=kind, file=file, where=f"{ck.path}: {where} ({name})", **values)
+    return programme_of(TestSpec(name=name, type=kind, file=file, where=f"{ck.path}: {where} ({name})", **values))

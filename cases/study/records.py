@@ -18,6 +18,7 @@ from inference import DataError
 from inference.observations import converted, read_csv_table
 
 from .programme import TestSpec
+from .stages import load_programme_test
 
 __all__ = ["COLUMNS", "X_COLUMN", "CURVE_OF", "DRAINED_ONLY", "UNDRAINED_ONLY", "SBP_MAX_STRAIN_PCT",
            "column_name", "data_lines", "check_table", "creep_stage", "load_test", "load_observations",
@@ -135,7 +136,9 @@ def creep_stage(spec, t, path=None, lines=None):
 def load_test(spec) -> tuple:
     """(inference.Test, record times in s or None) of one test's CSV, checked (:func:`check_table`): the curves
     of the file's columns for the test type, or those ``spec.curves`` names; conditions from the file's header
-    and the test record."""
+    and the test record. A stage programme's records: :func:`cases.study.stages.load_programme_test`."""
+    if spec.staged:
+        return load_programme_test(spec)
     meta, table = read_csv_table(spec.file)
     values = check_table(spec, table)
     cols = COLUMNS[spec.type]
