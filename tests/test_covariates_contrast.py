@@ -119,16 +119,18 @@ def test_five_or_more_tests_keep_the_permutation_null():
         assert a.p_value == pytest.approx(2 / math.factorial(k))
 
 
-def test_contrast_does_not_apply_without_paired_curves_or_numeric_levels():
-    """Curves of different lengths, a categorical covariate, or one level: the permutation null (p = 1 with 2
-    tests) and no contrast."""
+def test_contrast_does_not_apply_without_a_common_abscissa_or_two_levels():
+    """Curves of different lengths without abscissae (no pairing by index), or one level: the permutation null
+    (p = 1 with 2 tests) and no contrast. A categorical condition gets the level contrast (z > 0: the level later in
+    sorted order, "load", above "hold")."""
     rng = np.random.default_rng(0)
     res = {("fast", "q"): SIGMA + ar1(rng, N, 0.0), ("slow", "q"): ar1(rng, N - 5, 0.0)}
     a = rate_attribution(res)
     assert a.contrast is None and a.p_value == 1.0
     res = two_tests(rng, 0.0, shift=3 * SIGMA)
     (a,) = attribute(res, {"phase": {"fast": "load", "slow": "hold"}})
-    assert a.contrast is None and a.p_value == 1.0
+    assert a.contrast["cavity_pressure"]["levels"] == ["hold", "load"] and a.contrast["cavity_pressure"]["z"] > 0
+    assert a.p_value < 1e-3
     (a,) = attribute(res, {"rate": {"fast": 1.0, "slow": 1.0}})
     assert a.contrast is None
 

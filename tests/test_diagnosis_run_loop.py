@@ -134,7 +134,11 @@ def test_the_loop_names_and_confirms_the_curvature(curved):
     assert final["omitted_physics"] == "curvature"
     decisions = {c["name"]: c["decision"] for c in final["candidates"]}
     assert decisions["offset"] == "candidate named, enrichment not available (not implemented in this toy)"
-    assert decisions["curvature"].startswith("confirmed") and decisions["saturation"] == "not named"
+    assert decisions["curvature"].startswith("confirmed") and decisions["saturation"].startswith("not named")
+    # the enriched class explains the curvature's own residual pattern (its x item no longer supports it)
+    curvature = next(c for c in final["candidates"] if c["name"] == "curvature")
+    assert curvature["confirmed"] and curvature["pattern_explained"] and curvature["pattern_left"] == []
+    assert final["margin_log_bayes"] == final["threshold_log_bayes"] == diagnosis.STRONG_LOG_BAYES
     assert final["log_bayes"]["y = a x + curvature"] > 50 > final["log_bayes"]["y = a x + saturation"]
     # the enriched MAP recovers the generating b (1 % noise on 60 points: b within a few per cent)
     assert result.classes[1].parameters["b"]["map"] == pytest.approx(B, rel=0.05)

@@ -53,14 +53,20 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import special, stats
 
-__all__ = ["Attribution", "attribute", "holm", "per_curve", "expand_covariates", "MIN_PERMUTATION_TESTS"]
+from . import contrast
+
+__all__ = ["Attribution", "attribute", "holm", "per_curve", "split_spec", "expand_covariates", "KINDS", "SCOPES",
+           "SPEC_KEYS", "MIN_PERMUTATION_TESTS"]
 
 MAX_EXACT_TESTS = 7
-#: fewer tests than this: a numeric between-test covariate is tested by the few-test contrast (module docstring)
+#: fewer tests than this: a between-test covariate is tested by the few-test contrast (module docstring)
 MIN_PERMUTATION_TESTS = 5
-#: shortest paired sequence the few-test contrast uses, and the smallest effective sample size it credits
-MIN_CONTRAST_POINTS = 8
-MIN_EFFECTIVE_POINTS = 4.0
+#: a declared covariate spec: its keys, kinds and scopes (module docstring: covariate specs)
+SPEC_KEYS = ("values", "kind", "scope", "order", "abscissa")
+KINDS = ("numeric", "ordinal", "categorical")
+SCOPES = ("within", "between")
+#: |z| of one test's p-value in the Stouffer combination is clipped here (p = 1 after Bonferroni gives -inf)
+STOUFFER_CLIP = 8.0
 
 
 @dataclass
@@ -83,6 +89,8 @@ class Attribution:
     n_curves: int
     null: str
     contrast: dict | None = None
+    explained_rms: float | None = None
+    per_test: dict | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -99,10 +107,28 @@ def holm(pvalues):
     return out
 
 
-def per_curve(name, spec, residuals):
-    """Covariate spec -> {(test, curve): array aligned with the residual}; keys (test, curve) or test; scalars broadcast."""
+def split_spec(name, spec) -> tuple:
+    """(values, meta) of a covariate spec: values keyed by (test, curve) or test; meta {kind, scope, order, abscissa}
+    from the declared form {"values": ..., "kind": ..., "scope": ..., "order": ..., "abscissa": ...} (module
+    docstring: covariate specs), empty for the plain form."""
     if not isinstance(spec, dict):
         raise TypeError(f"covariate {name!r}: expected a dict keyed by (test, curve) or test, got {type(spec).__name__}")
+    if "values" not in spec or not set(spec) <= set(SPEC_KEYS):
+        return spec, {}
+    meta = {k: spec[k] for k in SPEC_KEYS[1:] if spec.get(k) is not None}
+    if meta.get("kind", KINDS[0]) not in KINDS:
+        raise ValueError(f"covariate {name!r}: kind {meta['kind']!r} must be one of {KINDS}")
+    if meta.get("scope", SCOPES[0]) not in SCOPES:
+        raise ValueError(f"covariate {name!r}: scope {meta['scope']!r} must be one of {SCOPES}")
+    if meta.get("kind") == "ordinal" and "order" not in meta:
+        meta["order"] = None
+    return spec["values"], meta
+
+
+def per_curve(name, spec, residuals):
+    """Covariate spec -> {(test, curve): array aligned with the residual}; keys (test, curve) or test; scalars
+    broadcast. The spec in its plain or declared form (`split_spec`)."""
+    spec, _ = split_spec(name, spec)
     tests = {t for t, _ in residuals}
     out = {}
     for key, value in spec.items():
@@ -127,8 +153,28 @@ def per_curve(name, spec, residuals):
     return out
 
 
+def _coded(name, cov, meta):
+    """The covariate's values as the analysis uses them, and its completed meta: categorical values as strings,
+    ordinal levels as their position in ``order`` (numeric values keep their order)."""
+    numeric = all(np.asarray(v).dtype.kind in "biuf" for v in cov.values())
+    kind = meta.get("kind", "numeric" if numeric else "categorical")
+    if kind == "categorical":
+        cov = {k: np.asarray(v).astype(str) for k, v in cov.items()}
+    elif not numeric:
+        order = meta.get("order")
+        if kind != "ordinal" or not order:
+            raise ValueError(f"covariate {name!r}: text values need kind 'categorical', or 'ordinal' with 'order'")
+        code = {str(v): float(i) for i, v in enumerate(order)}
+        unknown = {str(x) for v in cov.values() for x in np.asarray(v).astype(str)} - set(code)
+        if unknown:
+            raise ValueError(f"covariate {name!r}: levels {sorted(unknown)} not in its order {list(order)}")
+        cov = {k: np.array([code[str(x)] for x in np.asarray(v).astype(str)]) for k, v in cov.items()}
+    return cov, {**meta, "kind": kind}
+
+
 def expand_covariates(covariates: dict, curves: dict) -> dict:
-    """Every covariate in its full form {name: {(test, curve): array aligned with the curve's points}}.
+    """Every covariate in its full form {name: {(test, curve): array aligned with the curve's points}} (declared
+    specs keep their meta: {"values": full form, **meta}).
 
     covariates: in the form of ``attribute`` (keys (test, curve) or test; scalars broadcast); curves: {(test, curve):
     recorded values}, whose order the result follows (so the attribution's random draws do not depend on the order
@@ -137,7 +183,9 @@ def expand_covariates(covariates: dict, curves: dict) -> dict:
     out = {}
     for name, spec in covariates.items():
         full = per_curve(name, spec, curves)
-        out[name] = {k: full[k] for k in curves if k in full}
+        full = {k: full[k] for k in curves if k in full}
+        meta = split_spec(name, spec)[1]
+        out[name] = {"values": full, **meta} if meta else full
     return out
 
 
@@ -239,83 +287,113 @@ def _between(residuals, cov, n_shifts, rng):
     return explained[0], total, explained, n_points, len(keys), null_name
 
 
-def _mean_test(b):
-    """(z, degrees of freedom, n_eff, lag-1) of mean(b) = 0 for a stationary, possibly autocorrelated sequence b
-    (module docstring: few-test contrast); None when b has no scatter about a straight line."""
-    n = b.size
-    x = np.column_stack([np.ones(n), np.arange(n) - (n - 1) / 2.0])
-    e = b - x @ np.linalg.lstsq(x, b, rcond=None)[0]
-    ss = float(e @ e)
-    if not ss > 1e-24 * max(float(b @ b), 1e-300):
-        return None
-    rho = float(e[1:] @ e[:-1]) / ss
-    rho = min(max(rho + (3.0 + 6.0 * rho) / n, 0.0), 0.9)
-    n_eff = max(n * (1.0 - rho) / (1.0 + rho), MIN_EFFECTIVE_POINTS)
-    variance = ss / (n - 2.0 * n / n_eff)
-    return float(b.mean() / math.sqrt(variance / n_eff)), n_eff - 2.0, n_eff, rho
-
-
-def _contrast(residuals, cov):
-    """Few-test contrast of a numeric covariate constant along curves (module docstring): (p, null description,
-    {curve: details}) or None when it does not apply (5 or more tests, categorical, one level, or no curve name with
-    paired curves at two levels)."""
+def _contrast(residuals, cov, meta, abscissae):
+    """Few-test contrast of a between-test covariate (module docstring, ``contrast``): (p, null description,
+    {curve: details}) or None when it does not apply (5 or more tests, one level, or no curve name whose curves can
+    be compared at two levels)."""
     keys = [k for k in cov if np.any(np.isfinite(residuals[k]) & _valid(cov[k]))]
     tests = set(t for t, _ in keys)
-    if len(tests) >= MIN_PERMUTATION_TESTS or np.asarray(cov[keys[0]]).dtype.kind not in "biuf":
+    if len(tests) >= MIN_PERMUTATION_TESTS:
         return None
-    details = {}
+    categorical = meta["kind"] == "categorical"
+    details, tested = {}, 0
     for c in dict.fromkeys(c for _, c in keys):
         ck = [k for k in keys if k[1] == c]
-        level = np.array([cov[k][np.isfinite(cov[k])][0] for k in ck], dtype=float)
-        if np.unique(level).size < 2 or len({residuals[k].size for k in ck}) != 1:
-            continue
-        r = np.vstack([residuals[k] for k in ck])
-        r = r[:, np.all(np.isfinite(r), axis=0)]
-        rank = stats.rankdata(level) - (len(ck) + 1) / 2.0
-        b = (rank / (rank @ rank)) @ r
-        result = _mean_test(b) if b.size >= MIN_CONTRAST_POINTS else None
-        if result is None:
-            continue
-        z, df, n_eff, rho = result
-        details[c] = {"z": z, "p": float(2.0 * stats.t.sf(abs(z), df)), "df": df, "n_eff": n_eff, "lag1": rho,
-                      "mean": float(b.mean()), "points": int(b.size)}
+        level = [cov[k][_valid(cov[k])][0] for k in ck]
+        if categorical:
+            pairs = contrast.level_contrasts(residuals, ck, level, meta.get("order"), abscissae)
+            if not pairs:
+                continue
+            best = min(pairs.values(), key=lambda d: d["p"])
+            tested += len(pairs)
+            details[c] = {**best, "p": min(1.0, len(pairs) * best["p"]), "pairs": pairs}
+        else:
+            d = contrast.trend_contrast(residuals, ck, level, abscissae)
+            if d is None:
+                continue
+            tested += 1
+            details[c] = d
     if not details:
         return None
     p = min(1.0, len(details) * min(d["p"] for d in details.values()))
-    return p, (f"few-test contrast over {len(tests)} tests: mean trend of the paired residuals over the covariate's "
-               f"levels vs Student's t with the lag-1 effective sample size, Bonferroni over {len(details)} curve "
-               "names"), details
+    what = ("pairwise differences of the paired residuals between the levels" if categorical else
+            "mean trend of the paired residuals over the covariate's levels")
+    return p, (f"few-test contrast over {len(tests)} tests: {what} vs Student's t with the lag-1 effective sample "
+               f"size, Bonferroni over {len(details)} curve names" +
+               (f" and {tested} level pairs" if categorical else "")), details
 
 
-def attribute(residuals: dict, covariates: dict, degree=3, n_shifts=1000, seed=0) -> list:
+def _within_by_test(residuals, cov, degree, n_shifts, rng):
+    """p-value of a declared within-test covariate (module docstring: within each test): one circular-shift test per
+    curve, Bonferroni over the curves of a test, Stouffer over the tests (weights sqrt(points)); also
+    {test: p}."""
+    by_test = {}
+    for k in cov:
+        by_test.setdefault(k[0], []).append(k)
+    per_test, z, w = {}, [], []
+    for t, keys in by_test.items():
+        ps, n_t = [], 0
+        for k in keys:
+            explained, total, null, n, _ = _within({k: residuals[k]}, {k: cov[k]}, degree, n_shifts, rng)
+            if total > 0 and np.any(null > 0):
+                ps.append((1 + np.count_nonzero(null >= explained * (1 - 1e-12))) / (1 + null.size))
+                n_t += n
+        if ps:
+            per_test[t] = float(min(1.0, len(ps) * min(ps)))
+            z.append(float(np.clip(stats.norm.isf(per_test[t]), -STOUFFER_CLIP, STOUFFER_CLIP)))
+            w.append(math.sqrt(n_t))
+    if not per_test:
+        return 1.0, per_test
+    w = np.array(w)
+    return float(stats.norm.sf(float(w @ np.array(z)) / math.sqrt(float(w @ w)))), per_test
+
+
+def attribute(residuals: dict, covariates: dict, degree=3, n_shifts=1000, seed=0, abscissae=None) -> list:
     """Rank covariates by the fraction of the residual they explain; returns [Attribution] by decreasing R^2.
 
     residuals: {(test, curve): r = U_obs/U_sim - 1 in recorded order, NaN for points not used}.
-    covariates: {name: {(test, curve): array aligned with the curve's points, or scalar} or {test: scalar or array
-    (applied to every curve of the test)}}; numeric or categorical (strings). Curves without the covariate are left
-    out of its fit. degree: Legendre degree in the rank for within-curve covariates; n_shifts: null draws.
+    covariates: {name: spec}, a spec in the plain form {(test, curve): array aligned with the curve's points, or
+    scalar} or {test: scalar or array (applied to every curve of the test)}, numeric or categorical (strings), or in
+    the declared form (module docstring: covariate specs). Curves without the covariate are left out of its fit.
+    degree: Legendre degree in the rank for within-curve covariates; n_shifts: null draws; abscissae: {(test,
+    curve): recorded abscissa} for the few-test contrasts' common abscissa (a spec's own "abscissa" comes first).
     """
     if n_shifts < 1:
         raise ValueError(f"n_shifts = {n_shifts} must be >= 1")
     results = []
     for name, spec in covariates.items():
-        cov = per_curve(name, spec, residuals)
+        cov, meta = _coded(name, per_curve(name, spec, residuals), split_spec(name, spec)[1])
         rng = np.random.default_rng(seed)  # the same shifts for every covariate (common random numbers)
         varying = any(np.unique(v[np.isfinite(residuals[k]) & _valid(v)]).size > 1 for k, v in cov.items())
+        scope = meta.get("scope")
+        if scope == "between" and varying:
+            raise ValueError(f"covariate {name!r}: declared 'between' but varies along a curve")
+        if scope == "within" and not varying:
+            raise ValueError(f"covariate {name!r}: declared 'within' but constant along every curve")
+        per_test = None
         if varying:
             obs, total, null, n_points, n_curves = _within(residuals, cov, degree, n_shifts, rng)
             null_name = f"{n_shifts} independent circular shifts of each curve's residuals"
         else:
             obs, total, null, n_points, n_curves, null_name = _between(residuals, cov, n_shifts, rng)
-        if total <= 0 or n_points == 0:
-            raise ValueError(f"covariate {name!r}: no residual variance on the points where it is defined")
+        if n_points == 0:
+            raise ValueError(f"covariate {name!r}: no residual on the points where it is defined")
+        if not total > 0:  # residuals constant where the covariate is defined (an exact fit): nothing to explain
+            results.append(Attribution(name, "within" if varying else "between", 0.0, 1.0, 1.0, int(n_points),
+                                       int(n_curves), "no residual variance", None, 0.0, None))
+            continue
         p = (1 + np.count_nonzero(null >= obs * (1 - 1e-12))) / (1 + null.size) if varying else \
             np.count_nonzero(null >= obs * (1 - 1e-12)) / null.size
-        few = None if varying else _contrast(residuals, cov)
+        if scope == "within":
+            p, per_test = _within_by_test(residuals, cov, degree, n_shifts, np.random.default_rng(seed))
+            null_name = (f"{n_shifts} circular shifts of each curve's residuals, one test per curve, Bonferroni over "
+                         f"the curves of a test, Stouffer over {len(per_test)} tests")
+        few = None if varying else _contrast(residuals, cov, meta, meta.get("abscissa", abscissae))
         if few is not None:
             p, null_name, few = few
         results.append(Attribution(name, "within" if varying else "between", float(obs / total), float(p),
-                                   float(p), int(n_points), int(n_curves), null_name, few))
+                                   float(p), int(n_points), int(n_curves), null_name, few,
+                                   float(math.sqrt(max(obs, 0.0) / n_points)), per_test))
     for a, adj in zip(results, holm([a.p_value for a in results])):
         a.p_adjusted = float(adj)
     return sorted(results, key=lambda a: -a.r2)

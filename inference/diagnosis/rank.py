@@ -24,12 +24,15 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
+from . import contrast
 from .attribution import per_curve
 
-__all__ = ["STRONG_LOG_BAYES", "rank_candidates", "conclude"]
+__all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "rank_candidates", "pattern_explained", "conclude"]
 
 #: ln B at and above which the evidence for the enriched class is "strong" (B >= 20, Kass & Raftery 1995)
 STRONG_LOG_BAYES = 3.0
+#: an enriched class explains a primary item when its effect size falls to at most this fraction of the base's
+PATTERN_REDUCTION = 0.5
 ROLES = ("primary", "supporting")
 
 
@@ -70,11 +73,52 @@ def _rank_correlation(residuals, covariate, curves):
     return float(stats.spearmanr(x, r)[0])
 
 
+def _contrast_p(a, item, want):
+    """(one-sided or two-sided p of the item on its curves' few-test contrasts, two-sided p, sign of the strongest
+    z, effect |mean b|), or None when the covariate has no contrast on the item's curves. Bonferroni over those
+    curves, then the covariate's Holm factor p_adjusted / p_value."""
+    details = {c: d for c, d in (a.get("contrast") or {}).items()
+               if item.get("curves") is None or c in item["curves"]}
+    if not details:
+        return None
+    m = len(details)
+    holm_factor = a["p_adjusted"] / a["p_value"] if a["p_value"] > 0 else 1.0
+    two = min(1.0, m * min(d["p"] for d in details.values()) * holm_factor)
+    strongest = min(details.values(), key=lambda d: d["p"])
+    if want == 0:
+        one = two
+    else:
+        one = min(1.0, m * min(contrast.one_sided(d, want) for d in details.values()) * holm_factor)
+    return one, two, int(np.sign(strongest["z"])), max(abs(d["mean"]) for d in details.values())
+
+
+def _item(item, a, rho, alpha):
+    """(status, item p, effect size) of one signature item against one covariate attribution ``a`` (dict or None):
+    the module docstring's rules."""
+    want = int(item["direction"])
+    if a is None:
+        return "not reported", None, None
+    effect = a.get("explained_rms")
+    few = _contrast_p(a, item, want)
+    if few is not None:
+        one, two, sign, effect = few
+        if one <= alpha:
+            return "supports", one, effect
+        return ("opposite direction" if two <= alpha and want != 0 and sign != want else "not significant"), one, \
+            effect
+    if a["p_adjusted"] > alpha:
+        return "not significant", a["p_adjusted"], effect
+    if want != 0 and (rho is None or np.sign(rho) != want):
+        return ("opposite direction" if rho is not None else "direction not measurable"), a["p_adjusted"], effect
+    return "supports", a["p_adjusted"], effect
+
+
 def rank_candidates(report, residuals: dict, covariates: dict, candidates: list, alpha=None) -> list:
-    """Score and rank candidate physics against a screening (module docstring: the score and when a candidate is
-    named). report: ScreenReport or its dict; residuals: {(test, curve): r} of the screened class; covariates: the
-    per-point covariates given to ``screen``; candidates: plain-data catalog entries (each with ``signature``,
-    optional ``in_base``, ``enrichment``, ``unavailable``). Returns dicts by decreasing score."""
+    """Score and rank candidate physics against a screening (module docstring: the score, when a candidate is named
+    and when it is plausible). report: ScreenReport or its dict; residuals: {(test, curve): r} of the screened class;
+    covariates: the per-point covariates given to ``screen``; candidates: plain-data catalog entries (each with
+    ``signature``, optional ``in_base``, ``enrichment``, ``unavailable``). Returns dicts by decreasing score, named
+    first."""
     rep = report if isinstance(report, dict) else report.to_dict()
     alpha = rep["alpha"] if alpha is None else float(alpha)
     structured = rep["verdict"] == "structured mismatch"
@@ -83,60 +127,113 @@ def rank_candidates(report, residuals: dict, covariates: dict, candidates: list,
     ranked = []
     for c in candidates:
         _check_candidate(c)
-        items, num, den, primary = [], 0.0, 0.0, False
+        items, num, den, primary, against = [], 0.0, 0.0, False, False
         for item in c["signature"]:
-            name, want = item["covariate"], int(item["direction"])
+            name = item["covariate"]
             a = attribution.get(name)
             rho = _rank_correlation(residuals, expanded[name], item.get("curves")) if name in expanded else None
-            if a is None:
-                status = "not reported"
-            elif a["p_adjusted"] > alpha:
-                status = "not significant"
-            elif want != 0 and (rho is None or np.sign(rho) != want):
-                status = "opposite direction" if rho is not None else "direction not measurable"
-            else:
-                status = "supports"
+            status, p_item, effect = _item(item, a, rho, alpha)
             evidence = a["r2"] if status == "supports" else 0.0
             num += item["weight"] * evidence
             den += item["weight"]
             primary |= status == "supports" and item["role"] == "primary"
+            against |= status == "opposite direction" and item["role"] == "primary"
             items.append({**{k: item.get(k) for k in ("covariate", "role", "weight", "direction", "meaning")},
-                          "r2": None if a is None else a["r2"], "p_adjusted": None if a is None else a["p_adjusted"],
+                          "curves": item.get("curves"), "r2": None if a is None else a["r2"],
+                          "p_adjusted": None if a is None else a["p_adjusted"], "p_item": p_item, "effect": effect,
                           "rank_correlation": rho, "status": status, "evidence": evidence})
         in_base = bool(c.get("in_base", False))
+        score = num / den if den else 0.0
         named = structured and primary and not in_base
-        ranked.append({"name": c["name"], "physics": c.get("physics", ""), "score": num / den if den else 0.0,
-                       "named": named, "in_base": in_base, "enrichment": c.get("enrichment"),
+        plausible = named or (structured and not in_base and score > 0 and not against)
+        ranked.append({"name": c["name"], "physics": c.get("physics", ""), "score": score, "named": named,
+                       "plausible": plausible, "in_base": in_base, "enrichment": c.get("enrichment"),
                        "unavailable": c.get("unavailable", ""), "items": items})
     return sorted(ranked, key=lambda d: (-d["named"], -d["score"]))
 
 
-def conclude(ranked: list, classes: list, threshold=STRONG_LOG_BAYES) -> dict:
-    """The omitted physics from ranked candidates and model classes [{name, role, candidate, log_evidence, ...}].
+def pattern_explained(base_entry: dict, enriched_entry: dict | None, reduction=PATTERN_REDUCTION) -> tuple:
+    """(explained, reasons): does the enriched class explain the candidate's own residual pattern?
 
-    Returns {omitted_physics, log_bayes: {class: ln Z - ln Z_base}, candidates: [{name, decision}], threshold}."""
+    base_entry: the candidate ranked on the base class's screening; enriched_entry: the same candidate ranked on the
+    enriched class's screening (None: not screened, counted as explained). Explained when every primary item that
+    supports the candidate on the base class either no longer supports it on the enriched class or its effect size
+    (few-test contrast: |mean difference|; else the root mean square of the residual the covariate explains) fell
+    to at most ``reduction`` times the base's. reasons: the items left, in words."""
+    if enriched_entry is None:
+        return True, []
+    after = {(i["covariate"], tuple(i["curves"] or ()), i["direction"]): i for i in enriched_entry["items"]}
+    left = []
+    for i in base_entry["items"]:
+        if i["role"] != "primary" or i["status"] != "supports":
+            continue
+        j = after.get((i["covariate"], tuple(i["curves"] or ()), i["direction"]))
+        if j is None or j["status"] != "supports":
+            continue
+        if i["effect"] is not None and j["effect"] is not None and j["effect"] <= reduction * i["effect"]:
+            continue
+        size = "" if i["effect"] is None or j["effect"] is None else \
+            f" (size {100 * i['effect']:.2g} % -> {100 * j['effect']:.2g} %)"
+        left.append(f"{i['covariate']}: {i['meaning']}{size}")
+    return not left, left
+
+
+def conclude(ranked: list, classes: list, threshold=STRONG_LOG_BAYES, margin=None, explained=None) -> dict:
+    """The omitted physics from ranked candidates and model classes [{name, role, candidate, log_evidence, ...}]
+    (module docstring: confirmation). margin: ln B by which a candidate's enriched class must beat every other
+    enriched class unless it is the best-ranked named candidate passing the other conditions (default: threshold);
+    explained: {candidate: (explained, reasons)} of `pattern_explained` (missing: explained).
+
+    Returns {omitted_physics, log_bayes: {class: ln Z - ln Z_base}, candidates: [{name, decision, confirmed}],
+    threshold, margin}."""
+    margin = float(threshold if margin is None else margin)
+    explained = explained or {}
     base = [c for c in classes if c["role"] == "base"]
     if len(base) != 1:
         raise ValueError(f"classes need exactly one with role 'base', got {[c['name'] for c in base]}")
     lnz0 = base[0]["log_evidence"]
     enriched = {c["candidate"]: c for c in classes if c["role"] == "enriched"}
     log_bayes = {c["name"]: c["log_evidence"] - lnz0 for c in classes if c["role"] == "enriched"}
+    by_candidate = {cand: log_bayes[c["name"]] for cand, c in enriched.items()}
     omitted, decisions = "none", []
     for r in ranked:
+        lnb = by_candidate.get(r["name"])
+        others = {k: v for k, v in by_candidate.items() if k != r["name"]}
+        best_other = max(others.items(), key=lambda kv: kv[1]) if others else None
+        ok, left = explained.get(r["name"], (True, []))
+        confirmed = False
         if not r["named"]:
             decision = "already in the base model" if r["in_base"] else "not named"
+            if lnb is not None:
+                decision += f" (its enriched class: ln B = {lnb:.2f}; evidence without the signature)"
         elif r["enrichment"] is None:
             decision = f"candidate named, enrichment not available ({r['unavailable']})"
-        elif r["name"] not in enriched:
+        elif lnb is None:
             decision = "candidate named, enriched class not calibrated"
+        elif lnb < threshold:
+            decision = f"named, not confirmed: ln B = {lnb:.2f} < {threshold:g}"
+        elif not ok:
+            decision = (f"named, not confirmed: ln B = {lnb:.2f} but its enriched class leaves its own residual "
+                        f"pattern: {'; '.join(left)}")
+        elif best_other is not None and best_other[1] >= lnb + margin:
+            decision = (f"named, not confirmed: ln B = {lnb:.2f}, beaten by the enriched class of {best_other[0]} "
+                        f"(ln B = {best_other[1]:.2f}, margin {margin:g})")
+        elif omitted != "none":
+            decision = f"also supported: ln B = {lnb:.2f} (ranked below {omitted})"
+        elif best_other is not None and best_other[1] > lnb - margin and not _first_named_with_class(ranked, r,
+                                                                                                        by_candidate):
+            decision = (f"named, not confirmed: ln B = {lnb:.2f} does not beat the enriched class of {best_other[0]} "
+                        f"(ln B = {best_other[1]:.2f}) by the margin {margin:g}, and a candidate ranks above it")
         else:
-            lnb = log_bayes[enriched[r["name"]]["name"]]
-            if lnb >= threshold and omitted == "none":
-                omitted, decision = r["name"], f"confirmed: ln B = {lnb:.2f} >= {threshold:g}"
-            elif lnb >= threshold:
-                decision = f"also supported: ln B = {lnb:.2f} (ranked below {omitted})"
-            else:
-                decision = f"not confirmed: ln B = {lnb:.2f} < {threshold:g}"
-        decisions.append({"name": r["name"], "decision": decision})
-    return {"omitted_physics": omitted, "log_bayes": log_bayes, "threshold": float(threshold),
+            omitted, confirmed = r["name"], True
+            decision = f"confirmed: ln B = {lnb:.2f} >= {threshold:g}"
+        decisions.append({"name": r["name"], "decision": decision, "confirmed": confirmed})
+    return {"omitted_physics": omitted, "log_bayes": log_bayes, "threshold": float(threshold), "margin": margin,
             "candidates": decisions}
+
+
+def _first_named_with_class(ranked, r, by_candidate) -> bool:
+    """True when ``r`` is the best-ranked named candidate whose enriched class was calibrated."""
+    first = next((c for c in ranked if c["named"] and c["enrichment"] is not None and c["name"] in by_candidate),
+                 None)
+    return first is not None and first["name"] == r["name"]

@@ -15,15 +15,15 @@ import time
 
 import numpy as np
 
-from .attribution import Attribution, expand_covariates
-from .rank import STRONG_LOG_BAYES, conclude, rank_candidates
+from .attribution import Attribution, expand_covariates, split_spec
+from .rank import STRONG_LOG_BAYES, conclude, pattern_explained, rank_candidates
 from .screening import POSITION, CurveStatistics, ScreenReport, relative_residuals, screen
 from .structure import Region
 
 __all__ = ["diagnose", "markdown", "to_json"]
 
 #: the fields of a model class reported in the diagnosis (the arrays stay out)
-CLASS_FIELDS = ("name", "role", "candidate", "log_evidence", "J_g", "parameters", "sigma_eps", "wall_s")
+CLASS_FIELDS = ("name", "role", "candidate", "log_evidence", "J_g", "parameters", "sigma_eps", "wall_s", "warnings")
 
 
 def _class_dict(model_class) -> dict:
@@ -31,45 +31,73 @@ def _class_dict(model_class) -> dict:
     return model_class.to_dict() if hasattr(model_class, "to_dict") else model_class
 
 
+def _with_abscissa(covariates: dict, likelihood) -> dict:
+    """Every covariate spec in its declared form with the recorded abscissae of the curves (the few-test contrasts'
+    common abscissa, `contrast.common_grid`), unless the spec names its own."""
+    x = {(t.name, c): curve.x for t in likelihood.observations for c, curve in t.curves.items()}
+    out = {}
+    for name, spec in covariates.items():
+        values, meta = split_spec(name, spec)
+        out[name] = {"values": values, **meta, "abscissa": meta.get("abscissa", x)}
+    return out
+
+
 def diagnose(likelihood, classes: list, covariates: dict, candidates: list, description="", alpha=0.05, level=0.95,
-             threshold=STRONG_LOG_BAYES, n_shifts=1000) -> dict:
+             threshold=STRONG_LOG_BAYES, n_shifts=1000, margin=None) -> dict:
     """Screen every model class, rank the candidates on the base class, conclude; returns the diagnosis dict.
 
     likelihood: an inference.Likelihood of the recorded curves (observations and near-zero floor; its forward model
     is not called); classes: model classes (``ModelClass`` or its dict: name, role "base" | "enriched", candidate,
     log_evidence, J_g, parameters, sigma_eps, wall_s, map_simulated {(test, curve): values}, sample_simulated
-    {(test, curve): (n_s, n)}, sample_sigma (n_s,)), exactly one with role "base"; covariates: per-point covariates
-    of the base class in the form of ``screen``; candidates: plain-data catalog entries (``rank.rank_candidates``);
-    alpha: family-wise false-alarm level of each screening; level: predictive band level; threshold: ln B that
-    confirms an enrichment; n_shifts: null draws of the attribution. Deterministic (fixed seeds).
+    {(test, curve): (n_s, n)}, sample_sigma (n_s,), optional warnings [str]), exactly one with role "base";
+    covariates: per-point covariates of the base class in the form of ``screen`` (plain or declared specs,
+    `attribution.split_spec`); candidates: plain-data catalog entries (``rank.rank_candidates``); alpha: family-wise
+    false-alarm level of each screening; level: predictive band level; threshold: ln B that confirms an enrichment
+    (module docstring: calibration); n_shifts: null draws of the attribution; margin: ln B by which a candidate
+    must beat the other enriched classes (`rank.conclude`, default threshold). Deterministic (fixed seeds).
     """
     t0 = time.perf_counter()
     alpha, level = float(alpha), float(level)
     classes = [_class_dict(cl) for cl in classes]
     covariates = expand_covariates(covariates, {(t.name, c): curve.y for t in likelihood.observations
                                                 for c, curve in t.curves.items()})
-    screens, structure = {}, {}
+    screened = _with_abscissa(covariates, likelihood)
+    screens, structure, ranked_by_class = {}, {}, {}
     for cl in classes:
-        base = cl["role"] == "base"
         rep = screen(likelihood, cl["map_simulated"], cl["sigma_eps"], cl["sample_simulated"], cl["sample_sigma"],
-                     covariates if base else None, alpha=alpha, level=level, n_shifts=n_shifts)
+                     screened, alpha=alpha, level=level, n_shifts=n_shifts)
         screens[cl["name"]], structure[cl["name"]] = rep, _structure(rep)
+        ranked_by_class[cl["name"]] = rank_candidates(rep, relative_residuals(likelihood, cl["map_simulated"]),
+                                                      screened, candidates, alpha)
     base = next(cl for cl in classes if cl["role"] == "base")
-    residuals = relative_residuals(likelihood, base["map_simulated"])
-    ranked = rank_candidates(screens[base["name"]], residuals, covariates, candidates, alpha)
-    verdict = conclude(ranked, classes, threshold)
+    ranked = ranked_by_class[base["name"]]
+    explained = {}
+    for cl in classes:
+        if cl["role"] == "enriched":
+            own = {r["name"]: r for r in ranked_by_class[cl["name"]]}
+            entry = next((r for r in ranked if r["name"] == cl["candidate"]), None)
+            if entry is not None:
+                explained[cl["candidate"]] = pattern_explained(entry, own.get(cl["candidate"]))
+    verdict = conclude(ranked, classes, threshold, margin, explained)
+    recorded = sorted({c for t in likelihood.observations for c in t.curves})
+    warnings = {cl["name"]: list(cl.get("warnings") or []) for cl in classes if cl.get("warnings")}
     out = {"description": description, "alpha": alpha, "verdict": screens[base["name"]].verdict,
            "omitted_physics": verdict["omitted_physics"],
-           "recommendation": _recommendation(verdict, ranked, screens[base["name"]]),
+           "recommendation": _recommendation(verdict, ranked, screens[base["name"]], warnings.get(base["name"])),
            "mismatch_regions": [{**r.to_dict(), "x_unit": likelihood.observations[r.test].curves[r.curve].x_unit}
                                 for r in screens[base["name"]].regions],
            "attribution": [a.to_dict() for a in screens[base["name"]].attribution],
-           "candidates": [{**r, "decision": d["decision"]} for r, d in zip(ranked, verdict["candidates"])],
+           "candidates": [{**r, "decision": d["decision"], "confirmed": d["confirmed"],
+                           "pattern_explained": explained.get(r["name"], (None, []))[0],
+                           "pattern_left": explained.get(r["name"], (None, []))[1]}
+                          for r, d in zip(ranked, verdict["candidates"])],
            "classes": [{k: cl.get(k) for k in CLASS_FIELDS}
                        | {"log_bayes_vs_base": verdict["log_bayes"].get(cl["name"], 0.0 if cl["role"] == "base"
                                                                          else None),
                           "structure": structure[cl["name"]]} for cl in classes],
            "log_bayes": verdict["log_bayes"], "threshold_log_bayes": verdict["threshold"],
+           "margin_log_bayes": verdict["margin"], "warnings": warnings,
+           "next_tests": next_tests(ranked, covariates, recorded),
            "screens": {name: rep.to_dict() for name, rep in screens.items()}}
     out["wall_s"] = time.perf_counter() - t0
     return out
@@ -89,29 +117,75 @@ def _structure(report) -> dict:
             "points": int(sum(c.n_points for c in curves)), "screen_wall_s": report.wall_s}
 
 
-def _recommendation(verdict, ranked, report) -> str:
-    """The recommendation in one line, from the conclusion, the ranked candidates and the base class's screening."""
+def next_tests(ranked: list, covariates: dict, recorded: list) -> list:
+    """What the records lack to test each candidate that is not already in the base model and not named: for each
+    primary signature item, the covariate it needs when the records do not report it ("not reported": no test
+    varies that condition, or the forward model does not report it), the curves it is measured on when none of them
+    is recorded, and more tests at other levels when a between-test condition is not significant. Returns
+    [{candidate, needs: [words]}] for the candidates that need something."""
+    out = []
+    for r in ranked:
+        if r["in_base"] or r["named"]:
+            continue
+        needs = []
+        for i in r["items"]:
+            if i["role"] != "primary":
+                continue
+            if i["curves"] is not None and not set(i["curves"]) & set(recorded):
+                needs.append(f"record {' or '.join(i['curves'])} (its pattern: {i['meaning']})")
+            elif i["status"] == "not reported":
+                needs.append(f"tests that differ in {i['covariate']}, reported as a covariate (its pattern: "
+                             f"{i['meaning']})")
+            elif i["status"] == "not significant" and i["covariate"] in covariates and i["p_adjusted"] is not None \
+                    and i["p_adjusted"] >= 0.5:
+                needs.append(f"more tests at other levels of {i['covariate']} (not significant here: p = "
+                             f"{i['p_adjusted']:.2g})")
+        if needs:
+            out.append({"candidate": r["name"], "needs": list(dict.fromkeys(needs))})
+    return out
+
+
+def _recommendation(verdict, ranked, report, warnings=None) -> str:
+    """The recommendation in one line, from the conclusion, the ranked candidates, the base class's screening and
+    its poor-fit warnings."""
+    poor = f"; the base model fits poorly ({'; '.join(warnings)})" if warnings else ""
     if report.verdict != "structured mismatch":
-        return "no structured mismatch: no enrichment recommended"
+        return "no structured mismatch: no enrichment recommended" + poor
     if verdict["omitted_physics"] != "none":
-        return f"adopt the enriched class that adds {verdict['omitted_physics']}"
+        return f"adopt the enriched class that adds {verdict['omitted_physics']}" + poor
     named = [r["name"] for r in ranked if r["named"]]
     if not named:
-        return "structured mismatch that no catalog signature explains: no enrichment recommended"
-    return f"candidates named ({', '.join(named)}) but none confirmed by the Bayes factor: no enrichment adopted"
+        return "structured mismatch that no catalog signature explains: no enrichment recommended" + poor
+    return (f"candidates named ({', '.join(named)}) but none confirmed by the Bayes factor and its own residual "
+            "pattern: no enrichment adopted" + poor)
+
+
+def _follows(a) -> str:
+    """How the residual follows one significant covariate attribution, in words."""
+    text = f"{a['name']} ({a['kind']}-test, R^2 = {a['r2']:.2f}, p = {a['p_adjusted']:.2g}"
+    for curve, d in (a.get("contrast") or {}).items():
+        if "levels" in d:
+            lo, hi = d["levels"]
+            text += f"; {curve}: {hi} {100 * d['mean']:+.1f} % relative to {lo}"
+        else:
+            text += f"; {curve}: {'rises' if d['z'] > 0 else 'falls'} with it"
+    return text + ")"
 
 
 def _fmt(v, spec=".3g"):
+    if isinstance(v, (list, tuple)):  # per-curve sigma of error groups: the distinct values
+        return " / ".join(format(x, spec) for x in dict.fromkeys(v))
     return "-" if v is None else format(v, spec)
 
 
 def _engineer_summary(d) -> list:
     """The conclusion in words, from the diagnosis dict."""
+    poor = [f"Poor fit of {name}: {'; '.join(w)}." for name, w in (d.get("warnings") or {}).items()]
     if d["verdict"] != "structured mismatch":
         return ["The base model's residuals are consistent with the measurement noise (no test, curve or strain "
                 "range misfits beyond the false-alarm level): nothing is missing that these records can reveal, and "
-                "no enrichment is recommended."]
-    lines = []
+                "no enrichment is recommended."] + poor
+    lines = poor
     by_test = {}
     for r in d["mismatch_regions"]:
         by_test.setdefault(r["test"], []).append(r)
@@ -126,13 +200,22 @@ def _engineer_summary(d) -> list:
                                           "(no single contiguous region)") + ".")
     sig = [a for a in d["attribution"] if a["p_adjusted"] <= d["alpha"] and a["name"] != POSITION]
     if sig:
-        lines.append("The structured residual is explained by " + ", ".join(
-            f"{a['name']} ({a['kind']}-test, R^2 = {a['r2']:.2f}, p = {a['p_adjusted']:.2g})" for a in sig) + ".")
-    top = d["candidates"][0]
+        lines.append("The structured residual follows " + ", ".join(_follows(a) for a in sig) + ".")
+    else:
+        lines.append("No reported covariate explains it beyond the false-alarm level.")
+    top = d["candidates"][0] if d["candidates"] else {"named": False}
     if top["named"]:
         said = [f"{i['meaning']} (rank correlation {_fmt(i['rank_correlation'], '+.2f')})"
                 for i in top["items"] if i["status"] == "supports"]
         lines.append(f"This is the signature of {top['name']}: " + "; ".join(said) + ".")
+    else:
+        lines.append("No catalog entry's signature explains this structure.")
+    for c in d["candidates"]:
+        if c["named"] and not c.get("confirmed", c["name"] == d["omitted_physics"]):
+            lines.append(f"{c['name']}: {c['decision']}.")
+    if d["omitted_physics"] == "none" and d.get("next_tests"):
+        lines.append("To separate the remaining hypotheses: " + "; ".join(
+            f"{n['candidate']} needs {', '.join(n['needs'])}" for n in d["next_tests"]) + ".")
     if d["omitted_physics"] != "none":
         cl = next(c for c in d["classes"] if c["role"] == "enriched" and c["candidate"] == d["omitted_physics"])
         lnb = d["log_bayes"][cl["name"]]
