@@ -31,7 +31,6 @@ import json
 import sys
 from pathlib import Path
 
-import inference
 from constitutive.registry import class_name
 from inference import DataError
 from inference.executors import mpi_world
@@ -83,7 +82,7 @@ def main(argv=None):
                               "timing": d["timing"]}, default=float), flush=True)
         return 0
     name = class_name(study.switches, study.model)
-    like = inference.Likelihood(observations, problem.forward(study.switches), batch=True)
+    like = problem.make_likelihood(observations, study.switches)
     prior = problem.prior(study.free, study.log_uniform)
 
     def finish(one, seed, out, post):

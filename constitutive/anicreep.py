@@ -158,6 +158,7 @@ class ANICREEP(MaterialModel):
     switch_parameters = {"viscous": ("C_alpha_e",), "destructuration": ("chi0", "xi", "xi_d")}
     parameter_defaults = {"tau": REFERENCE_TIME}
     void_ratio_parameter = True
+    parameter_constraints = ("kappa < lambda_",)
     oriented = True
     #: Newton tolerance on the scaled residuals (stress / p'_m,n^r, alpha, log-overstress)
     tolerance = 1e-10

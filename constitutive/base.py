@@ -134,6 +134,8 @@ class MaterialModel:
     catalog_switches: dict = {}
     #: the initial void ratio is a model parameter (``e0``), not a condition of each test
     void_ratio_parameter = False
+    #: constraints between parameters that the constructor enforces, as expressions of ``inference.Prior``
+    parameter_constraints: tuple = ()
     #: the constructor takes ``vertical_axis`` (the deposition axis of an anisotropic initial fabric)
     oriented = False
     #: laboratory drivers default to strain steps of at most this; None: the model's own triaxial integrator

@@ -72,6 +72,7 @@ class ModifiedCamClay(MaterialModel):
     exactly_one = (("G", "nu"),)
     at_most_one = (("pc0", "ocr"),)
     catalog_switches = {"viscous": False, "anisotropy": False}
+    parameter_constraints = ("kappa < lambda_",)
     #: Newton tolerance on the scaled residuals (b r1, f/p'_cn^2), b = v/(lambda - kappa)
     tolerance = 1e-11
     max_iterations = 30

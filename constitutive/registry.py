@@ -37,7 +37,9 @@ class ModelSpec:
     e0_parameter  the void ratio is a model parameter, else a condition of each test (``void_ratio_parameter``);
     max_strain_step  the laboratory drivers' default largest strain step, None: the model's own triaxial
                   integrator controls its substeps;
-    ranges        parameter -> ParameterRange (physical range, checked on construction; typical range of soils).
+    ranges        parameter -> ParameterRange (physical range, checked on construction; typical range of soils);
+    constraints   expressions between parameters the model enforces (``parameter_constraints``, e.g.
+                  "kappa < lambda_"), a study's prior is restricted by them.
     """
 
     cls: type
@@ -52,6 +54,7 @@ class ModelSpec:
     e0_parameter: bool
     max_strain_step: float | None
     ranges: dict
+    constraints: tuple = ()
 
     @classmethod
     def of(cls, model_class: type[MaterialModel]) -> ModelSpec:
@@ -60,7 +63,8 @@ class ModelSpec:
                    dict(model_class.switches), dict(model_class.parameter_defaults), tuple(model_class.exactly_one),
                    tuple(model_class.at_most_one), dict(model_class.catalog_switches),
                    dict(model_class.switch_parameters), bool(model_class.void_ratio_parameter),
-                   model_class.max_strain_step, dict(model_class.parameter_ranges))
+                   model_class.max_strain_step, dict(model_class.parameter_ranges),
+                   tuple(model_class.parameter_constraints))
 
     def needed(self, switches: dict) -> tuple:
         """The parameters the model needs with ``switches`` (unnamed switches at their defaults): the required ones

@@ -13,6 +13,7 @@ import numpy as np
 from inference import diagnosis
 
 from .runner import method_name
+from .warnings import calibration_warnings
 
 __all__ = ["LABELS", "X_LABELS", "parameter_table", "runs_table", "pyplot", "plot_marginals", "plot_stages",
            "plot_curves", "plot_loop", "write_outputs"]
@@ -125,7 +126,8 @@ def plot_stages(post, path):
 
 
 def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, truth: dict | None):
-    """report.md, curves.png, marginals.png, stages.png of one calibrated class of ``study`` (its summary.json is
+    """report.md (with the calibration warnings of :mod:`cases.study.warnings`, also printed on stdout as
+    ``warning: ...``), curves.png, marginals.png, stages.png of one calibrated class of ``study`` (its summary.json is
     written); ``cls`` the class record (MAP and posterior-sample curves), ``truth`` the values synthetic
     recordings were made from (or None)."""
     out = Path(out)
@@ -134,8 +136,9 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     title = f"{study.name}: {cls['name']}, {method_name(method)} ({tag})"
     plot_curves(out / "curves.png", like, cls["map_simulated"], bands, title)
     marks = {"generating (synthetic)": truth} if truth else None
-    plot_marginals(post, out / "marginals.png", marks=marks, bounds={**study.free, "sigma_eps": study.sigma_bounds},
-                   title=title)
+    sigma_bounds = ({"sigma_eps": study.sigma_bounds} if study.error_model is None
+                    else study.error_model.parameter_bounds())
+    plot_marginals(post, out / "marginals.png", marks=marks, bounds={**study.free, **sigma_bounds}, title=title)
     plot_stages(post, out / "stages.png")
     summary = json.loads((out / "summary.json").read_text())
     lines = [f"# {study.name}: {method_name(method)} calibration of {cls['name']}", ""]
@@ -160,8 +163,12 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
             f"{n} {'yes' if lo <= truth[n] <= hi else 'NO'}" for n in names for lo, hi in [post.credible_interval(n)]))
         lines.append("")
     lines += ["Predictive coverage of the records (95 % band): " + ", ".join(
-        f"{t} {c} {100 * b.coverage:.0f} %" for (t, c), b in bands.items()), "",
-        "Figures: curves.png (records, MAP, 95 % posterior predictive band), marginals.png, stages.png."]
+        f"{t} {c} {100 * b.coverage:.0f} %" for (t, c), b in bands.items()), ""]
+    warnings = calibration_warnings(post, like, cls["map_simulated"])
+    for text in warnings:
+        print(f"warning: {text}", flush=True)
+    lines += ["## Warnings", ""] + ([f"- {text}" for text in warnings] or ["none"]) + [""]
+    lines += ["Figures: curves.png (records, MAP, 95 % posterior predictive band), marginals.png, stages.png."]
     (out / "report.md").write_text("\n".join(lines) + "\n")
 
 

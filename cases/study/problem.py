@@ -54,6 +54,12 @@ class LoopProblem:
     base_log_uniform: tuple = ()
     sigma_bounds = {"sigma_eps": (0.002, 0.3)}
     sigma_kind = "uniform"
+    #: inference.Constraint (or expressions) restricting the prior of the free parameters
+    constraints: tuple = ()
+    #: {group: [(test, curve), ...]} of the likelihood's error groups (Eq. (6g)); None: one sigma_eps
+    error_groups = None
+    #: {test: weight} of Eq. (6) (tests not named: 1)
+    weights: dict = {}
     #: where the base class is calibrated, relative to the loop's directory
     base_dir = "base"
 
@@ -91,11 +97,17 @@ class LoopProblem:
         return f"Base class {base_name}; catalog: constitutive.physics_catalog ({label})."
 
     def prior(self, bounds: dict, log_uniform) -> inference.Prior:
-        """Uniform free parameters, then sigma_eps, then the log-uniform ones (their order in theta)."""
+        """Uniform free parameters, then the error parameters (sigma_eps or sigma_eps_<group>), then the log-uniform
+        ones (their order in theta); restricted by ``constraints``."""
         entries = [Bound(k, *map(float, v)) for k, v in bounds.items() if k not in log_uniform]
         entries += [Bound(k, *map(float, v), self.sigma_kind) for k, v in self.sigma_bounds.items()]
         entries += [Bound(k, *map(float, bounds[k]), "log-uniform") for k in log_uniform]
-        return inference.Prior(entries)
+        return inference.Prior(entries, self.constraints)
+
+    def make_likelihood(self, observations, switches) -> inference.Likelihood:
+        """The likelihood of the class with ``switches``: Eqs. (3)-(6) with the study's weights and error groups."""
+        return inference.Likelihood(observations, self.forward(switches), weights=self.weights or None, batch=True,
+                                    groups=self.error_groups)
 
     def outputs(self, run, seed, out, post, like, cls: dict, map_curves):
         """Figures and reports of one calibrated class (after summary.json)."""
@@ -108,7 +120,7 @@ class LoopProblem:
                         settings: Settings) -> tuple:
         """Calibrate one model class in ``out``; returns (ModelClass, Posterior, Likelihood)."""
         t0 = time.perf_counter()
-        like = inference.Likelihood(observations, self.forward(switches), batch=True)
+        like = self.make_likelihood(observations, switches)
         prior = self.prior(bounds, log_uniform)
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
                                 max_steps=settings.max_steps, progress=False)
@@ -127,8 +139,11 @@ class LoopProblem:
 
     def class_record(self, post, like, name, switches, seed, draws, summary) -> ModelClass:
         """The class as the diagnosis reads it: MAP curves, ``draws`` posterior-sample curves for the predictive
-        band (rows drawn with ``seed``); the MAP's raw curves in ``extra["map_curves"]``."""
+        band (rows drawn with ``seed``); the MAP's raw curves in ``extra["map_curves"]``. With error groups,
+        sigma_eps is each curve's sigma at the MAP (a list in the likelihood's curve order)."""
         params, sigma = like.split(post.map_theta)
+        if isinstance(sigma, dict):
+            sigma = [float(s) for s in like.curve_sigmas(post.map_theta)[0]]
         map_raw = self.map_curves(params, switches)
         rng = np.random.default_rng(seed)
         rows = rng.choice(len(post.samples), size=min(draws, len(post.samples)), replace=False)
@@ -139,7 +154,8 @@ class LoopProblem:
             J_g=summary["J_g_at_map"],
             parameters={n: {"map": post.map[n], "mean": post.mean[n], "std": post.std[n], "q2.5": q[n][0],
                             "q97.5": q[n][2]} for n in post.names},
-            sigma_eps=float(sigma), map_simulated=like.simulated_at_observations(map_raw),
+            sigma_eps=sigma if isinstance(sigma, list) else float(sigma),
+            map_simulated=like.simulated_at_observations(map_raw),
             sample_simulated=sample_sims, sample_sigma=sample_sigma, wall_s=summary["calibration_wall_s"],
             n_forward_solves=summary["n_forward_solves"], extra={"map_curves": map_raw})
 
@@ -208,8 +224,12 @@ class StudyProblem(LoopProblem):
         self.base_switches = dict(study.switches)
         self.base_bounds = dict(study.free)
         self.base_log_uniform = tuple(study.log_uniform)
-        self.sigma_bounds = {"sigma_eps": study.sigma_bounds}
+        self.sigma_bounds = ({"sigma_eps": study.sigma_bounds} if study.error_model is None
+                             else study.error_model.parameter_bounds())
         self.sigma_kind = study.sigma_kind
+        self.constraints = study.constraints
+        self.error_groups = None if study.error_model is None else study.error_model.curve_groups(observations)
+        self.weights = {t.name: t.weight for t in study.tests if t.weight != 1.0}
         self.base_dir = "."
         self.preset = study.preset(quick)
         self.processes, self.dispatch = processes, dispatch
@@ -236,7 +256,10 @@ class StudyProblem(LoopProblem):
                 "tests": {t.name: {"file": str(t.file), **t.conditions()} for t in s.tests},
                 "fe": ({k: getattr(self.preset, k) for k in FE_FIELDS} if any(t.type == "sbp" for t in s.tests)
                        else None),
-                "synthetic_recordings": self.synthetic, "generating": self.generating}
+                "synthetic_recordings": self.synthetic, "generating": self.generating,
+                **({"constraints": [c.text for c in s.constraints]} if s.constraints else {}),
+                **({"sigma_eps_groups": {g: [f"{t}/{c}" for t, c in keys] for g, keys in self.error_groups.items()}}
+                   if self.error_groups else {})}
 
     def describe(self, label, base_name):
         free = ", ".join(self.study.free)

@@ -115,11 +115,15 @@ def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) 
         jg = {"error": f"{type(exc).__name__}: {exc}"}
     fields = {"case": case, "method": method_name(run.method), "seed": int(seed), "quick": bool(run.quick),
               "J_g_at_map": jg, "J_g_wall_s": time.perf_counter() - t0}
-    name = like.sigma if isinstance(like.sigma, str) else None
-    if name:
+    def sigma_fields(name):
         i = post.names.index(name)
-        fields["sigma_eps"] = {"map": float(post.map_theta[i]), "mean": float(post.samples[:, i].mean()),
-                               "std": float(post.samples[:, i].std(ddof=1))}
+        return {"map": float(post.map_theta[i]), "mean": float(post.samples[:, i].mean()),
+                "std": float(post.samples[:, i].std(ddof=1))}
+
+    if len(like.sigma_names) == 1:
+        fields["sigma_eps"] = sigma_fields(like.sigma_names[0])
+    elif like.sigma_names:  # error groups: {group: ...}
+        fields["sigma_eps"] = {g: sigma_fields(n) for g, n in zip(like.groups, like.sigma_names)}
     fields.update(extra or {})
     post.save(out, extra=fields)
     checkpoint = Path(out) / "run.ckpt"

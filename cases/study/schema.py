@@ -12,6 +12,8 @@ from constitutive import ParameterError
 from constitutive.registry import MODELS, ModelSpec, build_model
 
 from .checks import Checker, StudyError, read_toml
+from .constraints import feasible_point, read_constraints
+from .error_model import DEFAULT_SIGMA, ErrorModel, read_error_model
 from .entries import test_spec
 from .presets import FE_FIELDS, PRESETS, Preset
 
@@ -52,6 +54,8 @@ class Study:
     fe: dict
     fe_quick: dict
     synthetic: dict
+    error_model: ErrorModel | None = None   # [sigma_eps]: bounds and error groups (None: one sigma_eps, sigma_bounds)
+    constraints: tuple = ()                 # inference.Constraint restricting the free parameters' prior
 
     @property
     def spec(self) -> ModelSpec:
@@ -80,7 +84,7 @@ def load_study(path, check_files=True) -> Study:
     m = ck.table(doc["model"], "model", None, ("name",))
     model = ck.text(m["name"], "model.name", tuple(MODELS))
     spec = MODELS[model]
-    ck.table(m, "model", ("name", "fixed", "free", *spec.switches))
+    ck.table(m, "model", ("name", "fixed", "free", "constraints", *spec.switches))
     switches = {k: ck.flag(m.get(k, v), f"model.{k}") for k, v in spec.switches.items()}
     fixed_in = ck.table(m.get("fixed", {}), "model.fixed")
     free_in = ck.table(m.get("free", {}), "model.free")
@@ -121,13 +125,12 @@ def load_study(path, check_files=True) -> Study:
                 raise StudyError(f"{path}: [model] {switch} = true needs {k} in [model.fixed] or [model.free]")
             if not switches[switch] and k in free:
                 ck.fail(f"model.free.{k}", free_in[k], f"not used when {switch} = false (nothing to identify)")
-    check_model_values(ck, model, switches, fixed, free)
+    constraints = read_constraints(ck, m, spec, model, fixed, free)
+    check_model_values(ck, model, switches, fixed, free, constraints)
 
     # ---- error parameter and sampler
-    s = ck.table(doc.get("sigma_eps", {"bounds": [0.002, 0.3]}), "sigma_eps", ("bounds", "prior"), ("bounds",))
-    lo, hi, sigma_kind = ck.bounds(s, "sigma_eps")
-    if lo < 0:
-        ck.fail("sigma_eps.bounds", s["bounds"], "sigma_eps must be >= 0")
+    error_model = read_error_model(ck, doc.get("sigma_eps", DEFAULT_SIGMA))
+    (lo, hi), sigma_kind = error_model.bounds, error_model.kind
     sampler_in = ck.table(doc.get("sampler", {}), "sampler", (*SAMPLER_DEFAULTS, "quick"))
     quick_in = ck.table(sampler_in.get("quick", {}), "sampler.quick", tuple(SAMPLER_DEFAULTS))
     sampler = {k: ck.integer(sampler_in.get(k, v), f"sampler.{k}", 5 if k == "samples" else 1)
@@ -150,7 +153,7 @@ def load_study(path, check_files=True) -> Study:
     synthetic = ck.table(doc.get("synthetic", {}), "synthetic",
                          ("parameters", "switches", "noise", "seed", "points", "max_strain_pct"))
     return Study(path, name, description, model, switches, fixed, free, tuple(log_uniform), (lo, hi), sigma_kind,
-                 tests, sampler, quick, fe, fe_quick, synthetic)
+                 tests, sampler, quick, fe, fe_quick, synthetic, error_model, constraints)
 
 
 def fe_settings(ck, table, where):
@@ -167,11 +170,14 @@ def fe_settings(ck, table, where):
     return out
 
 
-def check_model_values(ck, model, switches, fixed, free):
-    """Construct the model with the fixed values and each free parameter at its bounds (the others at mid-range):
+def check_model_values(ck, model, switches, fixed, free, constraints=()):
+    """Construct the model with the fixed values and each free parameter at its bounds (the others at mid-range, or
+    at the nearest point satisfying the prior's ``constraints``; a bound no such point reaches is not checked):
     a value the model refuses is reported against its TOML field before any solve."""
     spec = MODELS[model]
     mid = {k: 0.5 * (lo + hi) for k, (lo, hi) in free.items()}
+    if constraints:
+        mid = feasible_point(free, constraints, mid)
     try:
         build_model(model, {**spec.defaults, **fixed, **mid}, switches)
     except (ParameterError, ValueError) as exc:
@@ -179,8 +185,12 @@ def check_model_values(ck, model, switches, fixed, free):
                          f"parameters at mid-range {mid}: {exc}") from None
     for k, (lo, hi) in free.items():
         for label, v in (("lower", lo), ("upper", hi)):
+            point = feasible_point(free, constraints, {**mid, k: v}, keep=k) if constraints else {**mid, k: v}
+            if point is None:
+                continue
             try:
-                build_model(model, {**spec.defaults, **fixed, **mid, k: v}, switches)
+                build_model(model, {**spec.defaults, **fixed, **point}, switches)
             except (ParameterError, ValueError) as exc:
+                near = ", or nearest within the constraints" if constraints else ""
                 ck.fail(f"model.free.{k}", [lo, hi], f"{model} refuses the {label} bound {v:g} (the other free "
-                        f"parameters at mid-range): {exc}")
+                        f"parameters at mid-range{near}): {exc}")

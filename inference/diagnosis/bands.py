@@ -78,7 +78,8 @@ def predictive_bands(likelihood, sample_simulated: dict, sample_sigma, level=0.9
     likelihood: the calibration's Likelihood (recorded curves and near-zero masks); sample_simulated:
     {(test, curve): (n_samples, n_points)} simulated values at the recorded abscissae (e.g. from
     ``simulate_samples``, or reused from the case's own solves); sample_sigma: sigma_eps of each sample (n_samples,)
-    or one float; level: central probability of the band.
+    or one float, or with error groups each curve's sigma (n_samples, n_curves) in the likelihood's curve order;
+    level: central probability of the band.
     """
     if not 0.0 < level < 1.0:
         raise ValueError(f"level = {level} must be in (0, 1)")
@@ -88,7 +89,14 @@ def predictive_bands(likelihood, sample_simulated: dict, sample_sigma, level=0.9
         raise ValueError(f"sample_simulated has no curves {missing}")
     sims = [np.atleast_2d(np.asarray(sample_simulated[k], dtype=float)) for k in keys]
     n_s = sims[0].shape[0]
-    sigma = np.broadcast_to(np.asarray(sample_sigma, dtype=float).ravel(), (n_s,))
+    sigma = np.asarray(sample_sigma, dtype=float)
+    per_curve = sigma.ndim == 2
+    if per_curve:  # each curve's sigma, repeated over its points
+        if sigma.shape != (n_s, len(keys)):
+            raise ValueError(f"sample_sigma has shape {sigma.shape}, expected ({n_s},) or ({n_s}, {len(keys)})")
+        sigma = np.repeat(sigma, [s.shape[1] for s in sims], axis=1)
+    else:
+        sigma = np.broadcast_to(sigma.ravel(), (n_s,))
     if not np.all(sigma > 0):
         raise ValueError(f"sample_sigma must be > 0, got min {sigma.min()}")
     for k, s in zip(keys, sims):
@@ -96,7 +104,7 @@ def predictive_bands(likelihood, sample_simulated: dict, sample_sigma, level=0.9
         if s.shape != (n_s, c.y.size):
             raise ValueError(f"sample_simulated[{k}] has shape {s.shape}, expected ({n_s}, {c.y.size})")
     mean = np.concatenate(sims, axis=1)
-    sd = np.maximum(np.abs(mean) * sigma[:, None], 1e-300)
+    sd = np.maximum(np.abs(mean) * (sigma if per_curve else sigma[:, None]), 1e-300)
     obs = np.concatenate([likelihood.observations[t].curves[c].y for t, c in keys])
     lower_all, upper_all = (_mixture_quantile(q, mean, sd) for q in ((1 - level) / 2, (1 + level) / 2))
     mean_all = mean.mean(axis=0)

@@ -74,15 +74,23 @@ def relative_residuals(likelihood, simulated) -> dict:
 def simulate_samples(likelihood, thetas):
     """Forward solves for posterior samples (rows of thetas in the prior's order, sigma_eps included).
 
-    Returns ({(test, curve): (n_samples, n_points) simulated values}, sigma_eps (n_samples,)). A failed solve raises:
-    posterior samples were all solved once already, so a failure here is an error of the caller.
+    Returns ({(test, curve): (n_samples, n_points) simulated values}, sigma_eps (n_samples,), or with error groups
+    each curve's sigma (n_samples, n_curves) in the likelihood's curve order). A failed solve raises: posterior
+    samples were all solved once already, so a failure here is an error of the caller.
     """
     split = [likelihood.split(th) for th in np.atleast_2d(thetas)]
     params = [p for p, _ in split]
     results = likelihood.forward(params) if likelihood.batch else [likelihood.forward(p) for p in params]
     per_sample = [likelihood.simulated_at_observations(res) for res in results]
     sims = {k: np.stack([ps[k] for ps in per_sample]) for k in per_sample[0]}
-    return sims, np.array([s for _, s in split])
+    return sims, likelihood.curve_sigmas(thetas)
+
+
+def sigma_text(sigma_eps) -> str:
+    """sigma_eps as reported: one value, or the distinct per-curve values of error groups."""
+    if np.ndim(sigma_eps) == 0:
+        return f"{sigma_eps:.4g}"
+    return "per curve " + " / ".join(f"{s:.4g}" for s in dict.fromkeys(sigma_eps))
 
 
 @dataclass
@@ -135,7 +143,7 @@ class ScreenReport:
     alpha: float                  # family-wise false-alarm level
     correction: str
     family_size: int
-    sigma_eps: float
+    sigma_eps: float | list       # at the MAP; with error groups each curve's, in the likelihood's curve order
     curves: list
     tests: list                   # per test: {test, curves, structured_curves, min_p_adjusted, regions}
     regions: list
@@ -159,7 +167,7 @@ class ScreenReport:
 
     def to_markdown(self) -> str:
         lines = [f"## Residual screening: {self.verdict}", "",
-                 f"Relative residuals r = U_obs/U_sim - 1 at the MAP, sigma_eps = {self.sigma_eps:.4g}. "
+                 f"Relative residuals r = U_obs/U_sim - 1 at the MAP, sigma_eps = {sigma_text(self.sigma_eps)}. "
                  f"False-alarm level {self.alpha:g} for the whole screening ({self.correction}, "
                  f"{self.family_size} tests).", "",
                  "| test | curve | n | mean r | rms r | runs p | lag-1 p | scale p | scan p | adj. p | coverage |",
@@ -193,7 +201,8 @@ def screen(likelihood, map_simulated, sigma_eps, sample_simulated=None, sample_s
     """Locate the mismatch of a finished calibration.
 
     likelihood: the calibration's Likelihood; map_simulated: simulated values at the MAP ({(test, curve): values} or a
-    forward result); sigma_eps: sigma_eps at the MAP; sample_simulated, sample_sigma: posterior sample curves and their
+    forward result); sigma_eps: sigma_eps at the MAP (with error groups each curve's sigma, a sequence in the
+    likelihood's curve order); sample_simulated, sample_sigma: posterior sample curves and their
     sigma_eps for the predictive bands (optional, see `predictive_bands`); covariates: per-point covariates for
     `attribution.attribute` (optional; the position along each curve is added as a reference); alpha: family-wise
     false-alarm level; level: predictive band level; min_points: shortest region.
@@ -201,10 +210,13 @@ def screen(likelihood, map_simulated, sigma_eps, sample_simulated=None, sample_s
     t0 = time.perf_counter()
     if not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha = {alpha} must be in (0, 1)")
-    if not sigma_eps > 0:
+    per_curve = np.ndim(sigma_eps) > 0
+    keys = [(t.name, c) for t in likelihood.observations for c in t.curves]
+    sigma_of = dict(zip(keys, np.broadcast_to(np.asarray(sigma_eps, dtype=float), (len(keys),)).tolist()))
+    if not all(s > 0 for s in sigma_of.values()):
         raise ValueError(f"sigma_eps = {sigma_eps} must be > 0")
     residuals = relative_residuals(likelihood, map_simulated)
-    curves = [curve_statistics(t, c, r, sigma_eps, min_points) for (t, c), r in residuals.items()]
+    curves = [curve_statistics(t, c, r, sigma_of[t, c], min_points) for (t, c), r in residuals.items()]
     family = np.array([cs.p[name] for cs in curves for name in TESTS])
     adjusted = holm(family).reshape(len(curves), len(TESTS))
     for cs, adj in zip(curves, adjusted):
@@ -219,8 +231,8 @@ def screen(likelihood, map_simulated, sigma_eps, sample_simulated=None, sample_s
     for cs in curves:
         if cs.p_adjusted["scan"] <= alpha:
             x = likelihood.observations[cs.test].curves[cs.curve].x
-            regions += segment(cs.test, cs.curve, x, residuals[cs.test, cs.curve], sigma_eps, alpha, family.size,
-                               first_level=1.0, min_points=min_points)
+            regions += segment(cs.test, cs.curve, x, residuals[cs.test, cs.curve], sigma_of[cs.test, cs.curve], alpha,
+                               family.size, first_level=1.0, min_points=min_points)
     attribution = []
     if covariates:
         reference = {k: np.linspace(0.0, 1.0, r.size) for k, r in residuals.items()}
@@ -231,6 +243,7 @@ def screen(likelihood, map_simulated, sigma_eps, sample_simulated=None, sample_s
               "regions": sum(r.test == t.name for r in regions)} for t in likelihood.observations]
     structured = bool(np.any(adjusted <= alpha))
     return ScreenReport("structured mismatch" if structured else "consistent with noise", float(alpha),
-                        f"Holm over {len(TESTS)} tests x {len(curves)} curves", int(family.size), float(sigma_eps),
+                        f"Holm over {len(TESTS)} tests x {len(curves)} curves", int(family.size),
+                        [sigma_of[k] for k in keys] if per_curve else float(sigma_eps),
                         curves, tests, regions, attribution, float(level) if sample_simulated is not None else None,
                         time.perf_counter() - t0)

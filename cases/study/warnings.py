@@ -1,0 +1,111 @@
+"""Warnings of a finished calibration, one line each (report.md and stdout, prefixed ``warning:`` there):
+
+- a parameter on a prior bound: its MAP, 2.5 % or 97.5 % quantile within ``BOUND_TOLERANCE`` (1 %) of the prior box
+  width from a bound (the width of ln x for a log-uniform prior): the data push the parameter out of the box, so
+  the bound, not the data, decides its value;
+- an error parameter (sigma_eps or sigma_eps_<group>) whose MAP is within ``SIGMA_TOLERANCE`` (2 %) of the box width
+  from its upper bound: the model cannot fit the curves within the noise the prior allows;
+- a poor fit: a curve whose RMS relative residual (U_obs - U_num)/U_obs at the MAP, over the points Eq. (5) uses,
+  exceeds ``POOR_FIT_RATIO`` (3) times the median over the curves of their error parameter at the MAP (under the
+  error model of Eq. (1), docs/reference.md section 1, the RMS is about sigma_eps); the line names the test, the
+  curve and the abscissa range of ``WINDOW`` (a fifth of the points, at least 3) consecutive points with the largest
+  mean squared residual.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from inference.priors import Bound
+
+__all__ = ["BOUND_TOLERANCE", "SIGMA_TOLERANCE", "POOR_FIT_RATIO", "WINDOW", "prior_bounds", "bound_warnings",
+           "sigma_warnings", "fit_warnings", "calibration_warnings"]
+
+BOUND_TOLERANCE = 0.01
+SIGMA_TOLERANCE = 0.02
+POOR_FIT_RATIO = 3.0
+WINDOW = 0.2
+
+
+def _position(bound, value):
+    """(value - lower) / (upper - lower), in ln x for a log-uniform prior."""
+    if bound.kind == "log-uniform":
+        return (np.log(value) - np.log(bound.lower)) / (np.log(bound.upper) - np.log(bound.lower))
+    return (value - bound.lower) / (bound.upper - bound.lower)
+
+
+def prior_bounds(post) -> dict:
+    """{name: inference.priors.Bound} of the posterior's prior (``post.prior``, the prior's ``describe()``)."""
+    return {d["name"]: Bound(d["name"], d["lower"], d["upper"], d["kind"]) for d in post.prior if "name" in d}
+
+
+def bound_warnings(post, skip=(), tolerance=BOUND_TOLERANCE) -> list:
+    """Parameters (those in ``skip`` left out) whose MAP or 2.5 / 97.5 % quantile lies within ``tolerance`` of the
+    prior box width from a bound."""
+    q = post.quantiles((0.025, 0.975))
+    out = []
+    for b in prior_bounds(post).values():
+        if b.name in skip:
+            continue
+        stats = {"MAP": post.map[b.name], "2.5 % quantile": q[b.name][0], "97.5 % quantile": q[b.name][1]}
+        for side, value, near in (("lower", b.lower, lambda x: _position(b, x) <= tolerance),
+                                  ("upper", b.upper, lambda x: _position(b, x) >= 1.0 - tolerance)):
+            hits = [f"{label} {v:.4g}" for label, v in stats.items() if near(v)]
+            if hits:
+                out.append(f"{b.name} {' and '.join(hits)} at the {side} bound {value:g} of its prior: widen the "
+                           "bound or fix it")
+    return out
+
+
+def sigma_warnings(post, sigma_names, tolerance=SIGMA_TOLERANCE) -> list:
+    """Error parameters whose MAP lies within ``tolerance`` of the box width from the upper bound."""
+    out, bounds = [], prior_bounds(post)
+    for name in sigma_names:
+        b = bounds[name]
+        value = post.map[name]
+        if _position(b, value) >= 1.0 - tolerance:
+            out.append(f"{name} MAP {value:.4g} at the upper bound {b.upper:g} of its prior: the model cannot fit "
+                       "these curves within the noise the prior allows")
+    return out
+
+
+def _worst_window(x, r2):
+    """(x_start, x_end, index slice) of the WINDOW-long run of consecutive points with the largest mean r^2."""
+    n = r2.size
+    w = min(n, max(3, int(round(WINDOW * n))))
+    means = np.convolve(r2, np.ones(w) / w, mode="valid")
+    i = int(np.argmax(means))
+    return x[i], x[i + w - 1], slice(i, i + w)
+
+
+def fit_warnings(like, map_simulated: dict, curve_sigma: dict, ratio=POOR_FIT_RATIO) -> list:
+    """Curves whose RMS relative residual at the MAP exceeds ``ratio`` times the median of ``curve_sigma`` (each
+    curve's error parameter at the MAP, {(test, curve): sigma}), worst first. ``map_simulated``: {(test, curve):
+    simulated values at the recorded abscissae}."""
+    reference = float(np.median(list(curve_sigma.values())))
+    found = []
+    for t in like.observations:
+        for c, curve in t.curves.items():
+            used = like.masks[t.name, c]
+            sim = np.asarray(map_simulated[t.name, c], dtype=float)
+            r = ((curve.y - sim) / curve.y)[used]
+            x = curve.x[used]
+            if not np.isfinite(r).all():
+                found.append((np.inf, f"poor fit: test {t.name}, curve {c}: the MAP simulation is not finite"))
+                continue
+            rms = float(np.sqrt(np.mean(r * r)))
+            if rms > ratio * reference:
+                lo, hi, window = _worst_window(x, r * r)
+                found.append((rms, f"poor fit: test {t.name}, curve {c}: RMS relative residual {100 * rms:.3g} % "
+                                   f"({rms / reference:.1f} x the median sigma_eps {100 * reference:.3g} %), worst "
+                                   f"for {curve.x_name} {lo:.4g} to {hi:.4g} (mean residual "
+                                   f"{100 * float(np.mean(r[window])):+.3g} %)"))
+    return [text for _, text in sorted(found, key=lambda f: -f[0])]
+
+
+def calibration_warnings(post, like, map_simulated: dict) -> list:
+    """Every warning of a finished calibration (module docstring): bounds, error parameters at their ceiling, poor
+    fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order)."""
+    sigma = like.curve_sigmas(post.map_theta)[0]
+    sigma = np.broadcast_to(sigma, (len(like.curve_keys),))
+    return (bound_warnings(post, skip=like.sigma_names) + sigma_warnings(post, like.sigma_names)
+            + fit_warnings(like, map_simulated, dict(zip(like.curve_keys, sigma.tolist()))))
