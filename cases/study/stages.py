@@ -135,10 +135,10 @@ def _assign(spec, values, stage_cells, lines):
             k = next((k for k, (a, b) in enumerate(ranges) if a is not None and b is not None
                       and (a < t <= b or (k == 0 and t == 0.0))), None)
             if k is None:
-                open_ = next(s for s, (_, b) in zip(stages, ranges) if b is None)
-                raise DataError(f"{path}, line {lines[i]}, column 'time': value {t:g} s is after stage "
-                                f"{open_.name!r}, whose end follows from the material's response: give a 'stage' "
-                                "column (stage number or name)")
+                k_open = next(k for k, (_, b) in enumerate(ranges) if b is None)
+                raise DataError(f"{path}, line {lines[i]}, column 'time': value {t:g} s is after the start of stage "
+                                f"{stages[k_open].name!r} ({ranges[k_open][0]:g} s), whose end follows from the "
+                                "material's response: give a 'stage' column (stage number or name)")
             index[i] = k
     back = np.diff(index) < 0
     if np.any(back):
@@ -152,7 +152,7 @@ def _abscissa(spec, k, values, rows, lines):
     """(abscissa name, unit, values) of stage k's records ``rows`` (see the module docstring)."""
     s, path = spec.stages[k], spec.file
     control = CONTROL.get(s.kind) or (s.abscissa if s.kind == "consolidation" else None)
-    x = values.get(control, np.array([]))[rows] if control else np.array([])
+    x = values[control][rows] if control in values else np.array([])
     if x.size and not np.any(np.isnan(x)) and (x.size == 1 or np.all(np.diff(x) > 0) or np.all(np.diff(x) < 0)):
         return control, COLUMNS[spec.apparatus][control], x
     if "stage_time" in values and not np.any(np.isnan(values["stage_time"][rows])):
