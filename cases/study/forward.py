@@ -8,6 +8,7 @@ from inference import ForwardModelError
 
 from .lab_forward import LabForward
 from .sbp_forward import SBPForward
+from .stages import recorded_programme
 
 __all__ = ["StudyForward"]
 
@@ -26,7 +27,7 @@ class StudyForward:
         self.switches = dict(switches)
         self.fixed = {**spec.defaults, **study.fixed}
         self.label = class_name(self.switches, self.model)
-        lab = [t for t in study.tests if t.type != "sbp"]
+        lab = [t for t in study.tests if t.type != "sbp" and t.apparatus != "sbp"]
         x = {t.name: next(iter(t.curves.values())).x for t in observations}
         curves = {t.name: tuple(t.curves) for t in observations}
         self.lab = None
@@ -34,11 +35,20 @@ class StudyForward:
             driver_x = {t.name: x[t.name] if t.type == "oedometer_creep" else x[t.name] / 100.0 for t in lab}
             self.lab = LabForward(self.model, lab, driver_x, curves, self.fixed, self.switches,
                                   max_strain_step=spec.max_strain_step, e0_parameter=spec.e0_parameter)
-        self.sbp = {t.name: SBPForward(preset or study.preset(False), t.site, {t.name: t.strain_rate}, self.fixed,
-                                       self.model, self.switches,
-                                       void_ratio0=self.fixed["e0"] if spec.e0_parameter else t.e0,
-                                       curves=curves[t.name])
-                    for t in study.tests if t.type == "sbp"}
+        self.sbp = {t.name: self.sbp_forward(t, observations[t.name], preset or study.preset(False),
+                                             spec.e0_parameter)
+                    for t in study.tests if t.type == "sbp" or t.apparatus == "sbp"}
+
+    def sbp_forward(self, t, recorded, preset, e0_parameter) -> SBPForward:
+        """The FE forward model of the SBP test ``t`` recorded as ``recorded`` (inference.Test): its flat expansion,
+        or its stage programme with each stage's abscissa as recorded (``cases.study.stages.recorded_programme``)."""
+        staged = {}
+        if t.staged:
+            staged = {"programmes": {t.name: recorded_programme(t, recorded)},
+                      "abscissae": {t.name: {k: c.x for k, c in recorded.curves.items()}}}
+        return SBPForward(preset, t.site, {} if t.staged else {t.name: t.strain_rate}, self.fixed, self.model,
+                          self.switches, void_ratio0=self.fixed["e0"] if e0_parameter else t.e0,
+                          curves=tuple(recorded.curves), **staged)
 
     def __call__(self, batch):
         lab = self.lab(batch) if self.lab is not None else [{} for _ in batch]
