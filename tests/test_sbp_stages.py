@@ -202,3 +202,79 @@ def test_a_reloading_programme_is_accepted_and_runs_through_its_stages():
     assert [p.amplitude for p in phases] == [0.04, 0.03, 0.10, 0.10]
     assert [p.n_increments for p in phases] == [8, 2, 14, 20]
     assert phases[2].duration == pytest.approx(0.07 / 1e-2)
+
+
+STUDY = """
+name = "sbp_zero"
+[model]
+name = "ANICREEP"
+[model.fixed]
+lambda_ = 0.40
+kappa = 0.026
+nu = 0.3
+e0 = 2.0
+C_alpha_e = 0.02
+[model.free]
+M = [1.0, 2.0]
+sigma_p0 = [30.0, 120.0]
+[sigma_eps]
+bounds = [0.002, 0.3]
+[fe.quick]
+radial_cells = 12
+layers = 1
+increments = 10
+outer = "field"
+outer_radius_a0 = 100.0
+[[tests]]
+name = "SBP"
+file = "sbp.csv"
+apparatus = "sbp"
+permeability = 3.3e-9
+probe_radius = 0.0415
+initial = { sigma_v0 = 31.0, K0 = 0.9, u0 = 38.8 }
+[[tests.stages]]
+kind = "expansion"
+strain_rate = 0.00167
+to_cavity_strain = 5.0
+[[tests.stages]]
+kind = "hold"
+duration = 60.0
+[[tests.stages]]
+kind = "unloading"
+strain_rate = 0.00167
+to_cavity_strain = 3.0
+"""
+RECORDS = """stage,cavity_strain_pct,cavity_pressure_kPa,pore_pressure_kPa,stage_time_s
+1,0,66.7,38.8,0
+1,2.5,120,60,
+1,5,140,75,
+2,5,139,74,1
+2,5,135,72,60
+3,4,120,70,
+3,3,100,68,
+"""
+
+
+def test_a_study_file_programme_with_a_zero_strain_record(tmp_path):
+    """A study file's expansion-hold-unloading programme, recorded from zero cavity strain, through the study
+    reader and StudyForward: every stage's curve is simulated at its records; at zero cavity strain the in situ total
+    stress K0 sigma'_v0 + u0 = 66.7 kPa and pore pressure u0 = 38.8 kPa; the hold against time since its start."""
+    from cases.study.forward import StudyForward
+    from cases.study.records import load_observations
+    from cases.study.schema import load_study
+
+    (tmp_path / "study.toml").write_text(STUDY)
+    (tmp_path / "sbp.csv").write_text(RECORDS)
+    study = load_study(tmp_path / "study.toml")
+    observations, _ = load_observations(study.tests)
+    curves = observations["SBP"].curves
+    assert curves["cavity_pressure@hold2"].x_name == "time"
+    assert curves["cavity_pressure@expansion1"].x[0] == 0.0
+    forward = StudyForward(study, observations, study.switches, preset=study.preset(True))
+    (result,) = forward([{"M": 1.5, "sigma_p0": 60.0}])
+    simulated = inference.Likelihood(observations, forward, batch=True).simulated_at_observations(result)
+    assert set(simulated) == {("SBP", k) for k in curves}
+    assert simulated["SBP", "cavity_pressure@expansion1"][0] == pytest.approx(0.9 * 31.0 + 38.8, rel=1e-12)
+    assert simulated["SBP", "pore_pressure@expansion1"][0] == pytest.approx(38.8, rel=1e-12)
+    assert simulated["SBP", "cavity_pressure@hold2"][0] < simulated["SBP", "cavity_pressure@expansion1"][-1]
+    assert np.all(np.diff(simulated["SBP", "cavity_pressure@unloading3"]) < 0.0)

@@ -32,8 +32,8 @@ from inference import ForwardModelError
 
 from .programme import curve_key, split_key
 
-__all__ = ["SBPForward", "pressuremeter_problem", "stage_phases", "check_sbp_stages", "MAX_STRAIN", "FE_ARGUMENTS",
-           "HOLD_FIRST_STEP", "SBP_QUANTITIES"]
+__all__ = ["SBPForward", "pressuremeter_problem", "stage_phases", "hold_growth", "check_sbp_stages", "MAX_STRAIN",
+           "FE_ARGUMENTS", "HOLD_FIRST_STEP", "SBP_QUANTITIES"]
 
 #: largest cavity strain of the expansion (u_a/a0, -)
 MAX_STRAIN = 0.10
@@ -80,8 +80,8 @@ def stage_phases(stages, increments: int, abscissae=None) -> list:
 
     expansion / unloading: to ``to_strain`` at ``strain_rate`` (1/s) in equal increments, ceil(``increments`` x
     strain change / :data:`MAX_STRAIN`) of them; an unloading to ``to_pressure`` (the last stage) is simulated to
-    its smallest recorded cavity strain (its records end where the pressure was reached), and left out when it has
-    no records. hold: ``duration`` s at the cavity strain reached, ``increments`` steps growing geometrically from
+    its last record (its smallest recorded cavity strain, or its latest record time at its rate: the records end
+    where the pressure was reached), and left out when it has no records. hold: ``duration`` s at the cavity strain reached, ``increments`` steps growing geometrically from
     :data:`HOLD_FIRST_STEP` of the duration, or from its first record time (s since the stage start) when earlier.
     abscissae: {curve key: recorded abscissae (cavity strain %, or s since the stage start)} of the test."""
     recorded = {}
