@@ -2,7 +2,7 @@
 stage's curves against its abscissa.
 
 A programme's CSV has the columns of its apparatus (:data:`COLUMNS`, units as in the flat types' files, converted
-when the dimension agrees), an empty cell where a quantity was not recorded at that point, and:
+when the dimension agrees), an empty cell (or ``nan``) where a quantity was not recorded at that point, and:
 - ``stage``: the 1-based stage number or the stage's name; without it, records are assigned by ``time_s`` (s since
   the start of the test) to the stage time ranges of the programme (:func:`cases.study.stage_entries.stage_times`),
   a record at a boundary to the stage that ends there, a record at 0 to the first stage; a one-stage programme needs
@@ -87,14 +87,14 @@ def _read(spec):
         q, unit = _column(path, col, spec.apparatus)
         v = np.full(len(rows), np.nan)
         for i, raw in enumerate(cells):
-            if raw:
+            if raw and raw.lower() != "nan":
                 try:
                     v[i] = float(raw)
                 except ValueError:
                     v[i] = np.nan
                 if not np.isfinite(v[i]):
                     raise DataError(f"{path}, line {lines[i]}, column {col!r}: value {raw!r} is not a finite number "
-                                    "(an empty cell: not recorded at that point)")
+                                    "(an empty cell or nan: not recorded at that point)")
         v = converted(path, q, unit, v, COLUMNS[spec.apparatus][q])
         if q in ("time", "stage_time") and np.any(v < 0):
             i = int(np.argmax(v < 0))
