@@ -446,11 +446,14 @@ duration = 300.0
     refused(study(tmp_path, oed.replace("sigma_v0 = 20.0", "p0 = 20.0"), "f.toml"),
             "tests[0].p0 = 20.0: an oedometer test starts from sigma_v0 and K0")
     sbp = (EXAMPLES / "sbp_stages.toml").read_text().replace('file = "data/', 'file = "')
-    refused(study(tmp_path, sbp.replace('kind = "hold"\nname = "hold"\nduration = 600.0',
-                                        'kind = "expansion"\nname = "again"\nstrain_rate = 0.001'), "g.toml"),
-            "tests[0].stages[1].kind = 'expansion': supported for apparatus 'sbp': expansion, then optionally hold")
+    refused(study(tmp_path, sbp.replace('kind = "expansion"\nname = "expansion"\nstrain_rate = 0.00167    # 1/s\n'
+                                        'to_cavity_strain = 5.0   # %', 'kind = "hold"\nduration = 10.0'), "g.toml"),
+            "tests[0].stages[0].kind = 'hold': the first stage of a pressuremeter test is an expansion")
     refused(study(tmp_path, sbp.replace("to_cavity_strain = 2.0", "to_cavity_strain = 6.0"), "h.toml"),
-            "tests[0].stages[2].to_cavity_strain = 6.0: must be < the expansion's cavity strain 5 %")
+            "tests[0].stages[2].to_cavity_strain = 6.0: an unloading goes below the current cavity strain 5 %")
+    refused(study(tmp_path, sbp.replace("to_cavity_strain = 5.0", "to_cavity_strain = 12.0"), "j.toml"),
+            "tests[0].stages[0].to_cavity_strain = 12.0: an expansion goes above the current cavity strain 0 % and "
+            "at most to 10 %")
     refused(study(tmp_path, sbp.replace("probe_radius = 0.0415    # m\n", ""), "i.toml"),
             "tests[0].probe_radius is missing")
     simsand = MCC.replace('"ModifiedCamClay"', '"SIMSAND"')

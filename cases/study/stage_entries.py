@@ -14,6 +14,7 @@ from constitutive.registry import SBP_MODELS
 
 from .checks import StudyError
 from .programme import STAGE_KINDS, InitialState, Stage, TestSpec
+from .sbp_forward import check_sbp_stages
 
 __all__ = ["PROGRAMME_FIELDS", "STAGE_FIELDS", "INITIAL_FIELDS", "programme_spec", "stage_times",
            "PRECONSOLIDATION_PARAMETERS"]
@@ -82,7 +83,7 @@ def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
         if names.index(n) != k:
             ck.fail(f"{where}.stages[{k}].name", n, "stage names must be unique within a test")
     if apparatus == "sbp":
-        check_sbp_order(ck, stages, where)
+        check_sbp_stages(ck, stages, where, name)
     check_ends(ck, stages, where)
     mirror = {"e0": initial.e0, "p0": initial.p0, "sigma_v0": initial.sigma_v0,
               "K0": None if initial.p0 is not None else initial.K0, "u0": initial.u0 if apparatus == "sbp" else None,
@@ -205,21 +206,6 @@ def consolidation_fields(ck, s, where, apparatus, v):
     elif "sigma_v" in v and "K0" not in v:
         raise StudyError(f"{ck.path}: {where}.K0 is missing (a triaxial consolidation to sigma_v holds sigma'_h = "
                          "K0 sigma'_v)")
-
-
-def check_sbp_order(ck, stages, where):
-    """A pressuremeter programme: one expansion, then optionally a hold, then optionally an unloading."""
-    order, pos = ("expansion", "hold", "unloading"), 0
-    for k, s in enumerate(stages):
-        if (k == 0) != (s.kind == "expansion") or s.kind not in order[pos:]:
-            ck.fail(f"{where}.stages[{k}].kind", s.kind, "supported for apparatus 'sbp': expansion, then optionally "
-                    "hold, then optionally unloading (in this order, once each)")
-        pos = order.index(s.kind) + 1
-    expansion = stages[0].to_strain
-    last = stages[-1]
-    if last.kind == "unloading" and last.to_strain is not None and not last.to_strain < expansion:
-        ck.fail(f"{where}.stages[{len(stages) - 1}].to_cavity_strain", 100 * last.to_strain, "must be < the "
-                f"expansion's cavity strain {100 * expansion:g} %")
 
 
 def check_ends(ck, stages, where):
