@@ -8,15 +8,18 @@ between the integrator's sub-steps (sub-steps of at most 2e-5 strain, so the int
 noise by orders of magnitude).
 
 Noise, on the recorded quantities only (never on the generating parameters, the logged times, or the controlled
-axial strain of shear/CRS stages): stresses x N(1, 0.015^2) + N(0, 0.3^2) kPa; axial strain where it is a response
-(consolidation, holds, load stages) x N(1, 0.01^2) + N(0, 0.002^2) %; void ratio + N(0, 0.002^2); sigma'_v of an
-incremental load stage is the applied dead load (no noise).
+axial strain of shear/CRS stages): measured stresses (shear, CRS, relaxation) x N(1, 0.015^2) + N(0, 0.3^2) kPa;
+applied cell stresses (consolidation, holds) + N(0, 0.3^2) kPa; axial strain where it is a response (consolidation,
+holds, load stages) x N(1, 0.01^2) + N(0, 0.002^2) %; void ratio + N(0, 0.002^2); sigma'_v of an incremental load
+stage is the applied dead load (no noise).
 
 Files (per programme x hidden effect x noise seed, in a folder named by an opaque case id): one CSV per test
 (``#`` header lines with the conditions and the programme, never the hidden effect; columns ``stage`` (1-based
-stage number), ``time_s`` (since the test start), ``axial_strain_pct``, then ``q_kPa``, ``p_kPa`` (effective),
-``excess_pore_pressure_kPa``, ``void_ratio`` (triaxial) or ``sigma_v_kPa`` (oedometer, effective)), a study file
-``study.toml`` with a Modified Cam Clay base in the staged-programme schema, and the hidden truth in
+stage number), ``time_s`` (since the test start), ``stage_time_s`` (since the stage start), ``axial_strain_pct``
+(since the test start; since the stage start in a shear stage), then ``q_kPa``, ``p_kPa`` (effective),
+``excess_pore_pressure_kPa`` (undrained stages), ``void_ratio`` (drained stages) for the triaxial, ``sigma_v_kPa``
+(effective) for the oedometer; an empty cell: not recorded in that stage), a study file ``study.toml`` with a
+Modified Cam Clay base in the staged-programme schema (cases/study/stage_entries.py), and the hidden truth in
 ``KEY.json`` at the top of the data folder.
 """
 from __future__ import annotations
@@ -33,9 +36,9 @@ __all__ = ["SEEDS", "log_points", "records", "write_all", "case_ids"]
 
 SEEDS = (1, 2, 3)
 HEADER = "SYNTHETIC (independent generator): NOT MEASURED DATA"
-COLUMNS = {"triaxial": ("stage", "time_s", "axial_strain_pct", "q_kPa", "p_kPa", "excess_pore_pressure_kPa",
+COLUMNS = {"triaxial": ("stage", "time_s", "stage_time_s", "axial_strain_pct", "q_kPa", "p_kPa", "excess_pore_pressure_kPa",
                         "void_ratio"),
-           "oedometer": ("stage", "time_s", "axial_strain_pct", "sigma_v_kPa")}
+           "oedometer": ("stage", "time_s", "stage_time_s", "axial_strain_pct", "sigma_v_kPa")}
 
 
 def case_ids() -> dict:
@@ -85,7 +88,7 @@ def log_points(stage, t, x, rng) -> np.ndarray:
 
 
 def records(test, effect, seed, prog_index, test_index, **steps) -> dict:
-    """{column: values} of one test logged and with noise, for a noise seed."""
+    """{column: values} of one test logged and with noise, for a noise seed (NaN: not recorded in that stage)."""
     spans, rows = simulate(test, effect, **steps)
     r = np.array(rows)
     rng = np.random.default_rng([seed, prog_index, test_index])
@@ -99,25 +102,31 @@ def records(test, effect, seed, prog_index, test_index, **steps) -> dict:
         at = {j: np.interp(times, t, seg[:, j]) for j in range(1, 6)}
         ea, sa, sr, e = at[1], at[3], at[4], at[5]
         n = len(times)
+        empty = np.full(n, np.nan)
 
-        def stress(v):
+        def measured(v):
             return v * noise.normal(1.0, 0.015, n) + noise.normal(0.0, 0.3, n)
-        response_strain = stage.kind in ("consolidation", "creep", "load")
+
+        def applied(v):
+            return v + noise.normal(0.0, 0.3, n)
         strain = 100.0 * ea
-        if response_strain:
+        if stage.kind in ("consolidation", "creep", "load"):
             strain = strain * noise.normal(1.0, 0.01, n) + noise.normal(0.0, 0.002, n)
+        elif stage.kind == "shear":
+            strain = 100.0 * (ea - seg[0, 1])
         out["stage"] += [number] * n
         out["time_s"] += list(times)
+        out["stage_time_s"] += list(times - t[0])
         out["axial_strain_pct"] += list(strain)
         if test.apparatus == "triaxial":
             undrained = stage.fields.get("drainage") == "undrained"
-            u = (seg[0, 4] - sr) if undrained else np.zeros(n)
+            stress = measured if stage.kind == "shear" else applied
             out["q_kPa"] += list(stress(sa - sr))
             out["p_kPa"] += list(stress((sa + 2 * sr) / 3.0))
-            out["excess_pore_pressure_kPa"] += list(stress(u))
-            out["void_ratio"] += list(e + noise.normal(0.0, 0.002, n))
+            out["excess_pore_pressure_kPa"] += list(measured(seg[0, 4] - sr) if undrained else empty)
+            out["void_ratio"] += list(empty if undrained else e + noise.normal(0.0, 0.002, n))
         else:
-            out["sigma_v_kPa"] += list(sa if stage.kind == "load" else stress(sa))
+            out["sigma_v_kPa"] += list(sa if stage.kind == "load" else measured(sa))
     return {k: np.array(v) for k, v in out.items()}
 
 
@@ -153,7 +162,8 @@ def _write_csv(path, header, columns):
         fh.writelines(f"# {h}\n" for h in header)
         fh.write(",".join(columns) + "\n")
         for row in zip(*columns.values()):
-            fh.write(",".join(str(int(v)) if k == "stage" else f"{v:.5g}" for k, v in zip(columns, row)) + "\n")
+            fh.write(",".join(str(int(v)) if k == "stage" else "" if np.isnan(v) else f"{v:.5g}"
+                              for k, v in zip(columns, row)) + "\n")
 
 
 def _toml_value(v):
@@ -162,11 +172,6 @@ def _toml_value(v):
     if isinstance(v, list):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     return repr(float(v))
-
-
-STAGE_CURVES = {("triaxial", "consolidation"): ["void_ratio"], ("triaxial", "creep"): ["void_ratio"],
-                ("triaxial", "shear"): ["q", "p"], ("oedometer", "crs"): ["axial_stress"],
-                ("oedometer", "relaxation"): ["axial_stress"], ("oedometer", "load"): ["axial_strain"]}
 
 
 def _study(case, prog, tests) -> str:
@@ -180,13 +185,11 @@ def _study(case, prog, tests) -> str:
              f'pc0 = {{ bounds = [{max(30.0, 1.2 * low):g}, 400.0], prior = "log-uniform" }}', "",
              "[sigma_eps]", "bounds = [0.001, 0.3]", ""]
     for t in tests:
-        lines += ["[[tests]]", f'name = "{t.name}"', f'file = "{t.name}.csv"', 'type = "programme"',
-                  f'apparatus = "{t.apparatus}"']
+        lines += ["[[tests]]", f'name = "{t.name}"', f'file = "{t.name}.csv"', f'apparatus = "{t.apparatus}"']
         lines += [f"{k} = {_toml_value(v)}" for k, v in t.initial.items()]
         for s in t.stages:
             lines += ["", "[[tests.stages]]", f'kind = "{s.kind}"', f'name = "{s.name}"']
             lines += [f"{k} = {_toml_value(v)}" for k, v in s.fields.items()]
-            lines.append(f"curves = {_toml_value(STAGE_CURVES[t.apparatus, s.kind])}")
         lines.append("")
     return "\n".join(lines)
 
