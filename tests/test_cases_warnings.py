@@ -78,3 +78,21 @@ def test_bound_tolerance_is_a_fraction_of_the_width(value, warned):
     prior = Prior([Bound("a", 0.001, 0.2), Bound("sigma_eps", 0.01, 0.1)])
     post = _posterior(prior, np.tile([0.1, 0.05], (10, 1)), [value, 0.05])
     assert bool(bound_warnings(post, skip=("sigma_eps",))) is warned
+
+
+def test_a_calibration_prints_and_reports_its_warnings(tmp_path, capsys):
+    """The shipped drained example (SYNTHETIC, phi_mu = 30 generating) with phi_mu's prior cut at 29.5: the MAP and
+    the 97.5 % quantile sit on the upper bound."""
+    from pathlib import Path
+
+    from cases import calibrate
+    example = Path(__file__).resolve().parents[1] / "cases" / "examples" / "triaxial_drained.toml"
+    text = example.read_text().replace('file = "data/', f'file = "{example.parent}/data/')
+    study = tmp_path / "bound.toml"
+    study.write_text(text.replace("phi_mu = [20.0, 50.0]", "phi_mu = [20.0, 29.5]"))
+    assert calibrate.main([str(study), "--quick", "--out", str(tmp_path / "out"), "--processes", "1"]) == 0
+    lines = [s for s in capsys.readouterr().out.splitlines() if s.startswith("warning:")]
+    assert len(lines) == 1 and lines[0].startswith("warning: phi_mu MAP 29.5")
+    assert "at the upper bound 29.5 of its prior: widen the bound or fix it" in lines[0]
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "## Warnings\n\n- " + lines[0][len("warning: "):] in report

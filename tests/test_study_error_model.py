@@ -50,10 +50,14 @@ def test_a_constraint_the_box_always_satisfies_is_left_out(tmp_path):
 @pytest.mark.parametrize("model, message", [
     ('[model.fixed]\nkappa = 0.5\nnu = 0.3\nocr = 1.5\n[model.free]\nM = [0.8, 1.8]\nlambda_ = [0.1, 0.3]',
      "no point of the prior box satisfies kappa < lambda_"),
+    ('[model.fixed]\nkappa = 0.5\nlambda_ = 0.2\nnu = 0.3\nocr = 1.5\n[model.free]\nM = [0.8, 1.8]',
+     "model.fixed = .*kappa < lambda_ does not hold for these fixed values \\(ModifiedCamClay needs it\\)"),
     ('constraints = ["M < foo"]\n[model.fixed]\nlambda_ = 0.2\nkappa = 0.04\nnu = 0.3\n[model.free]\n'
      'M = [0.8, 1.8]\nocr = [1.0, 4.0]', r"model.constraints = 'M < foo': .*unknown parameter 'foo'"),
     ('constraints = ["M > 10 * ocr"]\n[model.fixed]\nlambda_ = 0.2\nkappa = 0.04\nnu = 0.3\n[model.free]\n'
-     'M = [0.8, 1.8]\nocr = [1.0, 4.0]', "no point of the prior box satisfies M > 10 \\* ocr")])
+     'M = [0.8, 1.8]\nocr = [1.0, 4.0]', "no point of the prior box satisfies M > 10 \\* ocr"),
+    ('constraints = ["M > 1.79999 * ocr"]\n[model.fixed]\nlambda_ = 0.2\nkappa = 0.04\nnu = 0.3\n[model.free]\n'
+     'M = [0.8, 1.8]\nocr = [1.0, 4.0]', r"model.constraints = \['M > 1.79999 \* ocr'\]: .*only .* of the prior box")])
 def test_impossible_or_unreadable_constraints_are_refused(tmp_path, model, message):
     with pytest.raises(StudyError, match=message):
         load_study(_study(tmp_path, model))

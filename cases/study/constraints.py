@@ -14,14 +14,17 @@ import itertools
 import numpy as np
 
 from inference.constraints import parse_constraint
+from inference.priors import Bound, Prior, PriorError
 
 __all__ = ["read_constraints", "feasible_point"]
 
 
-def read_constraints(ck, table, spec, model, fixed: dict, free: dict) -> tuple:
+def read_constraints(ck, table, spec, model, fixed: dict, free: dict, log_uniform=()) -> tuple:
     """The constraints (``inference.Constraint``) that restrict the free parameters' prior box: the model's and
     ``table`` (the ``[model]`` table's ``constraints`` list), fixed values substituted, those always satisfied in the
-    box left out. Errors (StudyError) name the file, ``model.constraints`` and the expression."""
+    box left out; ``log_uniform`` names the free parameters with a log-uniform prior. Errors (StudyError) name the
+    file, ``model.constraints`` and the expression, also when the constraints leave less of the box than
+    ``inference.priors.MIN_ACCEPTED_FRACTION``."""
     given = table.get("constraints", [])
     if not isinstance(given, list) or not all(isinstance(c, str) and c.strip() for c in given):
         ck.fail("model.constraints", given, "expected a list of expressions such as \"kappa < lambda_\"")
@@ -36,7 +39,11 @@ def read_constraints(ck, table, spec, model, fixed: dict, free: dict) -> tuple:
             if not own:  # the model's constraint names a parameter this study does not use
                 continue
             ck.fail(where, text, f"{exc} (free and fixed parameters)")
-        c = c.with_values({n: known[n] for n in c.names if n not in free})
+        values = {n: known[n] for n in c.names if n not in free}
+        c = c.with_values(values)
+        if c.constant() is False:
+            ck.fail("model.fixed", values, f"{c.text} does not hold for these fixed values"
+                    + ("" if own else f" ({model} needs it)"))
         corners = _corners(c, free)
         if corners.all():
             continue
@@ -45,6 +52,12 @@ def read_constraints(ck, table, spec, model, fixed: dict, free: dict) -> tuple:
                     f"no point of the prior box satisfies {c.text}" + ("" if own else f" ({model} needs it)"))
         if all(c.text != o.text for o in out):
             out.append(c)
+    if out:
+        try:
+            Prior([Bound(n, lo, hi, "log-uniform" if n in log_uniform else "uniform") for n, (lo, hi) in free.items()],
+                  out)
+        except PriorError as exc:
+            ck.fail("model.constraints", [c.text for c in out], str(exc))
     return tuple(out)
 
 

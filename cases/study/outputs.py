@@ -164,7 +164,7 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
         lines.append("")
     lines += ["Predictive coverage of the records (95 % band): " + ", ".join(
         f"{t} {c} {100 * b.coverage:.0f} %" for (t, c), b in bands.items()), ""]
-    warnings = calibration_warnings(post, like, cls["map_simulated"])
+    warnings = cls["warnings"] if "warnings" in cls else calibration_warnings(post, like, cls["map_simulated"])
     for text in warnings:
         print(f"warning: {text}", flush=True)
     lines += ["## Warnings", ""] + ([f"- {text}" for text in warnings] or ["none"]) + [""]

@@ -30,6 +30,7 @@ from .outputs import plot_loop, write_outputs
 from .presets import FE_FIELDS
 from .records import generating_values
 from .schema import Settings, Study
+from .warnings import calibration_warnings
 
 __all__ = ["LoopProblem", "StudyProblem", "run_loop", "CASE"]
 
@@ -139,8 +140,9 @@ class LoopProblem:
 
     def class_record(self, post, like, name, switches, seed, draws, summary) -> ModelClass:
         """The class as the diagnosis reads it: MAP curves, ``draws`` posterior-sample curves for the predictive
-        band (rows drawn with ``seed``); the MAP's raw curves in ``extra["map_curves"]``. With error groups,
-        sigma_eps is each curve's sigma at the MAP (a list in the likelihood's curve order)."""
+        band (rows drawn with ``seed``); the MAP's raw curves in ``extra["map_curves"]``; the calibration's warnings
+        (:mod:`cases.study.warnings`). With error groups, sigma_eps is each curve's sigma at the MAP (a list in the
+        likelihood's curve order)."""
         params, sigma = like.split(post.map_theta)
         if isinstance(sigma, dict):
             sigma = [float(s) for s in like.curve_sigmas(post.map_theta)[0]]
@@ -148,16 +150,17 @@ class LoopProblem:
         rng = np.random.default_rng(seed)
         rows = rng.choice(len(post.samples), size=min(draws, len(post.samples)), replace=False)
         sample_sims, sample_sigma = diagnosis.simulate_samples(like, post.samples[rows])
+        map_simulated = like.simulated_at_observations(map_raw)
         q = post.quantiles()
         return ModelClass(
             name=name, role="base", candidate=None, log_evidence=float(post.log_evidence),
             J_g=summary["J_g_at_map"],
             parameters={n: {"map": post.map[n], "mean": post.mean[n], "std": post.std[n], "q2.5": q[n][0],
                             "q97.5": q[n][2]} for n in post.names},
-            sigma_eps=sigma if isinstance(sigma, list) else float(sigma),
-            map_simulated=like.simulated_at_observations(map_raw),
+            sigma_eps=sigma if isinstance(sigma, list) else float(sigma), map_simulated=map_simulated,
             sample_simulated=sample_sims, sample_sigma=sample_sigma, wall_s=summary["calibration_wall_s"],
-            n_forward_solves=summary["n_forward_solves"], extra={"map_curves": map_raw})
+            n_forward_solves=summary["n_forward_solves"], extra={"map_curves": map_raw},
+            warnings=calibration_warnings(post, like, map_simulated))
 
     # ---------------------------------------------------------------------------------------- the loop's protocol
     def start(self, observations, run, out, seed: int, settings: Settings, label: str):
@@ -264,7 +267,8 @@ class StudyProblem(LoopProblem):
     def describe(self, label, base_name):
         free = ", ".join(self.study.free)
         return ((f"**SYNTHETIC data** ({label}). " if self.synthetic else f"Recordings ({label}). ")
-                + f"Study {self.study.name} ({self.study.path}); base class {base_name} with {free}, sigma_eps free; "
+                + f"Study {self.study.name} ({self.study.path}); base class {base_name} with {free}, "
+                f"{', '.join(self.sigma_bounds)} free; "
                 "catalog: constitutive.physics_catalog.")
 
     def curve_covariates(self, like, map_curves) -> dict:

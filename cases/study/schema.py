@@ -125,7 +125,7 @@ def load_study(path, check_files=True) -> Study:
                 raise StudyError(f"{path}: [model] {switch} = true needs {k} in [model.fixed] or [model.free]")
             if not switches[switch] and k in free:
                 ck.fail(f"model.free.{k}", free_in[k], f"not used when {switch} = false (nothing to identify)")
-    constraints = read_constraints(ck, m, spec, model, fixed, free)
+    constraints = read_constraints(ck, m, spec, model, fixed, free, log_uniform)
     check_model_values(ck, model, switches, fixed, free, constraints)
 
     # ---- error parameter and sampler

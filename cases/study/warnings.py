@@ -51,7 +51,7 @@ def bound_warnings(post, skip=(), tolerance=BOUND_TOLERANCE) -> list:
                                   ("upper", b.upper, lambda x: _position(b, x) >= 1.0 - tolerance)):
             hits = [f"{label} {v:.4g}" for label, v in stats.items() if near(v)]
             if hits:
-                out.append(f"{b.name} {' and '.join(hits)} at the {side} bound {value:g} of its prior: widen the "
+                out.append(f"{b.name} {', '.join(hits)} at the {side} bound {value:g} of its prior: widen the "
                            "bound or fix it")
     return out
 
