@@ -32,18 +32,20 @@ from dataclasses import replace
 from pathlib import Path
 
 import inference
+from constitutive import ParameterError
 
-from .study.cli import arguments, pairs, run_settings
+from .study.cli import (UsageError, arguments, command, non_negative_int, pairs, positive_float, positive_int,
+                        run_settings)
 from .study.generate import generate_sbp
 from .study.outputs import runs_table
 from .study.presets import FE_FIELDS, PRESETS, Preset
 from .study.records import generating_values, has_pore_pressure, load_sbp_recordings
-from .study.runner import is_root, run_all, throughput
+from .study.runner import announce_compilation, is_root, run_all, throughput
 from .study.sbp_forward import SBPForward
 from .study.sbp_outputs import SBPCase, write_sbp_outputs
 
 __all__ = ["SITE", "FIXED", "RATES", "BOUNDS", "GENERATING", "PAPER", "Preset", "PRESETS", "FE_FIELDS",
-           "burswood_forward", "generate_recordings", "main"]
+           "burswood_forward", "check_fixed", "generate_recordings", "main"]
 
 CASE = "burswood_sbp"
 DATA = Path(__file__).parent / "data" / "burswood_sbp"
@@ -71,6 +73,22 @@ def burswood_forward(preset, fixed=None, site=None, rates=None, curves=("cavity_
     return SBPForward(preset, {**SITE, **(site or {})}, rates or RATES, {**FIXED, **(fixed or {})}, curves=curves)
 
 
+def check_fixed(fixed: dict):
+    """``--fixed`` values: known names, and ANICREEP accepts them with the identified parameters anywhere in
+    :data:`BOUNDS` (checked at the corners of M and sigma'_p0 with C_alpha_e at its bounds): a UsageError naming the
+    option and the values otherwise, before any solve."""
+    unknown = set(fixed) - set(FIXED)
+    if unknown:
+        raise UsageError(f"--fixed: unknown parameter(s) {sorted(unknown)}; fixed ones are {sorted(FIXED)}")
+    forward = burswood_forward(PRESETS["quick"], fixed)
+    for corner in ({k: BOUNDS[k][i] for k in GENERATING} for i in (0, 1)):
+        try:
+            forward.material(corner)
+        except (ParameterError, ValueError) as exc:
+            raise UsageError(f"--fixed {' '.join(f'{k}={v:g}' for k, v in fixed.items())}: ANICREEP refuses these "
+                             f"values: {' '.join(str(exc).split())}") from None
+
+
 OUTPUTS = SBPCase(CASE, "Burswood clay SBP", "Burswood SBP", "ANICREEP", PAPER, BOUNDS, UNITS,
                   "; the measured Burswood curves are not public", {"paper_table5": PAPER})
 
@@ -94,19 +112,20 @@ def _options(ap):
                     help="calibrate on the cavity pressure alone even when the records have the wall pore pressure")
     ap.add_argument("--fixed", nargs="+", metavar="NAME=VALUE", help="override fixed ANICREEP values "
                     "(nu, lambda_, kappa, e0, tau)")
-    ap.add_argument("--radial-cells", type=int)
-    ap.add_argument("--layers", type=int)
-    ap.add_argument("--increments", type=int)
-    ap.add_argument("--sweeps", type=int, help="MCMC sweeps per stage: 1 is the paper's one Metropolis step per "
-                    "resampled particle (the paper setting's default), 0 adaptive up to 25 (--quick: adaptive up to 4 "
-                    "by default)")
-    ap.add_argument("--max-stages", type=int, default=200, help="stop after this many stages (tests)")
-    ap.add_argument("--timeout", type=float, help="seconds per forward evaluation (then a failed particle)")
+    ap.add_argument("--radial-cells", type=positive_int, help="FE cells along the radius, >= 1")
+    ap.add_argument("--layers", type=positive_int, help="FE cell layers, >= 1")
+    ap.add_argument("--increments", type=positive_int, help="FE load increments to 10 %% cavity strain, >= 1")
+    ap.add_argument("--sweeps", type=non_negative_int,
+                    help="MCMC sweeps per stage: 1 is the paper's one Metropolis step per resampled particle (the "
+                    "paper setting's default), 0 adaptive up to 25 (--quick: adaptive up to 4 by default)")
+    ap.add_argument("--max-stages", type=positive_int, default=200, help="stop after this many stages (tests)")
+    ap.add_argument("--timeout", type=positive_float, help="seconds per forward evaluation (then a failed particle)")
     ap.add_argument("--generate", action="store_true", help="regenerate the shipped synthetic recordings and exit")
-    ap.add_argument("--throughput", type=int, metavar="N",
+    ap.add_argument("--throughput", type=positive_int, metavar="N",
                     help="benchmark: time N forward evaluations (prior draws) on this executor and exit")
 
 
+@command
 def main(argv=None):
     args = arguments(__doc__, argv, add=_options, quick_help="the README's main job: the paper's 60 radial cells in "
                                                               "one layer, 100 increments, N_s 64")
@@ -115,22 +134,21 @@ def main(argv=None):
     preset = replace(PRESETS[base], **{k: v for k, v in (("radial_cells", args.radial_cells), ("layers", args.layers),
                                                          ("increments", args.increments)) if v is not None})
     if args.sweeps is not None:
-        if args.sweeps < 0:
-            raise SystemExit(f"--sweeps {args.sweeps}: give 0 (adaptive) or a positive number of sweeps")
         preset = replace(preset, sweeps=args.sweeps or None)
     label = base if preset == PRESETS[base] else f"{base}, modified"
     fixed = pairs(args.fixed, "--fixed")
-    unknown = set(fixed) - set(FIXED)
-    if unknown:
-        raise SystemExit(f"--fixed: unknown parameter(s) {sorted(unknown)}; fixed ones are {sorted(FIXED)}")
+    check_fixed(fixed)
     rates = pairs(args.rates, "--rates") or RATES
+    for test, rate in rates.items():
+        if not rate > 0:
+            raise UsageError(f"--rates: {test}={rate:g}: a cavity expansion needs a strain rate > 0 (1/s)")
     if args.generate:
         print(json.dumps({k: str(v) for k, v in generate_recordings(fixed=fixed or None).items()}))
         return 0
     files = pairs(args.recordings, "--recordings", cast=Path) or {t: DATA / f"sbp_{t}.csv" for t in RATES}
     missing = set(files) - set(rates)
     if missing:
-        raise SystemExit(f"--recordings names test(s) {sorted(missing)} without a cavity strain rate; give --rates")
+        raise UsageError(f"--recordings names test(s) {sorted(missing)} without a cavity strain rate; give --rates")
     rates = {t: rates[t] for t in files}
     use_pore_pressure = not args.pressure_only and all(has_pore_pressure(p) for p in files.values())
     observations = load_sbp_recordings(files, pore_pressure=use_pore_pressure)
@@ -138,6 +156,8 @@ def main(argv=None):
     truth = generating_values(observations, GENERATING)
     forward = burswood_forward(preset, fixed, rates=rates, curves=("cavity_pressure", "pore_pressure")
                                if use_pore_pressure else ("cavity_pressure",))
+    if not run.resume:
+        announce_compilation()
     forward.compile_material(GENERATING)
     like = inference.Likelihood(observations, forward)
     prior = inference.UniformPrior(BOUNDS)

@@ -8,8 +8,9 @@ The study file (TOML) names the data files (paths relative to the TOML), the typ
 base model with its fixed parameters and the priors of the free ones, the bounds of the error parameter sigma_eps and
 the sampler settings (schema: README "Your own recordings"; reader: ``cases.study.schema``). Everything is checked
 before any solve starts (errors name the TOML file, the table and field, and the bad value; CSV errors name the file,
-the column and the line), and nothing is written in ``--out`` when something is wrong. Example studies with
-SYNTHETIC data are in cases/examples/.
+the column and the line; one line on stderr, exit status 2, a traceback only with ``--debug``), and nothing is
+written in ``--out`` when something is wrong. A second run on the same ``--out`` is refused while the first runs.
+Example studies with SYNTHETIC data are in cases/examples/.
 
 Test types (``cases.study.programme``): ``triaxial``, ``oedometer_crs``, ``oedometer_creep`` (laboratory drivers of
 ``constitutive.labtests``) and ``sbp`` (the coupled pressuremeter FE). Base models: ``ModifiedCamClay``, ``ANICREEP``
@@ -32,15 +33,13 @@ import sys
 from pathlib import Path
 
 from constitutive.registry import class_name
-from inference import DataError
 from inference.executors import mpi_world
 
-from .study.checks import StudyError
-from .study.cli import arguments, run_settings
+from .study.cli import UsageError, arguments, command, non_negative_float, run_settings
 from .study.generate import generate
 from .study.problem import CASE, StudyProblem, run_loop
 from .study.records import load_observations
-from .study.runner import run_all, run_directories
+from .study.runner import out_lock, run_all, run_directories
 from .study.schema import load_study
 
 __all__ = ["main"]
@@ -53,33 +52,32 @@ def _options(ap):
     ap.add_argument("--diagnose", action="store_true", help="run the whole missing-physics loop")
     ap.add_argument("--generate", action="store_true", help="(re)write the study's SYNTHETIC CSVs from its "
                     "[synthetic] table and exit")
-    ap.add_argument("--noise", type=float, help="with --generate: the noise level (default: the [synthetic] table's)")
+    ap.add_argument("--noise", type=non_negative_float,
+                    help="with --generate: the noise level (default: the [synthetic] table's)")
 
 
+@command
 def main(argv=None):
     args = arguments(__doc__, argv, quick_help="the study's [sampler.quick] and [fe.quick] settings", add=_options)
     run = run_settings(args)
-    try:
-        if args.generate:
-            paths = generate(args.study, noise=args.noise)
-            print(json.dumps({k: str(v) for k, v in paths.items()}))
-            return 0
-        study = load_study(args.study)
-        observations, times = load_observations(study.tests)
-        problem = StudyProblem(study, observations, times, run.quick, run.processes, run.dispatch)
-        settings = study.settings(run.quick, run.samples)
-        if args.diagnose and mpi_world() is not None:
-            raise StudyError("--diagnose runs without mpirun (use --processes for a local pool)")
-    except (StudyError, DataError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    if args.generate:
+        paths = generate(args.study, noise=args.noise)
+        print(json.dumps({k: str(v) for k, v in paths.items()}))
+        return 0
+    study = load_study(args.study)
+    observations, times = load_observations(study.tests)
+    problem = StudyProblem(study, observations, times, run.quick, run.processes, run.dispatch)
+    settings = study.settings(run.quick, run.samples)
+    if args.diagnose and mpi_world() is not None:
+        raise UsageError("--diagnose runs without mpirun (use --processes for a local pool)")
     default_out = DEFAULT_OUT / study.name
     if args.diagnose:
-        for one, seed, out in run_directories(run, default_out):
-            d = run_loop(problem, observations, one, out, seed, settings, f"study {study.name}, seed {seed}")
-            print(json.dumps({"case": CASE, "study": study.name, "out": str(out), "verdict": d["verdict"],
-                              "omitted_physics": d["omitted_physics"], "log_bayes": d["log_bayes"],
-                              "timing": d["timing"]}, default=float), flush=True)
+        with out_lock(run.out or default_out):
+            for one, seed, out in run_directories(run, default_out):
+                d = run_loop(problem, observations, one, out, seed, settings, f"study {study.name}, seed {seed}")
+                print(json.dumps({"case": CASE, "study": study.name, "out": str(out), "verdict": d["verdict"],
+                                  "omitted_physics": d["omitted_physics"], "log_bayes": d["log_bayes"],
+                                  "timing": d["timing"]}, default=float), flush=True)
         return 0
     name = class_name(study.switches, study.model)
     like = problem.make_likelihood(observations, study.switches)

@@ -105,8 +105,12 @@ class Result:
         """Off-screen pyvista picture (plan view, fields revolved about the axis) of excess pore pressure and
         sigma'_r, sigma'_theta around the cavity out to ``extent`` cavity radii. Returns ``path``."""
         import pyvista as pv
+        from vtkmodules.vtkCommonCore import vtkLogger, vtkObject
 
         pv.OFF_SCREEN = True
+        # no window: VTK's "bad X server connection" and other render-window warnings are noise here
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)
+        vtkObject.GlobalWarningDisplayOff()
         snap = self.snapshots[snapshot]
         (rn, pex), (rc, stress) = self.radial_profiles(snap)
         a0 = rn.min()

@@ -4,7 +4,10 @@ CSV convention: lines starting with ``#`` are metadata (``# key: value``; a file
 e.g. ``# synthetic: true``). The first other line is the header; a column name carries its unit either as a suffix
 ``name_unit`` (``eps_a_pct``, ``q_kPa``, ``t_s``) or in brackets ``name [unit]``. A column without a unit is
 dimensionless. Known conversions: Pa/kPa/MPa to kPa, s/min/h/d to s; strains in % stay in % (the caller says which
-unit it wants and gets a clear error otherwise).
+unit it wants and gets a clear error otherwise). Files are UTF-8 (a byte-order mark, as Excel's "CSV UTF-8" writes,
+is skipped), with any line ends; numbers may be quoted. A file is refused as a whole, naming the file, the line, the
+column and the value, when it is another encoding, has the same column (or the same quantity in two units) twice,
+or a value that is not finite or outside the physical range of its unit.
 """
 from __future__ import annotations
 
@@ -15,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DataError", "Curve", "Test", "Observations", "read_csv_table"]
+__all__ = ["DataError", "Curve", "Test", "Observations", "read_text", "read_csv_rows", "read_csv_table",
+           "converted"]
 
 
 class DataError(ValueError):
@@ -31,6 +35,10 @@ _UNITS = {
     "-": ("dimensionless", 1.0),
 }
 _BRACKET = re.compile(r"^\s*(.*?)\s*\[\s*(.*?)\s*\]\s*$")
+#: physical range of a value in a unit's dimension (base units kPa, s, %, m): a value outside is a wrong unit or a
+#: corrupted record, refused before anything is computed from it
+_RANGES = {"stress": (-1e6, 1e6, "|stress| <= 1e6 kPa (1 GPa)"), "time": (0.0, 1e10, "0 <= time <= 1e10 s"),
+           "percent": (-100.0, 100.0, "|strain| <= 100 %"), "length": (-1e4, 1e4, "|length| <= 1e4 m")}
 
 
 def _split_unit(column: str):
@@ -43,37 +51,96 @@ def _split_unit(column: str):
     return column, "-"
 
 
-def read_csv_table(path) -> tuple[dict, dict]:
-    """Read a CSV with ``#`` metadata lines. Returns (metadata, {quantity: (unit, values)}).
-
-    Raises DataError naming the file, the column and the offending value for non-numeric or NaN entries.
-    """
+def read_text(path) -> str:
+    """The text of a CSV file: UTF-8 with or without a byte-order mark (Excel's "CSV UTF-8"), any line ends (LF,
+    CRLF, CR) turned into LF. DataError naming the file for a missing file, a folder, or another encoding."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise DataError(f"{path}: file not found")
+    if not path.is_file():
+        raise DataError(f"{path}: not a file")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise DataError(f"{path}: not UTF-8 (looks like UTF-16, Excel's \"Unicode text\"): save it as \"CSV UTF-8\"")
+    if b"\x00" in raw:
+        raise DataError(f"{path}: not UTF-8 (looks like binary: NUL bytes), not a CSV text file")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        controls = sum(b < 32 and b not in (9, 10, 13) for b in raw)
+        looks = "binary" if controls > len(raw) // 100 else "Latin-1 / Windows-1252"
+        raise DataError(f"{path}, line {line}: not UTF-8 (looks like {looks}: byte 0x{raw[exc.start]:02x}); save it "
+                        "as \"CSV UTF-8\"") from None
+    return text.replace("\r\n", "\n").replace("\r", "\n")
+
+
+def read_csv_rows(path) -> tuple[dict, list, list]:
+    """The parts of a CSV with ``#`` metadata lines: (metadata, column names, [(line number, cells)]).
+
+    Refused with a DataError naming the file and the line: another encoding than UTF-8 (:func:`read_text`), no
+    header or no data rows, a row with another number of cells than the header, a column without a name, the same
+    column twice, a file separated by ';' or tabs.
+    """
     meta, rows, header = {}, [], None
-    with path.open(newline="") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if not line.strip():
-                continue
-            if line.lstrip().startswith("#"):
-                body = line.lstrip()[1:].strip()
-                if ":" in body:
-                    k, v = body.split(":", 1)
-                    meta[k.strip()] = v.strip()
-                continue
-            cells = next(csv.reader([line]))
-            if header is None:
-                header = [c.strip() for c in cells]
-                continue
-            if len(cells) != len(header):
-                raise DataError(f"{path}, line {lineno}: {len(cells)} values for {len(header)} columns {header}")
-            rows.append((lineno, cells))
+    for lineno, line in enumerate(read_text(path).split("\n"), start=1):
+        if not line.strip():
+            continue
+        if line.lstrip().startswith("#"):
+            body = line.lstrip()[1:].strip()
+            if ":" in body:
+                k, v = body.split(":", 1)
+                meta[k.strip()] = v.strip()
+            continue
+        cells = next(csv.reader([line]))
+        if header is None:
+            header = [c.strip() for c in cells]
+            _check_header(path, lineno, header)
+            continue
+        if len(cells) != len(header):
+            raise DataError(f"{path}, line {lineno}: {len(cells)} values for {len(header)} columns {header}")
+        rows.append((lineno, cells))
     if header is None or not rows:
         raise DataError(f"{path}: no header or no data rows")
+    return meta, header, rows
+
+
+def _check_header(path, lineno, header):
+    if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
+        sep = "';'" if ";" in header[0] else "tabs"
+        raise DataError(f"{path}, line {lineno}: columns separated by {sep}: {header[0]!r}; separate them by ','")
+    seen = {}
+    for j, col in enumerate(header):
+        if not col:
+            raise DataError(f"{path}, line {lineno}: column {j + 1} of {header} has no name")
+        quantity = _split_unit(col)[0]
+        if quantity in seen:
+            other = header[seen[quantity]]
+            what = (f"column {col!r} appears twice" if other == col else
+                    f"columns {other!r} and {col!r} are the same quantity {quantity!r} in two units")
+            raise DataError(f"{path}, line {lineno}: {what} (columns {seen[quantity] + 1} and {j + 1}); keep one")
+        seen[quantity] = j
+
+
+def read_csv_table(path) -> tuple[dict, dict]:
+    """Read a CSV with ``#`` metadata lines (:func:`read_csv_rows`). Returns (metadata, {quantity: (unit, values)}).
+
+    Raises DataError naming the file, the line, the column and the offending value for a non-numeric or non-finite
+    entry, or a value outside the physical range of its unit (:data:`_RANGES`: a wrong unit or a corrupted record).
+    Numbers may be quoted ("1.5").
+    """
+    path = Path(path)
+    meta, header, rows = read_csv_rows(path)
     table = {}
     for j, col in enumerate(header):
         quantity, unit = _split_unit(col)
+        dimension, factor = _UNITS.get(unit, (None, 1.0))
+        lo, hi, rule = _RANGES.get(dimension, (-np.inf, np.inf, ""))
         values = np.empty(len(rows))
         for i, (lineno, cells) in enumerate(rows):
             raw = cells[j].strip()
@@ -83,6 +150,9 @@ def read_csv_table(path) -> tuple[dict, dict]:
                 values[i] = np.nan
             if not np.isfinite(values[i]):
                 raise DataError(f"{path}, line {lineno}, column {col!r}: value {raw!r} is not a finite number")
+            if not lo <= values[i] * factor <= hi:
+                raise DataError(f"{path}, line {lineno}, column {quantity!r} in {unit}: value {raw} is outside the "
+                                f"physical range ({rule})")
         table[quantity] = (unit, values)
     return meta, table
 

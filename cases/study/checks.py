@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-__all__ = ["StudyError", "Checker", "read_toml"]
+__all__ = ["StudyError", "Checker", "read_toml", "fe_value"]
 
 
 class StudyError(ValueError):
@@ -13,7 +13,8 @@ class StudyError(ValueError):
 
 
 def read_toml(path) -> dict:
-    """The parsed TOML file (tomllib, or the tomli package on Python 3.10)."""
+    """The parsed TOML file (tomllib, or the tomli package on Python 3.10): UTF-8, a byte-order mark skipped;
+    StudyError naming the file otherwise."""
     try:
         import tomllib
     except ModuleNotFoundError:  # pragma: no cover - Python 3.10
@@ -23,11 +24,23 @@ def read_toml(path) -> dict:
             raise StudyError(f"{path}: reading a study file needs Python >= 3.11 (tomllib) or the 'tomli' package "
                              "(pip install tomli)") from None
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise StudyError(f"{path}: study file not found")
+    if not path.is_file():
+        raise StudyError(f"{path}: not a file (a study file is a TOML file)")
     try:
-        with path.open("rb") as fh:
-            return tomllib.load(fh)
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise StudyError(f"{path}: cannot read the study file ({exc.strerror or exc})") from None
+    try:
+        text = raw.removeprefix(b"\xef\xbb\xbf").decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        looks = "binary" if b"\x00" in raw else "Latin-1 / Windows-1252"
+        raise StudyError(f"{path}, line {line}: not UTF-8 (looks like {looks}: byte 0x{raw[exc.start]:02x}); save "
+                         "the study file as UTF-8") from None
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise StudyError(f"{path}: not valid TOML: {exc}") from None
 
@@ -94,3 +107,16 @@ class Checker:
         if kind == "log-uniform" and lo <= 0:
             self.fail(where, value, "a log-uniform prior needs a lower bound > 0")
         return lo, hi, kind
+
+
+def fe_value(ck: Checker, key: str, value, where: str):
+    """One field of [fe] or [fe.quick], checked: ``outer`` "fixed" or "field"; ``outer_radius_a0`` (the outer
+    boundary in probe radii a0) a number > 1, outside the probe; the mesh sizes and increments integers >= 1."""
+    if key == "outer":
+        return ck.text(value, where, ("fixed", "field"))
+    if key == "outer_radius_a0":
+        radius = ck.number(value, where, positive=True)
+        if not radius > 1.0:
+            ck.fail(where, value, "the outer boundary must lie outside the probe: > 1 (in probe radii a0)")
+        return radius
+    return ck.integer(value, where, 1)

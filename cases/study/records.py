@@ -8,6 +8,7 @@ rows. Errors name the file, the column and the line.
 """
 from __future__ import annotations
 
+import difflib
 import json
 from pathlib import Path
 
@@ -15,7 +16,7 @@ import numpy as np
 
 import inference
 from inference import DataError
-from inference.observations import converted, read_csv_table
+from inference.observations import converted, read_csv_rows, read_csv_table
 
 from .programme import TestSpec
 from .stages import load_programme_test
@@ -53,15 +54,21 @@ def column_name(quantity: str, test_type: str) -> str:
 
 def data_lines(path) -> list:
     """File line numbers of the data rows of a CSV read by ``read_csv_table``."""
-    lines, header = [], False
-    with Path(path).open() as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if not line.strip() or line.lstrip().startswith("#"):
-                continue
-            if header:
-                lines.append(lineno)
-            header = True
-    return lines
+    return [lineno for lineno, _ in read_csv_rows(path)[2]]
+
+
+def _unknown_column(path, quantity, unit, test_type):
+    """The DataError of a column that is not one of ``test_type``'s: the near-miss known name when there is one (a
+    typo in an optional column is refused, never dropped), and the known names."""
+    names = {column_name(q, test_type): q for q in COLUMNS[test_type]}
+    given = quantity if unit == "-" else f"{quantity}_{'pct' if unit == '%' else unit}"
+    close = difflib.get_close_matches(given, names, n=1, cutoff=0.75) or \
+        difflib.get_close_matches(quantity, list(names.values()), n=1, cutoff=0.75)
+    hint = ""
+    if close:
+        hint = f"did you mean {close[0] if close[0] in names else column_name(close[0], test_type)!r}? "
+    raise DataError(f"{path}: column {quantity!r} (unit {unit!r}) is not a column of a {test_type} test; {hint}"
+                    f"known: {', '.join(names)}")
 
 
 def _monotone(path, column, values, lines, decreasing=False, strict=True, what="increase"):
@@ -80,9 +87,7 @@ def check_table(spec, table: dict):
     lines = data_lines(path)
     for q, (unit, _) in table.items():
         if q not in columns:
-            raise DataError(f"{path}: column {q!r} (unit {unit!r}) is not a column of a {spec.type} test; known: "
-                            + ", ".join(f"{k}_{'pct' if u == '%' else u}" if u != "-" else k
-                                        for k, (u, _) in columns.items()))
+            _unknown_column(path, q, unit, spec.type)
     for q, (unit, role) in columns.items():
         if role in ("x", "required curve") and q not in table:
             raise DataError(f"{path}: missing column {q!r} ({unit}) of a {spec.type} test; found {list(table)}")

@@ -3,14 +3,24 @@ summary.json.
 
 Every requested run is a method (DE-TMCMC "de" or O-TMCMC "o") and a seed; ``--method both`` puts the methods side by
 side in DIR/de and DIR/o, ``--runs R`` puts run r in DIR/seed_<S+r>. Under ``mpirun -n K`` every rank calls
-:func:`calibrate`; rank 0 samples and writes, the other ranks run forward solves.
+:func:`calibrate`; rank 0 samples and writes, the other ranks run forward solves. One command line holds DIR with a
+lock (:func:`out_lock`, DIR/run.lock) while it runs: a second run on the same DIR is refused.
+
+A run that stops before the posterior (``inference.RunStopped``: too many failed solves, no convergence;
+``inference.Checkpointed``: SIGTERM/SIGUSR1) leaves DIR/progress.json and DIR/failed_solves.jsonl and one line on
+stderr saying why.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
+import os
+import socket
+import sys
 import time
 from dataclasses import dataclass
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -18,11 +28,19 @@ import numpy as np
 import inference
 from inference.executors import mpi_world
 
-__all__ = ["PROPOSALS", "RunSettings", "is_root", "method_name", "run_directories", "calibrate", "run_all",
-           "write_summary", "throughput"]
+__all__ = ["PROPOSALS", "RunSettings", "OutputLocked", "LOCK_FILE", "is_root", "method_name", "run_directories",
+           "out_lock", "announce_compilation", "calibrate", "run_all", "write_summary", "throughput"]
 
 #: command-line method -> inference.tmcmc proposal
 PROPOSALS = {"de": "de", "o": "gaussian"}
+#: the lock of an output folder in use (JSON: pid, host, started)
+LOCK_FILE = "run.lock"
+#: the packages whose compiled kernels (numba, cached in __pycache__) a solve needs
+KERNEL_PACKAGES = ("constitutive", "fem")
+
+
+class OutputLocked(RuntimeError):
+    """The output folder is in use by another run: the message names it (pid, host, start time)."""
 
 
 @dataclass(frozen=True)
@@ -72,36 +90,145 @@ def run_directories(run, default_out: Path) -> list:
     return runs
 
 
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+def _holder(lock: Path):
+    """The run that holds ``lock`` (dict), or None when the lock is stale: its process is gone from this host."""
+    try:
+        other = json.loads(lock.read_text())
+        pid, host, started = int(other["pid"]), str(other["host"]), str(other["started"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return {"pid": "?", "host": "?", "started": f"unknown (unreadable {lock}; remove it if no run uses the folder)"}
+    if host == socket.gethostname() and not _alive(pid):
+        return None
+    return {"pid": pid, "host": host, "started": started}
+
+
+@contextlib.contextmanager
+def out_lock(out):
+    """Hold the output folder ``out`` for this process (rank 0; other ranks do nothing): DIR/run.lock names the pid,
+    host and start time. Another live run's lock raises :class:`OutputLocked` naming it; a stale lock (its pid gone
+    from this host) is taken over with a note on stderr. The lock is removed on exit, and the folder too when the
+    lock made it and nothing else was written."""
+    if not is_root():
+        yield
+        return
+    out = Path(out)
+    made = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    lock = out / LOCK_FILE
+    mine = {"pid": os.getpid(), "host": socket.gethostname(),
+            "started": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+    tmp = out / f".{LOCK_FILE}.{os.getpid()}"
+    tmp.write_text(json.dumps(mine))
+    try:
+        while True:
+            try:
+                os.link(tmp, lock)  # atomic: fails when the lock exists
+                break
+            except FileExistsError:
+                other = _holder(lock)
+                if other is not None:
+                    raise OutputLocked(f"{out}: in use by another run (pid {other['pid']} on host {other['host']}, "
+                                       f"started {other['started']}); wait for it or choose another --out") from None
+                print(f"note: {lock}: taking over the stale lock of a run that is gone", file=sys.stderr, flush=True)
+                lock.unlink(missing_ok=True)
+    finally:
+        tmp.unlink(missing_ok=True)
+    try:
+        yield
+    finally:
+        with contextlib.suppress(OSError, ValueError, KeyError):
+            if json.loads(lock.read_text())["pid"] == mine["pid"]:
+                lock.unlink()
+        if made:
+            with contextlib.suppress(OSError):
+                out.rmdir()  # only when empty
+
+
+_announced = False
+
+
+def announce_compilation():
+    """Say once per process, on rank 0, that the compiled kernels are being built when a kernel module of
+    :data:`KERNEL_PACKAGES` has no cache index yet (numba's ``*.nbi`` in its ``__pycache__`` or NUMBA_CACHE_DIR)."""
+    global _announced
+    if _announced or not is_root():
+        return
+    _announced = True
+    import importlib
+
+    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
+    for package in KERNEL_PACKAGES:
+        folder = Path(importlib.import_module(package).__file__).parent
+        for module in folder.glob("_*_kernel.py"):
+            places = [folder / "__pycache__"] + ([Path(cache_dir)] if cache_dir else [])
+            if not any(any(p.rglob(f"{module.stem}.*.nbi")) for p in places if p.is_dir()):
+                print("compiling the constitutive kernels (first run only, about 30 s)...", file=sys.stderr,
+                      flush=True)
+                return
+
+
+def _stopped(stop, out: Path):
+    """Save what a stopped run did (progress.json, failed_solves.jsonl) and say why, on one line."""
+    stop.progress.save(out)
+    if isinstance(stop, inference.Checkpointed):
+        why = (f"stopped by a signal after writing the checkpoint {out / 'run.ckpt'}: run the same command with "
+               "--resume to continue")
+    else:
+        why = f"the run stopped: {' '.join(str(stop).split())}"
+    print(f"{why}; progress so far in {out / 'progress.json'}, failed solves in {out / 'failed_solves.jsonl'}",
+          file=sys.stderr, flush=True)
+
+
 def calibrate(like, prior, run, out: Path, seed: int, n_samples: int, executor=None, **settings):
     """One TMCMC run (method ``run.method``, resumed when ``run.resume``) with checkpoint and progress log in ``out``;
-    ``settings`` go to inference.tmcmc. Returns the Posterior on every rank."""
+    ``settings`` go to inference.tmcmc. Returns the Posterior on every rank. A stop (``inference.RunStopped``,
+    ``inference.Checkpointed``) is saved in ``out`` and said on stderr (rank 0) before it propagates."""
     out = Path(out)
     if is_root():
         out.mkdir(parents=True, exist_ok=True)
+    if not (run.resume and (out / "run.ckpt").exists()):  # a checkpoint is checked first: no message before a refusal
+        announce_compilation()
     if executor is None:
         executor = inference.default_executor(run.dispatch, run.processes)
     try:
         return inference.tmcmc(like, prior, n_samples=n_samples, proposal=PROPOSALS[run.method], seed=seed,
                                executor=executor, checkpoint=out / "run.ckpt", resume=run.resume,
                                log=out / "progress.log", **settings)
+    except (inference.RunStopped, inference.Checkpointed) as stop:
+        if is_root():
+            _stopped(stop, out)
+        raise
     finally:
         executor.close()
 
 
 def run_all(run, default_out, like, prior, n_samples, settings, finish) -> list:
     """Every run of ``run`` (methods x seeds, :func:`run_directories`): calibrate, then on rank 0
-    ``finish(run of one method, seed, out, post) -> summary`` and one JSON line per run on stdout. Returns the
-    summaries (rank 0) or [] (other ranks)."""
+    ``finish(run of one method, seed, out, post) -> summary`` and one JSON line per run on stdout (``wall_s``
+    summed over the sessions of a resumed run, as summary.json, and ``wall_s_this_session``), all under the lock of
+    the output folder (:func:`out_lock`). Returns the summaries (rank 0) or [] (other ranks)."""
     summaries = []
-    for one, seed, out in run_directories(run, default_out):
-        t0 = time.perf_counter()
-        post = calibrate(like, prior, one, out, seed, n_samples, **settings)
-        if is_root():
-            summaries.append(finish(one, seed, out, post))
-            print(json.dumps({"out": str(out), "method": one.method, "seed": seed,
-                              "wall_s": round(time.perf_counter() - t0, 1), "n_stages": post.n_stages,
-                              "n_forward_solves": post.n_forward_solves, "log_evidence": round(post.log_evidence, 3),
-                              "map": {k: round(v, 4) for k, v in post.map.items()}}), flush=True)
+    with out_lock(run.out or default_out):
+        for one, seed, out in run_directories(run, default_out):
+            post = calibrate(like, prior, one, out, seed, n_samples, **settings)
+            if is_root():
+                summaries.append(finish(one, seed, out, post))
+                print(json.dumps({"out": str(out), "method": one.method, "seed": seed,
+                                  "wall_s": round(post.wall_s, 1),
+                                  "wall_s_this_session": round(post.wall_s_this_session, 1),
+                                  "n_stages": post.n_stages, "n_forward_solves": post.n_forward_solves,
+                                  "log_evidence": round(post.log_evidence, 3),
+                                  "map": {k: round(v, 4) for k, v in post.map.items()}}), flush=True)
     return summaries
 
 
