@@ -1,7 +1,8 @@
 """Laboratory logging, measurement noise and the files of the independent generator.
 
 Logging (each test and noise seed at its own points): shear and CRS stages every 0.4-0.6 % of axial strain (CRS
-unloading every 0.15-0.25 %) with +-25 % jitter after three early points; consolidation ramps at 6 jittered times;
+unloading every 0.15-0.25 %) with +-25 % jitter after three early points; consolidation ramps at 6 jittered times (the last
+before 97 % of the ramp: the end state is logged by the next stage);
 holds, relaxation and incremental load stages log-spaced in the time since the stage start (3 per decade from about
 6 s, jittered; two records during a load ramp). Values at the logged points are interpolated linearly in time
 between the integrator's sub-steps (sub-steps of at most 2e-5 strain, so the interpolation error is below the
@@ -75,7 +76,7 @@ def log_points(stage, t, x, rng) -> np.ndarray:
         return np.interp(pts, xs, t)
     if stage.log == "time":
         u = (np.arange(1, 7) + rng.uniform(-0.3, 0.3, 6)) / 6.0
-        return t0 + np.clip(u, 0.02, 1.0) * (t1 - t0)
+        return t0 + np.clip(u, 0.02, 0.97) * (t1 - t0)
     span = t1 - t0
     start = 6.0 * rng.uniform(0.8, 1.2)
     n = max(int(3 * math.log10(span / start)) + 1, 2)
