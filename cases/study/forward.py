@@ -27,12 +27,14 @@ class StudyForward:
         self.switches = dict(switches)
         self.fixed = {**spec.defaults, **study.fixed}
         self.label = class_name(self.switches, self.model)
-        lab = [t for t in study.tests if t.type != "sbp" and t.apparatus != "sbp"]
+        lab = [recorded_programme(t, observations[t.name]) for t in study.tests
+               if t.type != "sbp" and t.apparatus != "sbp"]
         x = {t.name: next(iter(t.curves.values())).x for t in observations}
         curves = {t.name: tuple(t.curves) for t in observations}
         self.lab = None
         if lab:
-            driver_x = {t.name: x[t.name] if t.type == "oedometer_creep" else x[t.name] / 100.0 for t in lab}
+            driver_x = {t.name: {k: c.x for k, c in observations[t.name].curves.items()} if t.staged else
+                        x[t.name] if t.type == "oedometer_creep" else x[t.name] / 100.0 for t in lab}
             self.lab = LabForward(self.model, lab, driver_x, curves, self.fixed, self.switches,
                                   max_strain_step=spec.max_strain_step, e0_parameter=spec.e0_parameter)
         self.sbp = {t.name: self.sbp_forward(t, observations[t.name], preset or study.preset(False),

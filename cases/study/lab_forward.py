@@ -6,7 +6,10 @@ rate-dependent model, strain rate) run as ONE call over (tests x particles) mate
 repeated per test; each point is integrated on its own, so a test's curves are the same bits whatever it is batched
 with. Laboratory test types: ``triaxial`` (``labtests.drained_triaxial`` / ``undrained_triaxial``; SIMSAND through
 its own triaxial integrator when the start is isotropic), ``oedometer_crs`` (``labtests.oedometer_crs``) and
-``oedometer_creep`` (``labtests.oedometer_loading``, interpolated to the recorded times).
+``oedometer_creep`` (``labtests.oedometer_loading``, interpolated to the recorded times). A test written as a stage
+programme (``TestSpec.staged``: apparatus triaxial or oedometer) runs on its own through
+:func:`cases.study.lab_programme.simulate_programme`, its curves keyed ``<quantity>@<stage name>`` (the quantity alone
+for a one-stage programme) at the records of each stage.
 
 Simulated quantities (units kPa, %, -): q, p (mean effective stress), excess_pore_pressure, volumetric_strain (%),
 void_ratio, axial_stress, radial_stress (effective), axial_strain (%), and for the covariates stress_ratio (q/p'),
@@ -25,7 +28,10 @@ from inference import ForwardModelError
 
 from constitutive.registry import build_model, class_name
 
-__all__ = ["LabForward", "ALIASES", "COVARIATE_CURVES", "LAB_TYPES"]
+from .lab_programme import simulate_programme
+from .programme import split_key
+
+__all__ = ["LabForward", "ALIASES", "COVARIATE_CURVES", "LAB_TYPES", "programme_abscissae"]
 
 LAB_TYPES = ("triaxial", "oedometer_crs", "oedometer_creep")
 #: curve names of a study's records that are not the simulated quantity's name
@@ -55,6 +61,18 @@ def creep_weights(spec, times):
     w = np.clip((np.log(local) - hold[pos]) / (hold[pos + 1] - hold[pos]), 0.0, 1.0)
     i0 = stage * spec.n_times + pos
     return i0, i0 + 1, w
+
+
+def programme_abscissae(spec, recorded: dict) -> dict:
+    """{curve key: abscissae in simulate_programme's units} of a programme's records {curve key: x as recorded}:
+    axial strains from % to fractions, times (s) and stresses (kPa) as they are."""
+    stages = {s.name: s for s in spec.stages}
+    out = {}
+    for key, x in recorded.items():
+        stage = split_key(key)[1] or spec.stages[0].name
+        x = np.asarray(x, dtype=float)
+        out[key] = x / 100.0 if stages[stage].abscissa == "axial_strain" else x
+    return out
 
 
 def _driver(specs, model, e0, x, n_sub, m):
@@ -88,12 +106,16 @@ class LabForward:
     """Batched forward model (``inference.Likelihood(batch=True)``) of laboratory tests for one model class.
 
     model: a name of ``cases.study.models.MODELS``; switches: its switches; fixed: parameter values not identified
-    (merged under each particle's); tests: TestSpec list (laboratory types); abscissae: {test: the recorded axial
-    strains (-, signed) or times (s)}, in the drivers' units; curves: {test: the recorded curve names};
+    (merged under each particle's); tests: TestSpec list (laboratory types and programmes); abscissae: {test: the
+    recorded axial strains (-, signed) or times (s)}, in the drivers' units, and for a programme {curve key: the
+    stage's recorded abscissae as recorded (axial strain in %, time since the stage start in s, p' or sigma'_v in
+    kPa)} with each stage's ``abscissa`` set (``cases.study.stages.recorded_programme``); curves: {test: the recorded
+    curve names};
     max_strain_step: see :func:`substeps`; e0_parameter: the void ratio is the model parameter ``e0`` (else each
     test's ``e0``); grid: None (simulate at the recorded abscissae; results at the records) or axial strains in %
     shared by every (triaxial) test, simulated from 0 and returned as (grid %, values) with the initial state first
-    for the likelihood to interpolate to the records (the grid must reach the largest recorded strain).
+    for the likelihood to interpolate to the records (the grid must reach the largest recorded strain); not for
+    programmes.
 
     Call: a list of parameter dicts -> a list of {test: {curve: values}} (the recorded curves and the covariate
     quantities), a ForwardModelError naming the failed tests in place of a failed particle. :meth:`simulate_arrays`
@@ -111,11 +133,14 @@ class LabForward:
         self.e0_parameter = e0_parameter
         self.label = class_name(self.switches, model)
         if grid is None:
-            self.x = {t.name: np.asarray(abscissae[t.name], dtype=float) for t in self.tests}
+            self.x = {t.name: programme_abscissae(t, abscissae[t.name]) if t.staged
+                      else np.asarray(abscissae[t.name], dtype=float) for t in self.tests}
             self.start = None
         else:
             grid = np.unique(np.asarray(grid, dtype=float))
             for t in self.tests:
+                if t.staged:
+                    raise ValueError(f"a simulation grid serves flat triaxial tests only, not the programme {t.name}")
                 top = 100.0 * np.max(np.abs(abscissae[t.name]))
                 if t.type != "triaxial" or grid.max() < top:
                     raise ValueError(f"simulation grid ends at {grid.max():g} % before the largest recorded strain "
@@ -129,7 +154,7 @@ class LabForward:
 
     def _group_key(self, t):
         x = self.x[t.name]
-        if t.type == "oedometer_creep":
+        if t.type == "oedometer_creep" or t.staged:
             return (t.name,)
         n_sub = substeps(t, x, self.max_strain_step)
         return (t.type, t.drainage, tuple(x), n_sub, t.k0 if t.type == "triaxial" else t.K0, t.strain_rate)
@@ -149,13 +174,18 @@ class LabForward:
                                  "rate_dependent", True)
         calls = {}
         for key, group in self.groups.items():
-            if not rate_dependent and group[0].type != "oedometer_creep":
+            if not rate_dependent and len(key) > 1:
                 key = key[:-1]  # the strain rate only sets the time of a rate-independent model
             calls.setdefault(key, []).extend(group)
         curves, failed = {}, {}
         for specs in calls.values():
             k = len(specs)
             model = build_model(self.model, {n: np.tile(v, k) for n, v in values.items()}, self.switches)
+            if specs[0].staged:
+                spec = specs[0]
+                curves[spec.name], failed[spec.name] = simulate_programme(
+                    model, spec, self.x[spec.name], m, e0=values["e0"] if self.e0_parameter else None)
+                continue
             e0 = (np.tile(values["e0"], k) if self.e0_parameter else np.repeat([s.e0 for s in specs], m))
             x = self.x[specs[0].name]
             c = _driver(specs, model, e0, x, substeps(specs[0], x, self.max_strain_step), m)
@@ -191,6 +221,9 @@ class LabForward:
         ``values``."""
         out = {}
         for t in self.tests:
+            if t.staged:  # the recorded curves, by curve key
+                out[t.name] = {c: curves[t.name][c] for c in self.curves[t.name]}
+                continue
             wanted = self.curves[t.name] + COVARIATE_CURVES if names is None else names(t)
             e0 = values["e0"] if self.e0_parameter else t.e0
             sim = {c: curves[t.name][ALIASES.get(c, c)] for c in wanted if ALIASES.get(c, c) in curves[t.name]}
