@@ -32,7 +32,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import inference
-from constitutive import ParameterError
+from constitutive import ANICREEP, ParameterError
 
 from .study.cli import (UsageError, arguments, command, non_negative_int, pairs, positive_float, positive_int,
                         run_settings)
@@ -40,7 +40,7 @@ from .study.generate import generate_sbp
 from .study.outputs import runs_table
 from .study.presets import FE_FIELDS, PRESETS, Preset
 from .study.records import generating_values, has_pore_pressure, load_sbp_recordings
-from .study.runner import announce_compilation, is_root, run_all, throughput
+from .study.runner import announce_compilation, is_root, kernel_files, run_all, throughput
 from .study.sbp_forward import SBPForward
 from .study.sbp_outputs import SBPCase, write_sbp_outputs
 
@@ -156,8 +156,8 @@ def main(argv=None):
     truth = generating_values(observations, GENERATING)
     forward = burswood_forward(preset, fixed, rates=rates, curves=("cavity_pressure", "pore_pressure")
                                if use_pore_pressure else ("cavity_pressure",))
-    if not run.resume:
-        announce_compilation()
+    if not run.resume:  # a checkpoint is checked first: no message before its refusal
+        announce_compilation(kernel_files(ANICREEP, fe=True))
     forward.compile_material(GENERATING)
     like = inference.Likelihood(observations, forward)
     prior = inference.UniformPrior(BOUNDS)

@@ -39,7 +39,7 @@ from .study.cli import UsageError, arguments, command, non_negative_float, run_s
 from .study.generate import generate
 from .study.problem import CASE, StudyProblem, run_loop
 from .study.records import load_observations
-from .study.runner import out_lock, run_all, run_directories
+from .study.runner import announce_compilation, kernel_files, out_lock, run_all, run_directories
 from .study.schema import load_study
 
 __all__ = ["main"]
@@ -71,8 +71,11 @@ def main(argv=None):
     if args.diagnose and mpi_world() is not None:
         raise UsageError("--diagnose runs without mpirun (use --processes for a local pool)")
     default_out = DEFAULT_OUT / study.name
+    kernels = kernel_files(study.spec.cls, fe=any("sbp" in (t.type, t.apparatus) for t in study.tests))
     if args.diagnose:
         with out_lock(run.out or default_out):
+            if not run.resume:
+                announce_compilation(kernels)
             for one, seed, out in run_directories(run, default_out):
                 d = run_loop(problem, observations, one, out, seed, settings, f"study {study.name}, seed {seed}")
                 print(json.dumps({"case": CASE, "study": study.name, "out": str(out), "verdict": d["verdict"],
@@ -87,7 +90,7 @@ def main(argv=None):
         return problem.finish_class(post, like, name, study.switches, one, out, seed, settings.predictive_draws,
                                     post.wall_s)[1]
 
-    run_all(run, default_out, like, prior, settings.n_samples, {"max_steps": settings.max_steps}, finish)
+    run_all(run, default_out, like, prior, settings.n_samples, {"max_steps": settings.max_steps}, finish, kernels)
     return 0
 
 

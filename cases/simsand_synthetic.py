@@ -30,12 +30,14 @@ seed plus runs.md (average MAP and spread over runs beside true values and paper
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 
 import inference
 from cases import study
+from cases.study.cli import command
 from cases.study.lab_forward import LabForward
 from cases.study.programme import TestSpec
 from cases.study.records import write_records
@@ -149,6 +151,7 @@ def report_run(out, args, post, obs, forward, summary, truth):
     (Path(out) / "report.md").write_text("\n".join(text) + "\n")
 
 
+@command
 def main(argv=None):
     args = study.arguments(__doc__, argv, quick_help="N_s 400, at most 8 sweeps per stage (about 1-2 min)",
                            add=_options)
@@ -174,8 +177,8 @@ def main(argv=None):
         truth = {**TRUE, "sigma_eps": args.noise} if args.noise else TRUE  # noise-free: sigma_eps has no true value
         write_runs(args.out or DEFAULT_OUT, f"{CASE}, SYNTHETIC data, noise {args.noise:g}", summaries,
                    list(prior.names), references(args.noise), truth)
-    return summaries
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -35,12 +35,14 @@ map_spread.png (MAP / paper's DE-TMCMC mean).
 """
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
 
 import inference
 from cases import study
+from cases.study.cli import UsageError, command
 from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, add_options, free_subset, parameters, run_line, \
     sampler_settings, sand_forward, write_figures, write_runs
 from inference.observations import read_csv_table
@@ -100,7 +102,7 @@ def parse_undrained(spec: str):
     """``FILE`` or ``FILE:E0:P0_KPA`` -> (path, conditions given on the command line)."""
     parts = spec.split(":")
     if len(parts) not in (1, 3):
-        raise SystemExit(f"--undrained {spec!r}: use FILE or FILE:E0:P0_KPA")
+        raise UsageError(f"--undrained {spec!r}: use FILE or FILE:E0:P0_KPA")
     extra = {} if len(parts) == 1 else {"e0": parts[1], "p0_kPa": parts[2]}
     return Path(parts[0]), extra
 
@@ -184,6 +186,7 @@ def report_run(out, args, post, cal_obs, all_obs, forward_all, summary):
     (Path(out) / "report.md").write_text("\n".join(text) + "\n")
 
 
+@command
 def main(argv=None):
     args = study.arguments(__doc__, argv, quick_help="N_s 300, at most 6 sweeps per stage", add=_options)
     cal_obs, all_obs, forward, forward_all, like, prior = build(args.undrained, args.free)
@@ -206,8 +209,8 @@ def main(argv=None):
     if study.is_root():
         write_runs(args.out or DEFAULT_OUT, f"{CASE} (measured data, Verdugo & Ishihara 1996)", summaries,
                    list(prior.names), REFERENCES, PAPER_DE_MEAN, note="" if args.undrained else SUBSTITUTION_NOTE)
-    return summaries
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

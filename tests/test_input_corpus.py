@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import inference
-from cases import burswood_sbp, calibrate
+from cases import burswood_sbp, calibrate, simsand_synthetic, toyoura
 from cases.study import runner
 from cases.study.problem import StudyProblem
 from cases.study.records import load_observations, load_sbp_recordings
@@ -433,6 +433,20 @@ def test_bad_burswood_command_line_is_refused(tmp_path, capsys, extra, named):
     refused(burswood_sbp.main, ["--quick", "--processes", "1", "--out", out, *extra], capsys, out, named)
 
 
+@pytest.mark.parametrize("main, extra, named", [
+    (toyoura.main, ["--undrained", "a.csv:1.0"], ["--undrained", "'a.csv:1.0'"]),
+    (toyoura.main, ["--undrained", "none.csv"], ["none.csv", "not found"]),
+    (toyoura.main, ["--free", "phi"], ["--free", "phi"]),
+    (simsand_synthetic.main, ["--free", "phi_mu,phi"], ["--free", "phi"]),
+    (simsand_synthetic.main, ["--noise", "0.3"], ["--noise", "0.3"]),
+    (simsand_synthetic.main, ["--seed", "-4"], ["--seed", "'-4'"]),
+], ids=["toyoura undrained spec", "toyoura undrained file", "toyoura free", "simsand free", "simsand noise",
+        "simsand seed"])
+def test_bad_sand_study_command_line_is_refused(tmp_path, capsys, main, extra, named):
+    out = tmp_path / "out"
+    refused(main, ["--quick", "--processes", "1", "--out", out, *extra], capsys, out, named)
+
+
 # ------------------------------------------------------------------------------------------------ checkpoints
 class _RunsCode:
     """Unpickling this calls os.system: a checkpoint that tries to run code (it must never be unpickled)."""
@@ -599,6 +613,25 @@ def test_a_stale_lock_is_taken_over_with_a_note_and_released(tmp_path, capsys):
     with runner.out_lock(tmp_path / "new"):
         assert (tmp_path / "new" / runner.LOCK_FILE).exists()
     assert not (tmp_path / "new").exists()  # made by the lock and left empty: removed
+
+
+# ------------------------------------------------------------------------------------------------ friction
+def test_the_compile_message_is_said_once_when_a_kernel_cache_is_cold(tmp_path, capsys, monkeypatch):
+    from constitutive import ANICREEP, ModifiedCamClay
+
+    assert [f.name for f in runner.kernel_files(ModifiedCamClay)] == ["_mcc_kernel.py"]
+    assert [f.name for f in runner.kernel_files(ANICREEP, fe=True)] == ["_anicreep_kernel.py", "_residual_kernel.py"]
+    cold = tmp_path / "_cold_kernel.py"
+    cold.write_text("")
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setattr(runner, "_announced", False)
+    (tmp_path / "__pycache__").mkdir()
+    (tmp_path / "__pycache__" / "_warm_kernel.f-1.py311.nbi").write_bytes(b"")
+    runner.announce_compilation([tmp_path / "_warm_kernel.py"])
+    assert capsys.readouterr().err == ""
+    runner.announce_compilation([tmp_path / "_warm_kernel.py", cold])
+    runner.announce_compilation([cold])
+    assert capsys.readouterr().err == "compiling the constitutive kernels (first run only, about 30 s)...\n"
 
 
 # ------------------------------------------------------------------------------------------------ valid variants

@@ -37,9 +37,10 @@ class UsageError(ValueError):
     """A bad command-line value: the message names the option and the value."""
 
 
-#: the errors of a bad input, each with a one-line message naming what is wrong
+#: the errors of a bad input, each with a one-line message naming what is wrong (a plain ValueError too: a value
+#: refused by a check below the command line)
 REFUSED = (UsageError, StudyError, inference.DataError, inference.CheckpointError, inference.PriorError,
-           ParameterError, ProblemError, MeshError, OutputLocked, OSError)
+           ParameterError, ProblemError, MeshError, OutputLocked, OSError, ValueError)
 
 
 def _one_line(exc) -> str:

@@ -29,14 +29,12 @@ import inference
 from inference.executors import mpi_world
 
 __all__ = ["PROPOSALS", "RunSettings", "OutputLocked", "LOCK_FILE", "is_root", "method_name", "run_directories",
-           "out_lock", "announce_compilation", "calibrate", "run_all", "write_summary", "throughput"]
+           "out_lock", "kernel_files", "announce_compilation", "calibrate", "run_all", "write_summary", "throughput"]
 
 #: command-line method -> inference.tmcmc proposal
 PROPOSALS = {"de": "de", "o": "gaussian"}
 #: the lock of an output folder in use (JSON: pid, host, started)
 LOCK_FILE = "run.lock"
-#: the packages whose compiled kernels (numba, cached in __pycache__) a solve needs
-KERNEL_PACKAGES = ("constitutive", "fem")
 
 
 class OutputLocked(RuntimeError):
@@ -157,24 +155,34 @@ def out_lock(out):
 _announced = False
 
 
-def announce_compilation():
-    """Say once per process, on rank 0, that the compiled kernels are being built when a kernel module of
-    :data:`KERNEL_PACKAGES` has no cache index yet (numba's ``*.nbi`` in its ``__pycache__`` or NUMBA_CACHE_DIR)."""
+def kernel_files(model_class, fe=False) -> list:
+    """The compiled-kernel source files a solve of ``model_class`` needs (``_<module>_kernel.py`` beside the model's
+    module) and, with ``fe``, the FE's (``fem/_residual_kernel.py``)."""
+    import inspect
+
+    import fem
+
+    source = Path(inspect.getfile(model_class))
+    files = [source.with_name(f"_{source.stem}_kernel.py")]
+    if fe:
+        files.append(Path(fem.__file__).with_name("_residual_kernel.py"))
+    return [f for f in files if f.is_file()]
+
+
+def announce_compilation(kernels):
+    """Say once per process, on rank 0, that the compiled kernels are being built when one of the kernel source
+    files ``kernels`` (:func:`kernel_files`) has no cache index yet (numba's ``<module>.*.nbi`` in its
+    ``__pycache__`` or under NUMBA_CACHE_DIR)."""
     global _announced
     if _announced or not is_root():
         return
-    _announced = True
-    import importlib
-
     cache_dir = os.environ.get("NUMBA_CACHE_DIR")
-    for package in KERNEL_PACKAGES:
-        folder = Path(importlib.import_module(package).__file__).parent
-        for module in folder.glob("_*_kernel.py"):
-            places = [folder / "__pycache__"] + ([Path(cache_dir)] if cache_dir else [])
-            if not any(any(p.rglob(f"{module.stem}.*.nbi")) for p in places if p.is_dir()):
-                print("compiling the constitutive kernels (first run only, about 30 s)...", file=sys.stderr,
-                      flush=True)
-                return
+    for module in map(Path, kernels):
+        places = [module.parent / "__pycache__"] + ([Path(cache_dir)] if cache_dir else [])
+        if not any(any(p.rglob(f"{module.stem}.*.nbi")) for p in places if p.is_dir()):
+            _announced = True
+            print("compiling the constitutive kernels (first run only, about 30 s)...", file=sys.stderr, flush=True)
+            return
 
 
 def _stopped(stop, out: Path):
@@ -196,8 +204,6 @@ def calibrate(like, prior, run, out: Path, seed: int, n_samples: int, executor=N
     out = Path(out)
     if is_root():
         out.mkdir(parents=True, exist_ok=True)
-    if not (run.resume and (out / "run.ckpt").exists()):  # a checkpoint is checked first: no message before a refusal
-        announce_compilation()
     if executor is None:
         executor = inference.default_executor(run.dispatch, run.processes)
     try:
@@ -212,13 +218,16 @@ def calibrate(like, prior, run, out: Path, seed: int, n_samples: int, executor=N
         executor.close()
 
 
-def run_all(run, default_out, like, prior, n_samples, settings, finish) -> list:
+def run_all(run, default_out, like, prior, n_samples, settings, finish, kernels=()) -> list:
     """Every run of ``run`` (methods x seeds, :func:`run_directories`): calibrate, then on rank 0
     ``finish(run of one method, seed, out, post) -> summary`` and one JSON line per run on stdout (``wall_s``
     summed over the sessions of a resumed run, as summary.json, and ``wall_s_this_session``), all under the lock of
-    the output folder (:func:`out_lock`). Returns the summaries (rank 0) or [] (other ranks)."""
+    the output folder (:func:`out_lock`); with ``kernels`` (:func:`kernel_files`), the compile message when their
+    cache is cold and the run does not resume. Returns the summaries (rank 0) or [] (other ranks)."""
     summaries = []
     with out_lock(run.out or default_out):
+        if not run.resume:  # a checkpoint is checked first: no message before its refusal
+            announce_compilation(kernels)
         for one, seed, out in run_directories(run, default_out):
             post = calibrate(like, prior, one, out, seed, n_samples, **settings)
             if is_root():
