@@ -124,7 +124,7 @@ class Likelihood:
         self.n_points = {t.name: int(sum(self.masks[t.name, c].sum() for c in t.curves)) for t in observations}
         self.curve_keys = tuple((t.name, c) for t in observations for c in t.curves)
         self.group_of = self._resolve_groups(groups)
-        self.groups = tuple(dict.fromkeys(self.group_of.values()))
+        self.groups = tuple(groups) if groups and len(groups) > 1 else tuple(dict.fromkeys(self.group_of.values()))
         if isinstance(sigma, str):
             self.sigma_names = ((sigma,) if len(self.groups) == 1 else
                                 tuple(f"{sigma}_{g}" for g in self.groups))
@@ -153,6 +153,8 @@ class Likelihood:
                 raise ValueError(f"error group name {g!r} must be an identifier (it names sigma_eps_<group>)")
             if isinstance(members, (str, tuple)):
                 members = [members]
+            if not members:
+                raise ValueError(f"error group {g} has no curves")
             for entry in members:
                 keys = ([entry] if isinstance(entry, tuple) and entry in self.curve_keys else
                         [k for k in self.curve_keys if k[1] == entry])

@@ -26,13 +26,13 @@ def test_map_and_quantiles_on_bounds():
     samples = np.column_stack([rng.uniform(60, 100, 400), np.r_[np.full(20, 0.1005), rng.uniform(0.3, 0.6, 380)],
                                rng.uniform(1e-3, 2e-3, 400), rng.uniform(0.02, 0.03, 400)])
     post = _posterior(PRIOR, samples, [119.6, 0.5, 1.04e-4, 0.025])
-    assert bound_warnings(post, skip=("sigma_eps",)) == [
+    assert bound_warnings(post, lower_only=("sigma_eps",)) == [
         "K_0 MAP 119.6 at the upper bound 120 of its prior: widen the bound or fix it",
         "n 2.5 % quantile 0.1005 at the lower bound 0.1 of its prior: widen the bound or fix it",
         "k_p MAP 0.000104 at the lower bound 0.0001 of its prior: widen the bound or fix it"]
     # just outside the tolerances: K_0 118.9 (1.1 %), k_p 1.1e-4 (2.1 % of the log width)
     inside = _posterior(PRIOR, samples[20:], [118.9, 0.5, 1.1e-4, 0.025])
-    assert bound_warnings(inside, skip=("sigma_eps",)) == []
+    assert bound_warnings(inside, lower_only=("sigma_eps",)) == []
 
 
 def test_sigma_at_its_ceiling():
@@ -77,7 +77,7 @@ def test_calibration_warnings_with_error_groups():
 def test_bound_tolerance_is_a_fraction_of_the_width(value, warned):
     prior = Prior([Bound("a", 0.001, 0.2), Bound("sigma_eps", 0.01, 0.1)])
     post = _posterior(prior, np.tile([0.1, 0.05], (10, 1)), [value, 0.05])
-    assert bool(bound_warnings(post, skip=("sigma_eps",))) is warned
+    assert bool(bound_warnings(post, lower_only=("sigma_eps",))) is warned
 
 
 def test_a_calibration_prints_and_reports_its_warnings(tmp_path, capsys):
@@ -96,3 +96,11 @@ def test_a_calibration_prints_and_reports_its_warnings(tmp_path, capsys):
     assert "at the upper bound 29.5 of its prior: widen the bound or fix it" in lines[0]
     report = (tmp_path / "out" / "report.md").read_text()
     assert "## Warnings\n\n- " + lines[0][len("warning: "):] in report
+
+
+def test_an_error_parameter_on_its_lower_bound_is_a_bound_warning():
+    prior = Prior([Bound("a", 0.0, 1.0), Bound("sigma_eps", 0.01, 0.3)])
+    post = _posterior(prior, np.tile([0.5, 0.0105], (10, 1)), [0.5, 0.0102])
+    assert bound_warnings(post, lower_only=("sigma_eps",)) == [
+        "sigma_eps MAP 0.0102, 2.5 % quantile 0.0105, 97.5 % quantile 0.0105 at the lower bound 0.01 of its prior: "
+        "widen the bound or fix it"]

@@ -109,3 +109,12 @@ def test_group_keys_curve_sigmas_and_refusals():
     like = Likelihood(_obs(), Toy(), batch=True, groups=GROUPS).bind(NAMES)
     values, reasons = like.evaluate_many(np.array([[1.0, 1.0, 0.1, -0.1]]))
     assert values[0] == -np.inf and reasons[0] == f"{ForwardModelError.__name__}: sigma_eps_volume = -0.1 must be > 0"
+
+
+def test_groups_keep_their_given_order():
+    like = Likelihood(_obs(), Toy(), batch=True, groups={"volume": ["e"], "stress": ["q"]})
+    assert like.groups == ("volume", "stress") and like.sigma_names == ("sigma_eps_volume", "sigma_eps_stress")
+    like.bind(("a", "b", "sigma_eps_stress", "sigma_eps_volume"))
+    np.testing.assert_array_equal(like.sigma_arrays([[1.0, 1.0, 0.1, 0.2]]), [[0.2, 0.1]])
+    with pytest.raises(ValueError, match="error group v has no curves"):
+        Likelihood(_obs(), Toy(), groups={"s": ["q", "e"], "v": []})

@@ -50,8 +50,9 @@ def test_a_constraint_the_box_always_satisfies_is_left_out(tmp_path):
 @pytest.mark.parametrize("model, message", [
     ('[model.fixed]\nkappa = 0.5\nnu = 0.3\nocr = 1.5\n[model.free]\nM = [0.8, 1.8]\nlambda_ = [0.1, 0.3]',
      "no point of the prior box satisfies kappa < lambda_"),
-    ('[model.fixed]\nkappa = 0.5\nlambda_ = 0.2\nnu = 0.3\nocr = 1.5\n[model.free]\nM = [0.8, 1.8]',
-     "model.fixed = .*kappa < lambda_ does not hold for these fixed values \\(ModifiedCamClay needs it\\)"),
+    ('constraints = ["M < 2 * kappa"]\n[model.fixed]\nM = 1.2\nkappa = 0.04\nlambda_ = 0.2\nnu = 0.3\n'
+     '[model.free]\nocr = [1.0, 4.0]',
+     r"model.constraints = 'M < 2 \* kappa': does not hold for the fixed values \{'M': 1.2, 'kappa': 0.04\}"),
     ('constraints = ["M < foo"]\n[model.fixed]\nlambda_ = 0.2\nkappa = 0.04\nnu = 0.3\n[model.free]\n'
      'M = [0.8, 1.8]\nocr = [1.0, 4.0]', r"model.constraints = 'M < foo': .*unknown parameter 'foo'"),
     ('constraints = ["M > 10 * ocr"]\n[model.fixed]\nlambda_ = 0.2\nkappa = 0.04\nnu = 0.3\n[model.free]\n'

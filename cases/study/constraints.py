@@ -32,24 +32,28 @@ def read_constraints(ck, table, spec, model, fixed: dict, free: dict, log_unifor
     names = tuple(free) + tuple(known)
     out = []
     for text, own in [(c, True) for c in given] + [(c, False) for c in spec.constraints]:
-        where = "model.constraints" if own else f"[model] {model}'s own constraint"
         try:
             c = parse_constraint(text, names)
         except ValueError as exc:
             if not own:  # the model's constraint names a parameter this study does not use
                 continue
-            ck.fail(where, text, f"{exc} (free and fixed parameters)")
+            ck.fail("model.constraints", text, f"{exc} (free and fixed parameters)")
         values = {n: known[n] for n in c.names if n not in free}
         c = c.with_values(values)
-        if c.constant() is False:
-            ck.fail("model.fixed", values, f"{c.text} does not hold for these fixed values"
-                    + ("" if own else f" ({model} needs it)"))
+        if c.constant() is not None:  # fixed values only: the model's own is checked by constructing it
+            if own and not c.constant():
+                ck.fail("model.constraints", text, f"does not hold for the fixed values {values}")
+            continue
+        why = "" if own else f" ({model} needs it)"
         corners = _corners(c, free)
         if corners.all():
             continue
         if not corners.any():
-            ck.fail(where if own else "model.free", text if own else {n: list(free[n]) for n in c.names},
-                    f"no point of the prior box satisfies {c.text}" + ("" if own else f" ({model} needs it)"))
+            fixed_text = "".join(f", {n} = {v:g} fixed" for n, v in values.items())
+            why = f"no point of the prior box satisfies {c.text}{fixed_text}{why}"
+            if own:
+                ck.fail("model.constraints", text, why)
+            ck.fail(f"model.free.{c.names[0]}", list(free[c.names[0]]), why)
         if all(c.text != o.text for o in out):
             out.append(c)
     if out:
@@ -63,8 +67,6 @@ def read_constraints(ck, table, spec, model, fixed: dict, free: dict, log_unifor
 
 def _corners(constraint, free) -> np.ndarray:
     """Whether the constraint holds at each corner of the box of its free parameters (bool array)."""
-    if constraint.constant() is not None:
-        return np.array([constraint.constant()])
     names = constraint.names
     corners = np.array(list(itertools.product(*[free[n] for n in names])), dtype=float)
     return constraint.holds(corners, names)

@@ -2,7 +2,7 @@
 
 - a parameter on a prior bound: its MAP, 2.5 % or 97.5 % quantile within ``BOUND_TOLERANCE`` (1 %) of the prior box
   width from a bound (the width of ln x for a log-uniform prior): the data push the parameter out of the box, so
-  the bound, not the data, decides its value;
+  the bound, not the data, decides its value (an error parameter's upper bound has its own warning, next);
 - an error parameter (sigma_eps or sigma_eps_<group>) whose MAP is within ``SIGMA_TOLERANCE`` (2 %) of the box width
   from its upper bound: the model cannot fit the curves within the noise the prior allows;
 - a poor fit: a curve whose RMS relative residual (U_obs - U_num)/U_obs at the MAP, over the points Eq. (5) uses,
@@ -38,17 +38,17 @@ def prior_bounds(post) -> dict:
     return {d["name"]: Bound(d["name"], d["lower"], d["upper"], d["kind"]) for d in post.prior if "name" in d}
 
 
-def bound_warnings(post, skip=(), tolerance=BOUND_TOLERANCE) -> list:
-    """Parameters (those in ``skip`` left out) whose MAP or 2.5 / 97.5 % quantile lies within ``tolerance`` of the
-    prior box width from a bound."""
+def bound_warnings(post, lower_only=(), tolerance=BOUND_TOLERANCE) -> list:
+    """Parameters whose MAP or 2.5 / 97.5 % quantile lies within ``tolerance`` of the prior box width from a bound
+    (the lower bound only for those in ``lower_only``)."""
     q = post.quantiles((0.025, 0.975))
     out = []
     for b in prior_bounds(post).values():
-        if b.name in skip:
-            continue
         stats = {"MAP": post.map[b.name], "2.5 % quantile": q[b.name][0], "97.5 % quantile": q[b.name][1]}
-        for side, value, near in (("lower", b.lower, lambda x: _position(b, x) <= tolerance),
-                                  ("upper", b.upper, lambda x: _position(b, x) >= 1.0 - tolerance)):
+        sides = [("lower", b.lower, lambda x: _position(b, x) <= tolerance)]
+        if b.name not in lower_only:
+            sides.append(("upper", b.upper, lambda x: _position(b, x) >= 1.0 - tolerance))
+        for side, value, near in sides:
             hits = [f"{label} {v:.4g}" for label, v in stats.items() if near(v)]
             if hits:
                 out.append(f"{b.name} {', '.join(hits)} at the {side} bound {value:g} of its prior: widen the "
@@ -107,5 +107,5 @@ def calibration_warnings(post, like, map_simulated: dict) -> list:
     fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order)."""
     sigma = like.curve_sigmas(post.map_theta)[0]
     sigma = np.broadcast_to(sigma, (len(like.curve_keys),))
-    return (bound_warnings(post, skip=like.sigma_names) + sigma_warnings(post, like.sigma_names)
+    return (bound_warnings(post, lower_only=like.sigma_names) + sigma_warnings(post, like.sigma_names)
             + fit_warnings(like, map_simulated, dict(zip(like.curve_keys, sigma.tolist()))))
