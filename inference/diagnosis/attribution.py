@@ -16,30 +16,43 @@ autocorrelation:
   only the per-curve mean residuals carry information; f is linear in the covariate's rank among the curves (a
   monotone trend), or one mean per level for categories. Null: the covariate values are permuted among the tests
   (all permutations when there are at most 7 tests, else n_shifts random ones), so with k tests p >= 1/k! (and
-  p >= 2/k! for a numeric covariate: the reversed order fits as well), which cannot reach 0.05 with k <= 4.
-- few-test contrast (a numeric between-test covariate with fewer than MIN_PERMUTATION_TESTS = 5 tests, at least two
+  p >= 2/k! for a numeric covariate: the reversed order fits as well), which cannot reach 0.05 with k <= 4: hence
+  the few-test contrast below.
+- few-test contrast (a between-test covariate with fewer than MIN_PERMUTATION_TESTS = 5 tests and at least two
   levels): the permutation null is replaced, for the p-value only, by a contrast that uses the within-test residual
-  scatter. For each curve name whose curves are recorded at the same points (same number of points, paired by index;
-  points where any of them is NaN are dropped), the trend over tests at every point is
-      b_i = sum_t w_t r_t,i,   w_t = (rank_t - mean rank) / sum_t (rank_t - mean rank)^2
-  (two tests: b_i = r_high,i - r_low,i, the residual of the test at the higher covariate level minus the other's).
-  Null hypothesis: the residual does not depend on the covariate level, r_t,i = f_i + e_t,i with any common shape f
-  (it cancels in b, since sum_t w_t = 0) and noise e independent between tests and stationary along each curve
-  (autocorrelated allowed), so b is a stationary sequence with mean 0. Statistic: z = mean(b) / SE, the noise of b
-  estimated about a straight line fitted to b along the curve (so that a residual difference that grows along the
-  curve, the usual alternative, is not mistaken for autocorrelation): e = b - line; rho = lag-1 autocorrelation of e
-  plus its O(1/n) bias correction (3 + 6 rho)/n (estimated about a fitted line), clipped to [0, 0.9]; effective
-  sample size n_eff = n (1 - rho)/(1 + rho) (AR(1); at least 4); noise variance sum e^2 / (n - 2 n/n_eff) (the two
-  fitted coefficients each take about n/n_eff of it); SE^2 = variance / n_eff; two-sided p from Student's t with
-  n_eff - 2 degrees of freedom. Curve names are combined by Bonferroni (p = m min_c p_c over the m curve names
-  contrasted: valid under any dependence between curve names). The sign of z is the direction of the trend (z > 0:
-  the residual rises with the covariate), reported per curve name in ``Attribution.contrast``. Measured false-alarm
-  rate at alpha = 0.05, one curve name, 2 tests x 40 points, 3000 simulated pairs (tests/test_covariates_contrast.py,
-  notes/concealed-sbp.md): white noise 0.036, AR(1) phi 0.3 0.047, phi 0.5 0.057, phi 0.7 0.060; with 20
-  points 0.038, 0.061, 0.068, 0.091 (the lag-1 estimate is too noisy on short, strongly autocorrelated curves: read
-  the p-value as approximate below about 30 points). Power at 40 points (1000 pairs): a 1-sigma offset between the
-  tests in white noise 0.98, 2 sigma in AR(1) phi 0.5 0.90; a difference growing 0 -> 3 sigma along the curve in
-  AR(1) phi 0.3 0.98. With 5 or more tests nothing changes (permutation null).
+  scatter (`contrast`): per curve name, the tests' residuals on a common abscissa (paired point by point when
+  recorded at the same abscissae, else interpolated onto the sparsest curve's points over the overlapping range;
+  never paired by index), then a numeric or ordinal covariate's rank trend, or a categorical covariate's difference
+  between every pair of levels, tested for mean 0 against Student's t with the lag-1 effective sample size. Curve
+  names (and level pairs) are combined by Bonferroni; ``Attribution.contrast`` holds per curve name {z, p, df,
+  n_eff, lag1, mean, points, grid, range} (z > 0: the residual rises with the covariate, or level b of "levels"
+  [a, b] is above level a; categorical: the most significant pair, all in "pairs"); `rank` makes the p-value of an
+  item one-sided when the item states a direction.
+  Measured false-alarm rates at alpha = 0.05, one curve name, 1000 simulated programmes of 40-point curves
+  (2-4 tests; "different logging": each test its own range and 40 - 4 j points), white / AR(1) phi 0.5 noise:
+  categorical, same logging: 2 tests 0.042 / 0.056, 3 tests 0.041 / 0.064, 4 tests 0.045 / 0.065; different
+  logging: 0.052 / 0.053, 0.029 / 0.050, 0.051 / 0.044; numeric: 2 tests as categorical, 3 tests 0.030 / 0.045
+  (same), 0.035 / 0.029 (different), 4 tests 0.045 / 0.056, 0.048 / 0.035 (binomial SE 0.007; the step of
+  `contrast.mean_test` did not change one of these rates against the line alone: it stays out of noise).
+  tests/test_diagnosis_power.py checks 6 of them over 400 programmes at alpha + 3 SE. Earlier measurement for the rate trend, 2 tests x 40
+  points, 3000 pairs (tests/test_covariates_contrast.py): white 0.036, AR(1) phi 0.3 0.047, 0.5 0.057, 0.7 0.060;
+  with 20 points 0.038, 0.061, 0.068, 0.091 (read the p-value as approximate below about 30 points). Power at 40
+  points: a 1-sigma offset in white noise 0.98, 2 sigma in AR(1) phi 0.5 0.90, a difference growing 0 -> 3 sigma
+  0.98; +9 % / -15 % offsets over the last 70 % of two tests logged at different points, noise 2 %: 20/20.
+  With 5 or more tests nothing changes (permutation null).
+- within-test covariates declared with scope "within" (post-peak strain, unloading branch, hold time, stage kind):
+  besides the pooled R^2 above, the p-value is one circular-shift test per curve, Bonferroni over the curves of a
+  test (valid whatever their dependence), Stouffer over the tests (independent; weights sqrt(points), each z
+  clipped to +-8), so one test can carry the evidence; per test p in ``Attribution.per_test``. Measured false-alarm
+  rate on white noise, 1 and 2 tests x 2 curves, post-peak points only: at most 0.05 + 3 SE over 300 programmes
+  (tests/test_diagnosis_power.py).
+
+Covariate specs. Plain form (as forward models have always given them): {(test, curve): array aligned with the
+curve's points, or scalar} or {test: scalar or array}; numeric values are "numeric", strings "categorical", the
+scope follows from whether the values vary along a curve. Declared form: {"values": <plain form>, "kind": "numeric"
+| "ordinal" | "categorical", "scope": "within" | "between", "order": [levels, for ordinal text values or the order
+of categorical pairs], "abscissa": {(test, curve): recorded abscissa} for the common grid}; every key but "values"
+optional. A declared "between" that varies along a curve, or "within" that does not, is an error.
 
 Within one curve, covariates that are monotone along it (strain level, time, p' in monotonic loading) cannot be told
 apart; the pooled fit over tests run at other rates, pressures or drainage conditions is what separates them.

@@ -24,11 +24,14 @@ Null hypothesis: r_t,i = f_i + e_t,i with any common shape f (it cancels in b) a
 and stationary along each curve (autocorrelated allowed).
 
 `mean_test`: z = mean(b) / SE, with the noise of b estimated about a straight line fitted to b along the grid (so a
-difference that grows along the curve, the usual alternative, is not mistaken for autocorrelation): e = b - line;
-rho = lag-1 autocorrelation of e plus its O(1/n) bias correction (3 + 6 rho)/n, clipped to [0, 0.9]; effective sample
-size n_eff = n (1 - rho)/(1 + rho) (AR(1), at least 4); noise variance sum e^2 / (n - 2 n/n_eff); SE^2 =
-variance / n_eff; p from Student's t with n_eff - 2 degrees of freedom, two-sided (one-sided when a candidate states
-the direction: `one_sided`).
+difference that grows along the curve, the usual alternative, is not mistaken for autocorrelation), or about a line
+plus one step when the best step removes at least STEP_REDUCTION = 75 % of the line's residual sum of squares (a
+difference over part of the range: without it the step's remainder reads as lag-1 0.9 and the contrast loses all
+power; the threshold keeps the step out of AR(1) noise, measured rates in the `attribution` docstring): e = b - fit;
+rho = lag-1 autocorrelation of e plus its O(1/n) bias correction (3 + 6 rho)/n, clipped to [0, 0.9]; effective
+sample size n_eff = n (1 - rho)/(1 + rho) (AR(1), at least 4); noise variance sum e^2 / (n - m n/n_eff) (m = 2 or 3
+fitted coefficients each take about n/n_eff of it); SE^2 = variance / n_eff; p from Student's t with n_eff - 2
+degrees of freedom, two-sided (one-sided when a candidate states the direction: `one_sided`).
 """
 from __future__ import annotations
 
@@ -44,6 +47,10 @@ __all__ = ["MIN_CONTRAST_POINTS", "MIN_EFFECTIVE_POINTS", "common_grid", "mean_t
 #: shortest contrast sequence tested, and the smallest effective sample size credited
 MIN_CONTRAST_POINTS = 8
 MIN_EFFECTIVE_POINTS = 4.0
+#: a step is fitted to a contrast's noise estimate when it removes this fraction of the line's residual sum of
+#: squares, at least MIN_STEP_POINTS from either end (`mean_test`)
+STEP_REDUCTION = 0.75
+MIN_STEP_POINTS = 4
 
 
 def _monotone(x):
@@ -82,6 +89,25 @@ def common_grid(residuals: dict, keys: list, abscissae: dict | None = None):
     return grid, np.vstack([np.interp(grid, x, r) for x, r in pieces]), "interpolated"
 
 
+def _detrended(b):
+    """(b minus its fitted smooth part, number of fitted coefficients): a straight line, or a line plus one step
+    (a change of level at the break that minimizes the residual sum of squares, at least MIN_STEP_POINTS from either
+    end) when the step removes at least STEP_REDUCTION of the line's residual sum of squares (a level change over
+    part of the range, far beyond what autocorrelated noise produces)."""
+    n = b.size
+    line = np.column_stack([np.ones(n), np.arange(n) - (n - 1) / 2.0])
+    e_line = b - line @ np.linalg.lstsq(line, b, rcond=None)[0]
+    best, ss_line = e_line, float(e_line @ e_line)
+    for k in range(MIN_STEP_POINTS, n - MIN_STEP_POINTS + 1):
+        x = np.column_stack([line, (np.arange(n) >= k).astype(float)])
+        e = b - x @ np.linalg.lstsq(x, b, rcond=None)[0]
+        if float(e @ e) < float(best @ best):
+            best = e
+    if float(best @ best) <= (1.0 - STEP_REDUCTION) * ss_line:
+        return best, 3
+    return e_line, 2
+
+
 def mean_test(b):
     """(z, degrees of freedom, n_eff, lag-1) of mean(b) = 0 for a stationary, possibly autocorrelated sequence b
     (module docstring); None when b is shorter than MIN_CONTRAST_POINTS or has no scatter about a straight line."""
@@ -89,15 +115,14 @@ def mean_test(b):
     n = b.size
     if n < MIN_CONTRAST_POINTS:
         return None
-    x = np.column_stack([np.ones(n), np.arange(n) - (n - 1) / 2.0])
-    e = b - x @ np.linalg.lstsq(x, b, rcond=None)[0]
+    e, n_fitted = _detrended(b)
     ss = float(e @ e)
     if not ss > 1e-24 * max(float(b @ b), 1e-300):
         return None
     rho = float(e[1:] @ e[:-1]) / ss
     rho = min(max(rho + (3.0 + 6.0 * rho) / n, 0.0), 0.9)
     n_eff = max(n * (1.0 - rho) / (1.0 + rho), MIN_EFFECTIVE_POINTS)
-    variance = ss / (n - 2.0 * n / n_eff)
+    variance = ss / (n - n_fitted * n / n_eff)
     return float(b.mean() / math.sqrt(variance / n_eff)), n_eff - 2.0, n_eff, rho
 
 

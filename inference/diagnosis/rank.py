@@ -10,14 +10,37 @@ Signature score of a candidate (`rank_candidates`). For each signature item i wi
                       the curves the item names) has the sign of d_i;
   evidence_i = 0      otherwise (status: "not reported", "not significant" or "opposite direction").
   score = sum_i w_i evidence_i / sum_i w_i (0 <= score <= 1; items whose covariate is not reported count as 0).
+Items on a covariate tested by a few-test contrast (`attribution`, fewer than 5 tests) are judged on the contrasts
+of the item's own curves instead: p = (Bonferroni over those curves of the one-sided p in the item's direction, or
+two-sided for direction 0) x the covariate's Holm factor p_adjusted/p_value; "supports" when p <= alpha, "opposite
+direction" when the two-sided p is <= alpha with the other sign. Each item also carries its effect size: the
+|mean difference| of the contrast, else the root mean square of the residual the covariate explains.
 A candidate is *named* when the screening verdict is "structured mismatch", the base model does not already have the
-physics, and at least one of its primary items supports it. Candidates are ranked by score.
+physics, and at least one of its primary items supports it; *plausible* when it is named, or the verdict is
+structured, it is not in the base, its score is > 0 and no primary item is in the opposite direction (the loop's
+enrich "all" calibrates the enriched class of every plausible candidate with an enrichment). Candidates are ranked
+named first, then by score.
 
-Confirmation (`conclude`): a named candidate is confirmed when the log Bayes factor of its enriched model class over
-the base class, ln B = ln Z_enriched - ln Z_base (TMCMC log-evidences), is at least ``threshold`` (default 3:
-B >= 20, "strong" on the Kass & Raftery 1995 scale). The omitted physics is the best-ranked confirmed candidate, or
-"none". A named candidate without an implemented enrichment is reported as "candidate named, enrichment not
-available", never as confirmed.
+Confirmation (`conclude`): by evidence together with the signature. A named candidate is confirmed when
+1. ln B = ln Z_enriched - ln Z_base (TMCMC log-evidences) >= ``threshold``;
+2. its enriched class explains its own predicted residual pattern (`pattern_explained`): every primary item that
+   supports the candidate on the base class no longer supports it on the enriched class's screening, or its effect
+   size fell to at most PATTERN_REDUCTION = 0.5 of the base's;
+3. no other enriched class has ln B >= its ln B + ``margin``, and, unless it is the best-ranked named candidate
+   with a calibrated class, it beats every other enriched class by the margin.
+The omitted physics is the first confirmed candidate in ranked order, or "none"; every other named candidate gets
+"named, not confirmed" with the reason. An enriched class that wins the evidence without its candidate being named
+is reported ("evidence without the signature") but never confirmed. A named candidate without an implemented
+enrichment is "candidate named, enrichment not available".
+
+Threshold and margin. Default 3 for both (STRONG_LOG_BAYES: 2 ln B > 6, "strong" on the Kass & Raftery 1995
+scale). Under a misspecified error model (independent errors where the residuals are autocorrelated, one sigma for
+curves of different scatter) Bayes factors are over-confident (Brynjarsdottir & O'Hagan 2014; docs/reference.md
+section 9), so the threshold must be calibrated on negative controls: run the loop on control programmes of each
+kind (the same tests, logging and noise, no hidden effect, >= 3 noise seeds each), record the largest ln B of any
+enriched class over the base on each control, and set ``threshold`` (and ``margin``) above the largest control value
+with room for the seed-to-seed scatter (e.g. max + 2 standard deviations, never below 3); state the controls and
+the value used in the study's notes.
 """
 from __future__ import annotations
 

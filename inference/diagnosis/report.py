@@ -5,7 +5,12 @@ class, the conclusion by the Bayes factor; as a dict (JSON) and as a report an e
 and the candidates (plain data, `rank.rank_candidates`). Its dict holds: the screening verdict of the base class,
 the mismatch regions, the covariate attribution, the ranked candidates with their decisions, per class the
 log-evidence, ln B against the base, J_g at the MAP, parameters and residual-structure statistics (before/after),
-the full screening of every class, the omitted physics ("none" when nothing is confirmed) and the recommendation.
+the full screening of every class, the omitted physics ("none" when nothing is confirmed, by ln B, the margin and
+the candidate's own pattern: `rank.conclude`, whose docstring states how to calibrate the threshold on negative
+controls), the recommendation, the poor-fit warnings of the classes and, per candidate not named, what the records
+lack to test it (`next_tests`). Every class is screened with the covariates (the enriched classes' screenings tell
+whether the candidate's own pattern is gone). The Markdown report says, when no catalog entry explains the
+structure, where (test, curve, abscissa range), how (sign and size) and which covariates the residual follows.
 """
 from __future__ import annotations
 
@@ -97,7 +102,7 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
                           "structure": structure[cl["name"]]} for cl in classes],
            "log_bayes": verdict["log_bayes"], "threshold_log_bayes": verdict["threshold"],
            "margin_log_bayes": verdict["margin"], "warnings": warnings,
-           "next_tests": next_tests(ranked, covariates, recorded),
+           "next_tests": next_tests(ranked, [a.to_dict() for a in screens[base["name"]].attribution], recorded),
            "screens": {name: rep.to_dict() for name, rep in screens.items()}}
     out["wall_s"] = time.perf_counter() - t0
     return out
@@ -117,12 +122,14 @@ def _structure(report) -> dict:
             "points": int(sum(c.n_points for c in curves)), "screen_wall_s": report.wall_s}
 
 
-def next_tests(ranked: list, covariates: dict, recorded: list) -> list:
+def next_tests(ranked: list, attribution: list, recorded: list) -> list:
     """What the records lack to test each candidate that is not already in the base model and not named: for each
     primary signature item, the covariate it needs when the records do not report it ("not reported": no test
     varies that condition, or the forward model does not report it), the curves it is measured on when none of them
-    is recorded, and more tests at other levels when a between-test condition is not significant. Returns
-    [{candidate, needs: [words]}] for the candidates that need something."""
+    is recorded, and more tests at other levels when a between-test condition could not be tested by a few-test
+    contrast. attribution: the base class's attribution dicts. Returns [{candidate, needs: [words]}] for the
+    candidates that need something."""
+    attribution = {a["name"]: a for a in attribution}
     out = []
     for r in ranked:
         if r["in_base"] or r["named"]:
@@ -136,10 +143,10 @@ def next_tests(ranked: list, covariates: dict, recorded: list) -> list:
             elif i["status"] == "not reported":
                 needs.append(f"tests that differ in {i['covariate']}, reported as a covariate (its pattern: "
                              f"{i['meaning']})")
-            elif i["status"] == "not significant" and i["covariate"] in covariates and i["p_adjusted"] is not None \
-                    and i["p_adjusted"] >= 0.5:
-                needs.append(f"more tests at other levels of {i['covariate']} (not significant here: p = "
-                             f"{i['p_adjusted']:.2g})")
+            elif i["status"] == "not significant" and attribution.get(i["covariate"], {}).get("kind") == "between" \
+                    and not attribution[i["covariate"]].get("contrast"):
+                needs.append(f"more tests at other levels of {i['covariate']} (the tests cannot be compared on a "
+                             f"common abscissa and too few for a permutation test: p = {i['p_adjusted']:.2g})")
         if needs:
             out.append({"candidate": r["name"], "needs": list(dict.fromkeys(needs))})
     return out
