@@ -11,7 +11,7 @@ from pathlib import Path
 from constitutive import ParameterError
 from constitutive.registry import MODELS, ModelSpec, build_model
 
-from .checks import Checker, StudyError, read_toml
+from .checks import Checker, StudyError, fe_value, read_toml
 from .constraints import feasible_point, read_constraints
 from .error_model import DEFAULT_SIGMA, ErrorModel, read_error_model
 from .entries import test_spec
@@ -161,12 +161,7 @@ def fe_settings(ck, table, where):
     for k, v in table.items():
         if k == "quick":
             continue
-        if k == "outer":
-            out[k] = ck.text(v, f"{where}.{k}", ("fixed", "field"))
-        elif k == "outer_radius_a0":
-            out[k] = ck.number(v, f"{where}.{k}", positive=True)
-        else:
-            out[k] = ck.integer(v, f"{where}.{k}", 1)
+        out[k] = fe_value(ck, k, v, f"{where}.{k}")
     return out
 
 
