@@ -75,7 +75,7 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     increments: (n_steps, 6) or (n_steps, n, 6); prescribed strain increments (dimensionless, compression positive)
         on strain-controlled components, prescribed stress increments (kPa; total stress when undrained,
         effective = total otherwise) on the others.
-    dt: (n_steps,) time increments (s). undrained: bool or (n_steps,) bool: volume held constant during the step
+    dt: (n_steps,) time increments (s), or (n_steps, n) per point (the points' times then differ). undrained: bool or (n_steps,) bool: volume held constant during the step
         (needs at least one stress-controlled normal component); drained steps keep the excess pore pressure.
     record: bool (n_steps,), steps at whose end the results are stored (default all); the initial state is always
         stored first.

@@ -211,3 +211,38 @@ def test_refused_start_and_failed_particle_are_nan():
     out, failed = simulate_programme(mcc(pc0=np.array([150.0, 50.0]), ocr=None), spec, x, 2)
     assert list(failed) == [False, True]
     assert np.all(np.isfinite(out["q"][0])) and np.all(np.isnan(out["q"][1]))
+
+
+def test_load_ramp_records_and_crs_to_sigma_v():
+    """Oedometer (MCC): a load stage recorded during its ramp gives sigma'_v on the linear ramp (stress control, to
+    the Newton tolerance); a crs unloading stage ended by to_sigma_v stops at that stress (the crossing found by
+    four regula-falsi iterations within the last strain step: measured 1.3e-7 relative, tolerance 1e-5), and the
+    next stage starts there."""
+    spec = programme("oedometer", InitialState(e0=1.2, sigma_v0=50.0, K0=0.6),
+                     Stage("load", "load1", sigma_v=250.0, ramp_time=1000.0, duration=5000.0),
+                     Stage("crs", "crs2", strain_rate=-1e-6, to_sigma_v=100.0),
+                     Stage("creep", "creep3", duration=100.0))
+    t = np.array([100.0, 400.0, 1000.0, 3000.0])
+    out, failed = simulate_programme(mcc(nu=0.3, G=None), spec, {"axial_stress@load1": t,
+                                                                 "axial_stress@creep3": np.array([0.0, 100.0])}, 1)
+    assert not failed[0]
+    np.testing.assert_allclose(out["axial_stress@load1"][0], [70.0, 130.0, 250.0, 250.0], rtol=1e-9)
+    np.testing.assert_allclose(out["axial_stress@creep3"][0], 100.0, rtol=1e-5)
+
+
+def test_undrained_creep_and_extension_of_a_rate_independent_model():
+    """MCC, undrained extension then undrained creep: the creep stage holds q, p' and the excess pore pressure
+    (nothing drives them), and an extension shear gives q < 0 with the axial strain decreasing."""
+    spec = programme("triaxial", InitialState(e0=1.0, p0=100.0, ocr=1.5),
+                     Stage("shear", "shear1", drainage="undrained", direction="extension", abscissa="axial_strain",
+                           to_strain=0.02),
+                     Stage("creep", "creep2", drainage="undrained", duration=1e4))
+    x = np.array([0.005, 0.01, 0.02])
+    t = np.array([0.0, 10.0, 1e4])
+    keys = {"q@shear1": x, "axial_strain@shear1": x, "q@creep2": t, "p@creep2": t, "u@creep2": t}
+    out, failed = simulate_programme(mcc(), spec, keys, 1)
+    assert not failed[0]
+    assert np.all(out["q@shear1"][0] < 0.0)
+    np.testing.assert_allclose(out["axial_strain@shear1"][0], -100.0 * x, rtol=1e-12)
+    for k in ("q@creep2", "p@creep2", "u@creep2"):
+        np.testing.assert_allclose(out[k][0], out[k][0, 0], rtol=1e-9, atol=1e-9)

@@ -18,8 +18,8 @@ Controls of each stage kind (one mixed_control call per stage, ``STRAIN``/``STRE
   radial strain zero); undrained: total stresses held, volume held.
 - ``relaxation``: axial strain held for ``duration`` (triaxial: radial stress held; oedometer: radial strain zero).
 - ``crs`` (oedometer): axial strain at the SIGNED ``strain_rate`` (< 0 unloading) to the total axial strain
-  ``to_strain``, or until sigma'_v reaches ``to_sigma_v`` (the last step cut at the secant estimate of the crossing:
-  sigma'_v within ~1e-3 relative of the target for the usual step of 0.25 % strain), else to the last record.
+  ``to_strain``, or until sigma'_v reaches ``to_sigma_v`` (the crossing located within the last strain step by
+  CROSSING_ITERATIONS regula-falsi iterations), else to the last record.
 - ``load`` (oedometer): sigma'_v ramped linearly to ``sigma_v`` over ``ramp_time`` (default 1 s), then held until
   the stage's ``duration`` (default one day).
 A drained stage that follows an undrained one first dissipates the excess pore pressure at constant total stress on
@@ -94,6 +94,8 @@ DEFAULT_DURATION = 86400.0
 DEFAULT_SHEAR_RATE = 1e-5
 DEFAULT_SHEAR_STRAIN = 0.15
 DEFAULT_RAMP_TIME = 1.0
+#: regula-falsi iterations locating the end of a crs stage at to_sigma_v within its last strain step
+CROSSING_ITERATIONS = 4
 NORMAL = labtests.NORMAL
 
 
@@ -461,13 +463,18 @@ def _to_sigma_v(model, carried, rate, target, step, max_steps=4000):
         nxt = _advance(carried, hist, carried["u"])
         s0, s1 = carried["stress"][:, 0], nxt["stress"][:, 0]
         crossed = ~done & (np.sign(target - s1) != sign)
-        if np.any(crossed):
-            with np.errstate(divide="ignore", invalid="ignore"):
-                f = np.clip((target - s0) / (s1 - s0), 0.0, 1.0)
-            f = np.where(np.isfinite(f) & crossed, f, 0.0)
-            inc2 = inc * f[None, :, None]
-            hist2 = _run(model, carried, OEDOMETER_STRAIN, inc2, dt * f[None], False, None)
-            cut = _advance(carried, hist2, carried["u"])
+        if np.any(crossed):  # regula falsi on the fraction of the step that reaches the target
+            lo, hi, s_lo, s_hi = np.zeros(n), np.ones(n), s0, s1
+            for _ in range(CROSSING_ITERATIONS):
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    f = lo + (target - s_lo) * (hi - lo) / (s_hi - s_lo)
+                f = np.where(np.isfinite(f) & crossed, np.clip(f, lo, hi), 0.0)
+                hist2 = _run(model, carried, OEDOMETER_STRAIN, inc * f[None, :, None], dt * f[None], False, None)
+                cut = _advance(carried, hist2, carried["u"])
+                s_f = cut["stress"][:, 0]
+                below = np.sign(target - s_f) == sign
+                lo, s_lo = np.where(below, f, lo), np.where(below, s_f, s_lo)
+                hi, s_hi = np.where(below, hi, f), np.where(below, s_hi, s_f)
             nxt = _select(crossed, cut, nxt) | {"failed": nxt["failed"] | cut["failed"]}
         carried = _select(~done, nxt, carried) | {"failed": nxt["failed"]}
         done |= crossed | carried["failed"]
