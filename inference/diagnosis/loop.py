@@ -47,9 +47,11 @@ class ModelClass:
     name: the class's name (e.g. its model and switches); role: "base" or "enriched"; candidate: the candidate
     physics an enriched class adds (None for the base class); log_evidence: ln Z of the calibration; J_g: goodness
     of fit at the MAP per test, Eq. (6) (docs/reference.md section 1); parameters: {name: {map, mean, std, q2.5,
-    q97.5}} of the posterior; sigma_eps: the error parameter at the MAP; map_simulated: {(test, curve): simulated
-    values at the recorded abscissae} at the MAP; sample_simulated: {(test, curve): (n_s, n)} the same for n_s
-    posterior samples, sample_sigma (n_s,) their sigma_eps (for the predictive bands); wall_s: calibration wall time
+    q97.5}} of the posterior; sigma_eps: the error parameter at the MAP (with error groups, Eq. (6g), each curve's
+    sigma, a list in the likelihood's curve order); map_simulated: {(test, curve): simulated values at the recorded
+    abscissae} at the MAP; sample_simulated: {(test, curve): (n_s, n)} the same for n_s posterior samples,
+    sample_sigma (n_s,) their sigma_eps, or (n_s, n_curves) with error groups (for the predictive bands); wall_s:
+    calibration wall time
     (s); n_forward_solves: forward solves of the calibration; extra: the problem's own data (e.g. the MAP's raw
     curves for its covariates and figures), never read by the diagnosis; warnings: the calibration's own findings
     of a poor fit, in words (e.g. "sigma_eps at its prior's upper bound 0.3", "M on its prior's lower bound"), named
@@ -62,7 +64,7 @@ class ModelClass:
     log_evidence: float
     J_g: dict
     parameters: dict
-    sigma_eps: float
+    sigma_eps: float | list
     map_simulated: dict
     sample_simulated: dict
     sample_sigma: np.ndarray
