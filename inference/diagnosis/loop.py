@@ -52,9 +52,9 @@ class ModelClass:
     abscissae} at the MAP; sample_simulated: {(test, curve): (n_s, n)} the same for n_s posterior samples,
     sample_sigma (n_s,) their sigma_eps, or (n_s, n_curves) with error groups (for the predictive bands); wall_s:
     calibration wall time (s); n_forward_solves: forward solves of the calibration; extra: the problem's own data
-    (e.g. the MAP's raw curves for its covariates and figures), never read by the diagnosis; warnings: the calibration's own findings
-    of a poor fit, in words (e.g. "sigma_eps at its prior's upper bound 0.3", "M on its prior's lower bound"), named
-    in the diagnosis' verdict.
+    (e.g. the MAP's raw curves for its covariates and figures), never read by the diagnosis; warnings: the
+    calibration's own findings of a poor fit, in words (e.g. "sigma_eps at its prior's upper bound 0.3", "M on its
+    prior's lower bound"), named in the diagnosis' verdict.
     """
 
     name: str
