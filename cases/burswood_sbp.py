@@ -33,6 +33,7 @@ from pathlib import Path
 
 import inference
 from constitutive import ANICREEP, ParameterError
+from inference import DataError
 
 from .study.cli import (UsageError, arguments, command, non_negative_int, pairs, positive_float, positive_int,
                         run_settings)
@@ -150,7 +151,13 @@ def main(argv=None):
     if missing:
         raise UsageError(f"--recordings names test(s) {sorted(missing)} without a cavity strain rate; give --rates")
     rates = {t: rates[t] for t in files}
-    use_pore_pressure = not args.pressure_only and all(has_pore_pressure(p) for p in files.values())
+    with_pore_pressure = {t: has_pore_pressure(p) for t, p in files.items()}
+    use_pore_pressure = not args.pressure_only and all(with_pore_pressure.values())
+    if not args.pressure_only and any(with_pore_pressure.values()) and not use_pore_pressure:
+        having = next(t for t, v in with_pore_pressure.items() if v)
+        lacking = next(t for t, v in with_pore_pressure.items() if not v)
+        raise DataError(f"{files[lacking]}: no pore_pressure_kPa column while {files[having]} has one: give it in "
+                        "every record, or calibrate on the cavity pressure alone with --pressure-only")
     observations = load_sbp_recordings(files, pore_pressure=use_pore_pressure)
     synthetic = any("synthetic" in t.conditions for t in observations)
     truth = generating_values(observations, GENERATING)

@@ -422,6 +422,8 @@ BURSWOOD_ARGS = [
     ("processes -2", ["--processes", "-2"], ["--processes", "'-2'"]),
     ("method", ["--method", "x"], ["--method", "'x'"]),
     ("unknown option", ["--recordigns", "fast={f}"], ["--recordigns"]),
+    ("pore pressure in one record only", ["--recordings", "fast={f}", "slow={p}"],
+     ["pressure_only.csv", "no pore_pressure_kPa column", "--pressure-only"]),
 ]
 
 
@@ -429,7 +431,9 @@ BURSWOOD_ARGS = [
 def test_bad_burswood_command_line_is_refused(tmp_path, capsys, extra, named):
     out = tmp_path / "out"
     f = _sbp_file(tmp_path)
-    extra = [a.format(f=f, d=tmp_path) for a in extra]
+    p = tmp_path / "pressure_only.csv"
+    p.write_text(_sbp("1,100", "2,120", header="cavity_strain_pct,cavity_pressure_kPa"))
+    extra = [a.format(f=f, d=tmp_path, p=p) for a in extra]
     refused(burswood_sbp.main, ["--quick", "--processes", "1", "--out", out, *extra], capsys, out, named)
 
 

@@ -110,16 +110,8 @@ def _holder(lock: Path):
     return {"pid": pid, "host": host, "started": started}
 
 
-@contextlib.contextmanager
-def out_lock(out):
-    """Hold the output folder ``out`` for this process (rank 0; other ranks do nothing): DIR/run.lock names the pid,
-    host and start time. Another live run's lock raises :class:`OutputLocked` naming it; a stale lock (its pid gone
-    from this host) is taken over with a note on stderr. The lock is removed on exit, and the folder too when the
-    lock made it and nothing else was written."""
-    if not is_root():
-        yield
-        return
-    out = Path(out)
+def _take_lock(out: Path):
+    """Take DIR/run.lock for this process: (lock file, its content, whether the folder was made for it)."""
     made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     lock = out / LOCK_FILE
@@ -131,25 +123,47 @@ def out_lock(out):
         while True:
             try:
                 os.link(tmp, lock)  # atomic: fails when the lock exists
-                break
+                return lock, mine, made
             except FileExistsError:
                 other = _holder(lock)
                 if other is not None:
+                    if made:
+                        out.rmdir()
                     raise OutputLocked(f"{out}: in use by another run (pid {other['pid']} on host {other['host']}, "
                                        f"started {other['started']}); wait for it or choose another --out") from None
                 print(f"note: {lock}: taking over the stale lock of a run that is gone", file=sys.stderr, flush=True)
                 lock.unlink(missing_ok=True)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def out_lock(out):
+    """Hold the output folder ``out`` while the block runs: DIR/run.lock (taken by rank 0) names the pid, host and
+    start time. Another live run's lock raises :class:`OutputLocked` naming it, on every rank; a stale lock (its pid
+    gone from this host) is taken over with a note on stderr. The lock is removed on exit, and the folder too when
+    the lock made it and nothing else was written."""
+    out, comm, taken, refused = Path(out), mpi_world(), None, None
+    if is_root():
+        try:
+            taken = _take_lock(out)
+        except OutputLocked as exc:
+            refused = str(exc)
+    if comm is not None:
+        refused = comm.bcast(refused, root=0)
+    if refused:
+        raise OutputLocked(refused)
     try:
         yield
     finally:
-        with contextlib.suppress(OSError, ValueError, KeyError):
-            if json.loads(lock.read_text())["pid"] == mine["pid"]:
-                lock.unlink()
-        if made:
-            with contextlib.suppress(OSError):
-                out.rmdir()  # only when empty
+        if taken is not None:
+            lock, mine, made = taken
+            with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
+                if json.loads(lock.read_text())["pid"] == mine["pid"]:
+                    lock.unlink()
+            if made:
+                with contextlib.suppress(OSError):
+                    out.rmdir()  # only when empty
 
 
 _announced = False
