@@ -212,7 +212,8 @@ def _engineer_summary(d) -> list:
         lines.append("No reported covariate explains it beyond the false-alarm level.")
     top = d["candidates"][0] if d["candidates"] else {"named": False}
     if top["named"]:
-        said = [f"{i['meaning']} (rank correlation {_fmt(i['rank_correlation'], '+.2f')})"
+        said = [i["meaning"] + ("" if i["rank_correlation"] is None else
+                                f" (rank correlation {i['rank_correlation']:+.2f})")
                 for i in top["items"] if i["status"] == "supports"]
         lines.append(f"This is the signature of {top['name']}: " + "; ".join(said) + ".")
     else:
