@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cases.study import lab_programme
+from cases.study import lab_stages
 from cases.study.lab_programme import simulate_programme
 from cases.study.programme import InitialState, Stage, TestSpec
 from constitutive.anicreep import ANICREEP
@@ -129,7 +129,7 @@ ANI = {"lam": 0.3, "kap": 0.03, "ca": 0.012, "e0": 1.5, "m": 1.2}
 
 
 def _anicreep_holds(steps_per_decade, monkeypatch):
-    monkeypatch.setattr(lab_programme, "HOLD_STEPS_PER_DECADE", steps_per_decade)
+    monkeypatch.setattr(lab_stages, "HOLD_STEPS_PER_DECADE", steps_per_decade)
     model = ANICREEP(M=ANI["m"], lambda_=ANI["lam"], kappa=ANI["kap"], nu=0.25, e0=2.0, sigma_p0=100.0,
                      C_alpha_e=ANI["ca"], anisotropy=False)
     creep, relax = _anicreep_closed_form(110.0, 100.0, ANI["e0"], ANI["lam"], ANI["kap"], ANI["ca"], ANI["m"])
