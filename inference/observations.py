@@ -187,7 +187,8 @@ class Curve:
                             f"got {self.x.size} and {self.y.size}")
         for label, arr in ((self.x_name, self.x), (self.y_name, self.y)):
             if not np.all(np.isfinite(arr)):
-                raise DataError(f"curve {self.y_name}: field {label} has a non-finite value {arr[~np.isfinite(arr)][0]}")
+                bad = arr[~np.isfinite(arr)][0]
+                raise DataError(f"curve {self.y_name}: field {label} has a non-finite value {bad}")
 
 
 @dataclass

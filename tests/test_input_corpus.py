@@ -20,6 +20,7 @@ import pytest
 import inference
 from cases import burswood_sbp, calibrate, simsand_synthetic, toyoura
 from cases.study import runner
+from cases.study.cli import command
 from cases.study.problem import StudyProblem
 from cases.study.records import load_observations, load_sbp_recordings
 from cases.study.schema import load_study
@@ -164,6 +165,7 @@ LAB_CSVS = [
     ("typo volumetric", _rows("0.5,40,0.1", "1,70,0.2", header="axial_strain_pct,q_kPa,volumetric_strian_pct"),
      ["did you mean 'volumetric_strain_pct'"]),
     ("typo time", _rows("0.5,40,1", "1,70,2", header="axial_strain_pct,q_kPa,tim_s"), ["did you mean 'time_s'"]),
+    ("upper case", _rows("0.5,40", "1,70", header="AXIAL_STRAIN_PCT,q_kPa"), ["did you mean 'axial_strain_pct'"]),
     ("strain without unit", _rows("0.005,40", "0.01,70", header="axial_strain,q_kPa"),
      ["'axial_strain'", "unit '-'", "expected '%'"]),
     ("unit psi", _rows("0.5,4", "1,7", header="axial_strain_pct,q [psi]"), ["column 'q'", "unit 'psi'"]),
@@ -617,6 +619,23 @@ def test_a_stale_lock_is_taken_over_with_a_note_and_released(tmp_path, capsys):
     with runner.out_lock(tmp_path / "new"):
         assert (tmp_path / "new" / runner.LOCK_FILE).exists()
     assert not (tmp_path / "new").exists()  # made by the lock and left empty: removed
+
+
+@pytest.mark.parametrize("error, status, words", [
+    (RuntimeError("solver state lost"), 2, ["unexpected RuntimeError: solver state lost", "--debug"]),
+    (KeyboardInterrupt(), 130, ["interrupted", "--resume"]),
+    (inference.CheckpointError("run.ckpt: checksum mismatch"), 2, ["error: run.ckpt: checksum mismatch"]),
+], ids=["unexpected", "ctrl-c", "checkpoint"])
+def test_the_handler_gives_one_line_or_with_debug_the_traceback(capsys, error, status, words):
+    @command
+    def main(argv):
+        raise error
+
+    assert main([]) == status
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and all(w in lines[0] for w in words), lines
+    with pytest.raises(type(error)):
+        main(["--debug"])
 
 
 # ------------------------------------------------------------------------------------------------ friction

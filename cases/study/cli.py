@@ -26,11 +26,11 @@ from fem import MeshError, ProblemError
 from .checks import StudyError
 from .runner import PROPOSALS, OutputLocked, RunSettings, is_root
 
-__all__ = ["UsageError", "REFUSED", "EXIT_REFUSED", "command", "arguments", "run_settings", "pairs",
-           "positive_int", "non_negative_int", "positive_float", "non_negative_float"]
+__all__ = ["UsageError", "REFUSED", "EXIT_REFUSED", "EXIT_INTERRUPTED", "command", "arguments", "run_settings",
+           "pairs", "positive_int", "non_negative_int", "positive_float", "non_negative_float"]
 
-#: exit status of a refused input or a stopped run
-EXIT_REFUSED = 2
+#: exit status of a refused input or a stopped run; of Ctrl-C (128 + SIGINT)
+EXIT_REFUSED, EXIT_INTERRUPTED = 2, 130
 
 
 class UsageError(ValueError):
@@ -50,7 +50,8 @@ def _one_line(exc) -> str:
 def command(main):
     """Wrap a case's ``main(argv)``: a bad input (:data:`REFUSED`), a stopped run (``inference.SamplerError``,
     whose one-line reason the runner has printed) or any other error returns :data:`EXIT_REFUSED` after one line on
-    stderr (rank 0 only under mpirun); with ``--debug`` in argv the exception propagates with its traceback."""
+    stderr (rank 0 only under mpirun), Ctrl-C :data:`EXIT_INTERRUPTED`; with ``--debug`` in argv the exception
+    propagates with its traceback."""
 
     @functools.wraps(main)
     def guarded(argv=None):
@@ -61,6 +62,13 @@ def command(main):
             if "--debug" in argv:
                 raise
             return EXIT_REFUSED
+        except KeyboardInterrupt:
+            if "--debug" in argv:
+                raise
+            if is_root():
+                print("interrupted (the last checkpoint, if any, is kept: --resume continues from it)",
+                      file=sys.stderr, flush=True)
+            return EXIT_INTERRUPTED
         except Exception as exc:  # noqa: BLE001 - the one place that turns every error into one line
             if "--debug" in argv:
                 raise

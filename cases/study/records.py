@@ -60,13 +60,12 @@ def data_lines(path) -> list:
 def _unknown_column(path, quantity, unit, test_type):
     """The DataError of a column that is not one of ``test_type``'s: the near-miss known name when there is one (a
     typo in an optional column is refused, never dropped), and the known names."""
-    names = {column_name(q, test_type): q for q in COLUMNS[test_type]}
+    names = [column_name(q, test_type) for q in COLUMNS[test_type]]
     given = quantity if unit == "-" else f"{quantity}_{'pct' if unit == '%' else unit}"
-    close = difflib.get_close_matches(given, names, n=1, cutoff=0.75) or \
-        difflib.get_close_matches(quantity, list(names.values()), n=1, cutoff=0.75)
-    hint = ""
-    if close:
-        hint = f"did you mean {close[0] if close[0] in names else column_name(close[0], test_type)!r}? "
+    lower = {n.lower(): n for n in names} | {q.lower(): column_name(q, test_type) for q in COLUMNS[test_type]}
+    close = (difflib.get_close_matches(given.lower(), lower, n=1, cutoff=0.75)
+             or difflib.get_close_matches(quantity.lower(), lower, n=1, cutoff=0.75))
+    hint = f"did you mean {lower[close[0]]!r}? " if close else ""
     raise DataError(f"{path}: column {quantity!r} (unit {unit!r}) is not a column of a {test_type} test; {hint}"
                     f"known: {', '.join(names)}")
 
