@@ -186,8 +186,8 @@ def _coded(name, cov, meta):
 
 
 def expand_covariates(covariates: dict, curves: dict) -> dict:
-    """Every covariate in its full form {name: {(test, curve): array aligned with the curve's points}} (declared
-    specs keep their meta: {"values": full form, **meta}).
+    """Every covariate in its full form {name: {(test, curve): array aligned with the curve's points}} (the values
+    only: a declared spec's meta is read with `split_spec`).
 
     covariates: in the form of ``attribute`` (keys (test, curve) or test; scalars broadcast); curves: {(test, curve):
     recorded values}, whose order the result follows (so the attribution's random draws do not depend on the order
@@ -196,9 +196,7 @@ def expand_covariates(covariates: dict, curves: dict) -> dict:
     out = {}
     for name, spec in covariates.items():
         full = per_curve(name, spec, curves)
-        full = {k: full[k] for k in curves if k in full}
-        meta = split_spec(name, spec)[1]
-        out[name] = {"values": full, **meta} if meta else full
+        out[name] = {k: full[k] for k in curves if k in full}
     return out
 
 

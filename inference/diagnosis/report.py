@@ -36,14 +36,16 @@ def _class_dict(model_class) -> dict:
     return model_class.to_dict() if hasattr(model_class, "to_dict") else model_class
 
 
-def _with_abscissa(covariates: dict, likelihood) -> dict:
-    """Every covariate spec in its declared form with the recorded abscissae of the curves (the few-test contrasts'
-    common abscissa, `contrast.common_grid`), unless the spec names its own."""
+def _declared(covariates: dict, likelihood) -> dict:
+    """Every covariate spec in its declared form, its values in full form (`expand_covariates`), with the recorded
+    abscissae of the curves (the few-test contrasts' common abscissa, `contrast.common_grid`) unless the spec names
+    its own."""
     x = {(t.name, c): curve.x for t in likelihood.observations for c, curve in t.curves.items()}
+    full = expand_covariates(covariates, {k: likelihood.observations[k[0]].curves[k[1]].y for k in x})
     out = {}
     for name, spec in covariates.items():
-        values, meta = split_spec(name, spec)
-        out[name] = {"values": values, **meta, "abscissa": meta.get("abscissa", x)}
+        meta = split_spec(name, spec)[1]
+        out[name] = {"values": full[name], **meta, "abscissa": meta.get("abscissa", x)}
     return out
 
 
@@ -64,9 +66,7 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
     t0 = time.perf_counter()
     alpha, level = float(alpha), float(level)
     classes = [_class_dict(cl) for cl in classes]
-    covariates = expand_covariates(covariates, {(t.name, c): curve.y for t in likelihood.observations
-                                                for c, curve in t.curves.items()})
-    screened = _with_abscissa(covariates, likelihood)
+    screened = _declared(covariates, likelihood)
     screens, structure, ranked_by_class = {}, {}, {}
     for cl in classes:
         rep = screen(likelihood, cl["map_simulated"], cl["sigma_eps"], cl["sample_simulated"], cl["sample_sigma"],
