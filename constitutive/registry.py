@@ -7,18 +7,28 @@ collected from the class attributes of the model classes (:class:`constitutive.b
 
 Model names are the class names (``ModifiedCamClay``, ``ANICREEP``, ``SIMSAND``). Values are scalars or (n,) arrays
 (one per point or particle) in the units of each parameter's :class:`~constitutive.base.ParameterRange`.
+
+Enrichment families (:func:`enrichment_family`): the model whose switches add the missing physics of
+``constitutive.physics_catalog`` to a base model. Modified Cam Clay belongs to the ANICREEP family: ANICREEP with
+``anisotropy=False, viscous=False, destructuration=False`` has MCC's yield surface, associated flow and hardening
+(docs/reference.md section 4), and :func:`mcc_as_anicreep` translates the parameters once.
 """
 from __future__ import annotations
 
 import inspect
 from dataclasses import dataclass
+from typing import Callable, NamedTuple
 
-from .anicreep import ANICREEP
+import numpy as np
+
+from .anicreep import ANICREEP, anisotropy_constants
 from .base import MaterialModel, ParameterError
+from .invariants import deviatoric_stress, mean_stress
 from .mcc import ModifiedCamClay
 from .simsand import SIMSAND
 
-__all__ = ["ModelSpec", "MODELS", "SBP_MODELS", "model_spec", "build_model", "class_name"]
+__all__ = ["ModelSpec", "MODELS", "SBP_MODELS", "model_spec", "build_model", "class_name", "Family",
+           "enrichment_family", "mcc_as_anicreep", "k0_surface_ratio"]
 
 
 @dataclass(frozen=True)
@@ -124,3 +134,87 @@ def class_name(switches: dict, model: str = "ANICREEP") -> str:
     """The name of a model class with its switches, e.g. ``ANICREEP(anisotropy=True, viscous=False)`` (switches
     sorted by name; the name identifies a calibrated class in outputs and reports)."""
     return f"{model}(" + ", ".join(f"{k}={v}" for k, v in sorted(switches.items())) + ")"
+
+
+# ---------------------------------------------------------------------------------------------- enrichment families
+class Family(NamedTuple):
+    """The model class that carries a base model's enrichments.
+
+    model      the family's model name (a key of MODELS);
+    switches   the family's switches that reproduce the base model (all physics of the catalog off);
+    translate  ``translate(values, stress0, void_ratio0) -> family values``: the base model's parameter values
+               (scalars or (n,) arrays) at a specimen's initial effective stress ``stress0`` ((6,) or (n, 6), kPa,
+               Voigt, axis 1 vertical) and void ratio ``void_ratio0``, as the family's constructor values; names
+               the base model does not know (an enrichment's extra parameters) pass through unchanged.
+    """
+
+    model: str
+    switches: dict
+    translate: Callable
+
+
+def _same(values, stress0=None, void_ratio0=None) -> dict:
+    """The identity translation of a model that is its own family."""
+    return dict(values)
+
+
+def k0_surface_ratio(M):
+    """p'_m / sigma'_p of ANICREEP's isotropic surface (alpha = 0) through the K0_nc state at sigma'_v = sigma'_p
+    (``ANICREEP.reference_size``): with K0_nc = 1 - sin phi', sin phi' = 3M/(6 + M) (docs/reference.md section 4,
+    (K)), p' = (1 + 2K0_nc) sigma'_p/3, q = (1 - K0_nc) sigma'_p and the ellipse p'_m = p' + q^2/(M^2 p') (Eq. (F)):
+        p'_m/sigma'_p = (1 + 2K0_nc)/3 + 3 (1 - K0_nc)^2 / (M^2 (1 + 2K0_nc))."""
+    k0 = anisotropy_constants(M)[0]
+    M = np.asarray(M, dtype=float)
+    return (1.0 + 2.0 * k0) / 3.0 + 3.0 * (1.0 - k0) ** 2 / (M**2 * (1.0 + 2.0 * k0))
+
+
+def mcc_as_anicreep(values: dict, stress0, void_ratio0) -> dict:
+    """ANICREEP values that reproduce Modified Cam Clay ``values`` (M, lambda_, kappa, G or nu, pc0 or ocr) for a
+    specimen starting at effective stress ``stress0`` with void ratio ``void_ratio0``, with every ANICREEP switch off.
+
+    - M, lambda_, kappa: the same (the same ellipse q^2 = M^2 p'(p'_c - p'), associated flow, NCL and swelling slopes
+      in e-ln p');
+    - e0 = void_ratio0 (ANICREEP's void ratio is its parameter; MCC takes it from the test);
+    - sigma_p0 = p'_c0 / k0_surface_ratio(M): ANICREEP places its reference surface through the K0_nc state at
+      sigma'_v = sigma'_p0, so this sigma'_p0 (the vertical preconsolidation stress on the K0_nc path of MCC's own
+      ellipse) gives p'_m^r0 = p'_c0, MCC's initial surface; p'_c0 = pc0, or ocr (default 1) times the size of the
+      surface through ``stress0``, p' + q^2/(M^2 p') (``ModifiedCamClay.initial_state``). With ANICREEP's anisotropy
+      switched on, the rotated surface passes through the same vertical preconsolidation point;
+    - nu: the same; a constant shear modulus G becomes the Poisson's ratio giving G at the initial state,
+      nu = (3K - 2G)/(2(3K + G)), K = (1 + e0) p'_0/kappa (MCC's G stays constant, ANICREEP's grows with p': the
+      one parameter mapped only approximately).
+    Other names (an enrichment's extra parameters: C_alpha_e, tau, chi0, xi, xi_d) pass through.
+
+    What differs by construction (measured in tests/test_model_family.py): MCC integrates with the current specific
+    volume 1 + e (dε = -de/(1 + e), a logarithmic volumetric strain), ANICREEP with the initial one 1 + e0
+    (dε = -de/(1 + e0)). The stress-void-ratio path is the same in both; the strain at which a state is reached
+    differs by the factor (1 + e0)/(1 + e) ≈ exp(ε_v): nothing in undrained shear (ε_v = 0), a few per cent of the
+    strain in drained shear and oedometers.
+    """
+    v = dict(values)
+    M = np.asarray(v["M"], dtype=float)
+    stress0 = np.atleast_2d(np.asarray(stress0, dtype=float))
+    p0, q0 = mean_stress(stress0), deviatoric_stress(stress0)
+    pc0, ocr = v.pop("pc0", None), v.pop("ocr", None)
+    if pc0 is None:
+        pc0 = (1.0 if ocr is None else np.asarray(ocr, dtype=float)) * (p0 + q0**2 / (M**2 * p0))
+    G = v.pop("G", None)
+    e0 = np.asarray(void_ratio0, dtype=float)
+    if G is not None:
+        K = (1.0 + e0) * p0 / np.asarray(v["kappa"], dtype=float)
+        v["nu"] = (3.0 * K - 2.0 * np.asarray(G, dtype=float)) / (2.0 * (3.0 * K + np.asarray(G, dtype=float)))
+    v["e0"] = e0
+    v["sigma_p0"] = np.asarray(pc0, dtype=float) / k0_surface_ratio(M)
+    return {k: (x.item() if isinstance(x, np.ndarray) and x.size == 1 else x) for k, x in v.items()}
+
+
+#: base model -> its enrichment family (a model not listed is its own family)
+FAMILIES = {"ModifiedCamClay": Family("ANICREEP", {"anisotropy": False, "viscous": False, "destructuration": False},
+                                      mcc_as_anicreep)}
+
+
+def enrichment_family(model: str) -> Family:
+    """The enrichment family of the base ``model`` (a key of MODELS): ``Family(model, switches, translate)``;
+    a model with switches of its own is its own family (switches {}, identity translation)."""
+    model_spec(model)
+    return FAMILIES.get(model, Family(model, {}, _same))
