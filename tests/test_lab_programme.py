@@ -246,3 +246,19 @@ def test_undrained_creep_and_extension_of_a_rate_independent_model():
     np.testing.assert_allclose(out["axial_strain@shear1"][0], -100.0 * x, rtol=1e-12)
     for k in ("q@creep2", "p@creep2", "u@creep2"):
         np.testing.assert_allclose(out[k][0], out[k][0, 0], rtol=1e-9, atol=1e-9)
+
+
+def test_drained_stage_after_undrained_dissipates_the_excess_pore_pressure():
+    """Undrained shear then a drained creep stage (total stresses held): the excess pore pressure dissipates, p'
+    rises by it, q is unchanged and excess_pore_pressure returns to zero (to the Newton tolerance)."""
+    spec = programme("triaxial", InitialState(e0=1.0, p0=100.0),
+                     Stage("shear", "shear1", drainage="undrained", abscissa="axial_strain", to_strain=0.01),
+                     Stage("creep", "creep2", duration=100.0))
+    x, t = np.array([0.01]), np.array([100.0])
+    out, failed = simulate_programme(mcc(), spec, {"q@shear1": x, "p@shear1": x, "u@shear1": x, "q@creep2": t,
+                                                   "p@creep2": t, "u@creep2": t}, 1)
+    assert not failed[0]
+    assert out["u@shear1"][0, 0] > 10.0
+    assert out["q@creep2"][0, 0] == pytest.approx(out["q@shear1"][0, 0], rel=1e-9)
+    assert out["p@creep2"][0, 0] == pytest.approx(out["p@shear1"][0, 0] + out["u@shear1"][0, 0], rel=1e-9)
+    assert out["u@creep2"][0, 0] == 0.0
