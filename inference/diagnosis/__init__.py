@@ -4,16 +4,17 @@ Modules, in the order of the loop:
 - ``screening``: relative residuals at the MAP, the four structure tests per curve with Holm's family-wise error, the
   mismatch regions and the covariate attribution (`screen`, `ScreenReport`);
 - ``bands``: posterior predictive bands (`predictive_bands`); ``structure``: the structure tests and `segment`;
-- ``attribution``: which per-point covariate explains the residual (`attribute`, `holm`);
+- ``attribution``: which covariate explains the residual (`attribute`, `holm`; declared specs `split_spec`);
+- ``contrast``: few-test contrasts of 2-4 tests on a common abscissa (paired levels, trends);
 - ``rank``: candidate physics scored by their residual signatures, the conclusion by the Bayes factor;
 - ``report``: `diagnose` (every class screened, candidates ranked, conclusion) as a dict and its Markdown report;
 - ``files``: the run-directory files (`write_input`, `read_input`, `diagnose_directory`);
 - ``loop``: `run_loop(problem)`, the calibrate -> diagnose loop in memory over a `LoopProblem`.
 """
-from .attribution import Attribution, attribute, expand_covariates, holm, per_curve
+from .attribution import KINDS, SCOPES, Attribution, attribute, expand_covariates, holm, per_curve, split_spec
 from .bands import PredictiveBand, predictive_bands
 from .files import diagnose_directory, read_input, write_diagnosis, write_input
-from .loop import LoopProblem, LoopResult, ModelClass, run_loop
+from .loop import ENRICH, LoopProblem, LoopResult, ModelClass, run_loop
 from .rank import STRONG_LOG_BAYES, conclude, rank_candidates
 from .report import diagnose, markdown, to_json
 from .screening import (POSITION, CurveStatistics, ScreenReport, curve_statistics, relative_residuals, screen,
@@ -21,8 +22,8 @@ from .screening import (POSITION, CurveStatistics, ScreenReport, curve_statistic
 from .structure import Region, lag1_test, runs_test, scale_test, scan_test, segment
 
 __all__ = [
-    "Attribution", "attribute", "expand_covariates", "holm", "per_curve", "PredictiveBand", "predictive_bands",
-    "diagnose_directory", "read_input", "write_diagnosis", "write_input", "LoopProblem", "LoopResult", "ModelClass",
+    "KINDS", "SCOPES", "Attribution", "attribute", "expand_covariates", "holm", "per_curve", "split_spec", "PredictiveBand", "predictive_bands",
+    "diagnose_directory", "read_input", "write_diagnosis", "write_input", "ENRICH", "LoopProblem", "LoopResult", "ModelClass",
     "run_loop", "STRONG_LOG_BAYES", "conclude", "rank_candidates", "diagnose", "markdown", "to_json", "POSITION",
     "CurveStatistics", "ScreenReport", "curve_statistics", "relative_residuals", "screen", "simulate_samples",
     "Region", "lag1_test", "runs_test", "scale_test", "scan_test", "segment",

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..likelihood import Likelihood
 from ..observations import Curve, Observations, Test
-from .attribution import expand_covariates
+from .attribution import expand_covariates, split_spec
 from .rank import STRONG_LOG_BAYES
 from .report import _class_dict, diagnose, markdown, to_json
 
@@ -66,7 +66,8 @@ def write_input(directory, likelihood, classes: list, covariates: dict, candidat
                         "y_unit": likelihood.observations[t].curves[c].y_unit} for t, c in keys],
             "tests": {t.name: {k: v for k, v in t.conditions.items() if isinstance(v, (str, int, float))}
                       for t in likelihood.observations},
-            "covariates": cov_names, "candidates": candidates, "classes": meta_classes}
+            "covariates": cov_names, "covariate_specs": {name: _declared(name, covariates[name]) for name in cov_names},
+            "candidates": candidates, "classes": meta_classes}
     (directory / "diagnosis_input.json").write_text(json.dumps(meta, indent=1) + "\n")
     np.savez_compressed(directory / "diagnosis_input.npz", **arrays)
     return directory
@@ -95,8 +96,17 @@ def read_input(directory):
                         "sample_sigma": arrays[f"sample_sigma__{j}"]})
     covariates = {}
     for n, name in enumerate(meta["covariates"]):
-        covariates[name] = {k: arrays[_key(i, f"cov{n}")] for i, k in enumerate(keys) if _key(i, f"cov{n}") in arrays}
+        values = {k: arrays[_key(i, f"cov{n}")] for i, k in enumerate(keys) if _key(i, f"cov{n}") in arrays}
+        declared = meta.get("covariate_specs", {}).get(name)
+        covariates[name] = {"values": values, **declared} if declared else values
     return meta, like, classes, covariates
+
+
+def _declared(name, spec) -> dict:
+    """The kind, scope and order of a declared covariate spec, as JSON (the abscissa is the recorded one on reading:
+    a spec's own abscissa arrays are not stored)."""
+    _, meta = split_spec(name, spec)
+    return {k: v for k, v in meta.items() if k != "abscissa"}
 
 
 def write_diagnosis(directory, diagnosis: dict) -> Path:
