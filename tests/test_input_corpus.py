@@ -740,3 +740,32 @@ def test_debug_shows_the_traceback(tmp_path):
     loud = _run(["cases.calibrate", study, "--out", tmp_path / "out", "--debug"], tmp_path)
     assert quiet.returncode == 2 and "Traceback" not in quiet.stderr and "model.free.M" in quiet.stderr
     assert loud.returncode != 0 and "Traceback" in loud.stderr and "StudyError" in loud.stderr
+
+
+def test_a_signalled_run_keeps_its_progress_and_resumes_with_one_wall_time(tmp_path):
+    """SIGTERM: exit 75, progress.json and failed_solves.jsonl beside the checkpoint, --resume named; the resumed
+    run's stdout wall_s is summary.json's (summed over both sessions)."""
+    import signal
+    import time
+
+    out = tmp_path / "out"
+    argv = [sys.executable, "-m", "cases.calibrate", _lab(tmp_path), "--quick", "--processes", "1", "--samples", "60",
+            "--out", out]
+    proc = subprocess.Popen(list(map(str, argv)), cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log = out / "progress.log"
+    deadline = time.monotonic() + 60
+    while not (log.exists() and log.read_text().count("stage") >= 2) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 75, err
+    assert "--resume" in err and "Traceback" not in err
+    assert {"run.ckpt", "progress.json", "failed_solves.jsonl"} <= {p.name for p in out.iterdir()}
+    resumed = _run(["cases.calibrate", *map(str, argv[3:]), "--resume"], tmp_path)
+    assert resumed.returncode == 0, resumed.stderr
+    line = json.loads(resumed.stdout.strip().splitlines()[-1])
+    summary = json.loads((out / "summary.json").read_text())
+    assert line["wall_s"] == round(summary["wall_s"], 1) and line["wall_s"] >= line["wall_s_this_session"]
+    assert not (out / "progress.json").exists() and not (out / runner.LOCK_FILE).exists()
+

@@ -202,12 +202,9 @@ def announce_compilation(kernels):
 def _stopped(stop, out: Path):
     """Save what a stopped run did (progress.json, failed_solves.jsonl) and say why, on one line."""
     stop.progress.save(out)
-    if isinstance(stop, inference.Checkpointed):
-        why = (f"stopped by a signal after writing the checkpoint {out / 'run.ckpt'}: run the same command with "
-               "--resume to continue")
-    else:
-        why = f"the run stopped: {' '.join(str(stop).split())}"
-    print(f"{why}; progress so far in {out / 'progress.json'}, failed solves in {out / 'failed_solves.jsonl'}",
+    # the sampler has said where a signal's checkpoint is; a stop for failures or no convergence is said here
+    why = "" if isinstance(stop, inference.Checkpointed) else f"the run stopped: {' '.join(str(stop).split())}; "
+    print(f"{why}progress so far in {out / 'progress.json'}, failed solves in {out / 'failed_solves.jsonl'}",
           file=sys.stderr, flush=True)
 
 
@@ -218,6 +215,9 @@ def calibrate(like, prior, run, out: Path, seed: int, n_samples: int, executor=N
     out = Path(out)
     if is_root():
         out.mkdir(parents=True, exist_ok=True)
+        if run.resume and not (out / "run.ckpt").exists():
+            print(f"note: --resume: no checkpoint {out / 'run.ckpt'}, starting from the beginning", file=sys.stderr,
+                  flush=True)
     if executor is None:
         executor = inference.default_executor(run.dispatch, run.processes)
     try:
