@@ -409,6 +409,23 @@ BAD_FIELDS = [
      "tests[0].type = 'triaxial': a test with an apparatus and [[tests.stages]] has no type"),
     ('apparatus = "triaxial"', 'apparatus = "shear box"',
      "tests[0].apparatus = 'shear box': expected one of triaxial, oedometer, sbp"),
+    ('strain_rate = 1.0e-5', 'strain_rate = 1.0e-5\ndirection = "sideways"',
+     "tests[0].stages[2].direction = 'sideways': expected one of compression, extension"),
+    ('e0 = 1.4', 'e0 = -1.4', "tests[0].e0 = -1.4: must be > 0"),
+    ('p0 = 25.0', 'p0 = "25"', "tests[0].p0 = '25': expected a finite number"),
+    ('e0 = 1.4\np0 = 25.0', 'initial = { e0 = 1.4, p0 = 25.0, pc = 3.0 }',
+     "tests[0].initial.pc = 3.0: unknown field; expected one of e0, p0, sigma_v0, K0, ocr, preconsolidation, u0"),
+    ('e0 = 1.4\np0 = 25.0', 'e0 = 1.4\ninitial = { p0 = 25.0 }',
+     "tests[0].e0 = 1.4: the initial state is given in [tests.initial]: give it there or in the test's table"),
+    ('p = 200.0', 'p = 0.0', "tests[0].stages[0].p = 0.0: must be > 0"),
+    ('kind = "consolidation"\np = 200.0', 'kind = "consolidation"\np = 200.0\ndrainage = "undrained"',
+     "tests[0].stages[0].drainage = 'undrained': unknown field; expected one of kind, name, p, sigma_v, K0, "
+     "duration"),
+    ('kind = "consolidation"\np = 200.0', 'name = "x"\np = 200.0', "tests[0].stages[0].kind is missing"),
+    ('name = "swelling"', 'name = "2"', "tests[0].stages[1].name = '2': a stage name has no '@' and is not a "
+     "number"),
+    ('strain_rate = 1.0e-5', 'strain_rate = 1.0e-5\nduration = 60.0',
+     "tests[0].stages[2].duration = 60.0: unknown field"),
 ]
 
 
@@ -432,6 +449,9 @@ ramp_time = 600.0
 duration = 300.0
 """
     refused(study(tmp_path, oed, "a.toml"), "tests[0].stages[0].ramp_time = 600.0: must be < the stage's duration")
+    refused(study(tmp_path, oed.split("[[tests.stages]]")[0], "no_stages.toml"), "tests[0].stages is missing")
+    refused(study(tmp_path, oed.split("[[tests.stages]]")[0] + "stages = []\n", "empty.toml"),
+            "tests[0].stages = []: expected one or more [[tests.stages]] tables")
     refused(study(tmp_path, oed.replace('kind = "load"', 'kind = "creep"\ndrainage = "undrained"')
                   .replace("sigma_v = 40.0\nramp_time = 600.0\n", ""), "b.toml"),
             "tests[0].stages[0].drainage = 'undrained': an oedometer creep stage is drained")
