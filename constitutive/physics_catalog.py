@@ -32,13 +32,22 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-__all__ = ["COVARIATES", "STRESS_CURVES", "EFFECTIVE_STRESS_CURVES", "PORE_PRESSURE_CURVES", "SIGNATURE_KEYS", "Enrichment", "Candidate", "CATALOG", "candidate",
-           "signatures", "enriched_settings"]
+from .registry import enrichment_family
+
+__all__ = ["COVARIATES", "STRESS_CURVES", "EFFECTIVE_STRESS_CURVES", "PORE_PRESSURE_CURVES", "STRAIN_CURVES",
+           "SIGNATURE_KEYS", "Enrichment", "Candidate", "CATALOG", "candidate", "signatures", "enriched_settings"]
 
 #: covariate vocabulary: name -> what a forward model reports under that name
 COVARIATES = {
-    "strain rate": "applied strain rate of the test (1/s); a test condition, constant along a curve",
-    "time": "time since the start of the test (s)",
+    "strain rate": "applied strain rate of the test or stage (1/s, magnitude); constant along a curve",
+    "time": "time since the start of the stage (s; of the test for a one-stage test)",
+    "hold time after loading": "time since the start of a hold (creep, relaxation, a load stage's hold, an SBP hold; "
+                               "s) that follows loading; undefined elsewhere",
+    "hold time after unloading": "time since the start of a hold that follows unloading (swelling) (s); undefined "
+                                 "elsewhere",
+    "consolidation compression": "the recorded compression index of a consolidation stage, -de/dln p' (or "
+                                 "sigma'_v) between neighbouring records, over the MAP's (-); undefined outside "
+                                 "consolidation and crs stages",
     "strain level": "axial (or cavity) strain at the point",
     "post-peak strain": "strain beyond the peak of the recorded deviator stress of the test (defined on the softening "
                         "branch only: undefined before the peak and in records that peak at their last point)",
@@ -48,7 +57,7 @@ COVARIATES = {
     "initial state parameter": "sand state parameter at the start of the test, psi_0 = e_0 - e_c(p'_0) (Been & "
                                "Jefferies 1985; negative: denser than critical; e_c of the MAP); a test condition",
     "drainage time factor": "T = c t / L^2 (consolidation coefficient c, drainage length L)",
-    "loading phase": "'load', 'hold' or 'unload' (categorical)",
+    "loading phase": "'loading', 'unloading' or 'hold' of the stage at the point (categorical)",
     "stress path direction": "'compression' or 'extension' (categorical test condition)",
     "consolidation": "'K0' or 'isotropic' consolidation before shearing (categorical test condition)",
 }
@@ -59,6 +68,8 @@ STRESS_CURVES = ("q", "p", "axial_stress", "radial_stress", "cavity_pressure")
 EFFECTIVE_STRESS_CURVES = ("q", "p", "axial_stress", "radial_stress")
 #: recorded pore pressures (total, or in excess of the initial value)
 PORE_PRESSURE_CURVES = ("pore_pressure", "excess_pore_pressure")
+#: recorded compressive strains (%, compression positive): they grow in creep under constant stress
+STRAIN_CURVES = ("axial_strain", "volumetric_strain")
 
 SIGNATURE_KEYS = ("covariate", "role", "weight", "direction", "curves", "meaning")
 
@@ -121,13 +132,43 @@ CATALOG = (
                "soil is stiffer and less contractive at a higher rate)", PORE_PRESSURE_CURVES),
          _item("strain rate", "supporting", +1, "recorded total pressures exceed the simulation more in faster tests "
                "(partial drainage does the same: not diagnostic alone)", ("cavity_pressure",)),
+         _item("hold time after loading", "primary", -1, "relaxation after loading: with the strain held the "
+               "recorded effective stresses fall below the rate-independent simulation the longer the hold (a total "
+               "pressure also falls as the pore pressure dissipates: not diagnostic)", EFFECTIVE_STRESS_CURVES),
+         _item("hold time after loading", "primary", +1, "creep after loading: under held stress the recorded "
+               "compression grows beyond the simulation the longer the hold", STRAIN_CURVES),
+         _item("hold time after loading", "supporting", -1, "creep after loading: the void ratio keeps falling "
+               "below the simulation (secondary compression)", ("void_ratio",)),
          _item("time", "supporting", -1, "the longer a record has run, the more the soil has crept: recorded "
                "stresses fall below the simulation late and in slow tests"),
-         _item("loading phase", "supporting", 0, "holds (creep, relaxation) misfit differently from loading", None)),
+         _item("loading phase", "supporting", 0, "holds (creep, relaxation) misfit differently from loading; after "
+               "unloading a viscous soil relaxes little (its stress lies inside the yield surface), so holds after "
+               "unloading carry little of this signature", None)),
         {"viscous": True},
         Enrichment("ANICREEP", {"viscous": True}, {"C_alpha_e": (0.001, 0.1)}, ("C_alpha_e",)),
         references=("docs/reference.md section 4: beta = (lambda - kappa)/C_alpha_e, CRS ratio "
                     "(rate2/rate1)^(C_alpha_e/lambda)",)),
+    Candidate(
+        "time-dependent swelling",
+        "Swelling that continues with time after unloading (creep after unloading, the time-dependent rebound of "
+        "natural clays, often attributed to the delayed expansion of the clay fabric): under constant stress after "
+        "an unloading the specimen keeps expanding; with the strain held the effective stress rises. An "
+        "overstress viscoplastic model gives nothing of the kind (after unloading its stress lies inside the yield "
+        "surface and it creeps, slowly, in compression).",
+        (_item("hold time after unloading", "primary", -1, "creep after unloading: the recorded compressive strain "
+               "falls below the simulation the longer the hold (continued swelling)", STRAIN_CURVES),
+         _item("hold time after unloading", "primary", +1, "relaxation after unloading: with the strain held the "
+               "recorded effective stresses rise above the simulation the longer the hold", EFFECTIVE_STRESS_CURVES),
+         _item("hold time after unloading", "supporting", +1, "the void ratio keeps rising above the simulation "
+               "after unloading", ("void_ratio",)),
+         _item("loading phase", "supporting", 0, "holds after unloading misfit unlike holds after loading", None)),
+        {},
+        None,
+        "no model of constitutive/ has time-dependent swelling: ANICREEP's viscoplastic strain rate follows the "
+        "overstress of its yield surface, which is small and compressive inside the surface after unloading; a "
+        "swelling law (e.g. a time-dependent elastic expansion with a swelling index C_s_alpha) would be needed",
+        references=("Yin & Graham (1999) elastic visco-plastic swelling; Leroueil, Kabbaj, Tavenas & Bouchard (1985) "
+                    "stress-strain-strain rate relation",)),
     Candidate(
         "partial drainage",
         "Pore water flows during the test: neither the drained nor the undrained idealization holds. The excess pore "
@@ -240,10 +281,13 @@ def _in_base(c: Candidate, base_switches: dict) -> bool:
 
 
 def _unavailable(c: Candidate, model_class) -> str:
-    """Why candidate ``c`` cannot enrich a base model of class ``model_class`` (None: any class), or ""."""
+    """Why candidate ``c`` cannot enrich a base model of class ``model_class`` (None: any class), or "". A base model
+    is enriched through its family (``constitutive.registry.enrichment_family``: Modified Cam Clay through ANICREEP
+    with every switch off)."""
     if c.enrichment is None:
         return c.unavailable
-    if model_class is not None and c.enrichment.model_class != model_class:
+    family = None if model_class is None else enrichment_family(model_class).model
+    if family is not None and c.enrichment.model_class != family:
         return (f"{model_class} has no switch for it (the enrichment is {c.enrichment.model_class} "
                 f"{', '.join(f'{k}={v}' for k, v in c.enrichment.switches.items())})")
     return ""
@@ -252,24 +296,32 @@ def _unavailable(c: Candidate, model_class) -> str:
 def signatures(base_switches: dict, model_class: str | None = None) -> list:
     """The catalog as plain data for a base model with ``base_switches`` (e.g. {"viscous": False,
     "anisotropy": True}); each entry gains ``in_base`` (True when the base model already has the physics). With
-    ``model_class`` (the base model's class), an enrichment of another class is given as ``enrichment`` None with the
-    reason in ``unavailable``."""
+    ``model_class`` (the base model's class), an enrichment outside the class's family is given as ``enrichment`` None
+    with the reason in ``unavailable``; an enrichment through another class of the family (an MCC base enriched as
+    ANICREEP) names the base class in ``enrichment["translated_from"]`` and the family's switches that reproduce it
+    in ``enrichment["family_switches"]``."""
     out = []
+    family = None if model_class is None else enrichment_family(model_class)
     for c in CATALOG:
         d = c.as_data()
         d["in_base"] = _in_base(c, base_switches)
         reason = _unavailable(c, model_class)
         if reason:
             d.update(enrichment=None, unavailable=reason)
+        elif d["enrichment"] is not None and family is not None and family.model != model_class:
+            d["enrichment"].update(translated_from=model_class, family_switches=dict(family.switches))
         out.append(d)
     return out
 
 
 def enriched_settings(name: str, base_switches: dict, base_bounds: dict, model_class: str | None = None) -> tuple:
     """(switches, prior bounds, log-uniform names) of the enriched class of candidate ``name`` for a base model with
-    ``base_switches`` and free-parameter ``base_bounds`` (of class ``model_class`` when given). Raises ValueError when
-    the enrichment is not implemented or belongs to another model class (message: the reason) or the base model
-    already has the physics."""
+    ``base_switches`` and free-parameter ``base_bounds`` (of class ``model_class`` when given). For a base model
+    enriched through another class of its family (``constitutive.registry.enrichment_family``: Modified Cam Clay ->
+    ANICREEP), the switches are the family's (every physics off) plus the enrichment's, and the bounds keep the base
+    model's parameter names (the forward model translates them, ``Family.translate``) plus the enrichment's extra
+    parameters. Raises ValueError when the enrichment is not implemented or is outside the class's family (message:
+    the reason) or the base model already has the physics."""
     c = candidate(name)
     reason = _unavailable(c, model_class)
     if reason:
@@ -279,5 +331,7 @@ def enriched_settings(name: str, base_switches: dict, base_bounds: dict, model_c
     overlap = set(c.enrichment.parameters) & set(base_bounds)
     if overlap:
         raise ValueError(f"candidate {name!r}: parameters {sorted(overlap)} are already free in the base model")
-    return ({**base_switches, **c.enrichment.switches}, {**base_bounds, **c.enrichment.parameters},
+    family = None if model_class is None else enrichment_family(model_class)
+    switches = dict(family.switches) if family is not None and family.model != model_class else dict(base_switches)
+    return ({**switches, **c.enrichment.switches}, {**base_bounds, **c.enrichment.parameters},
             tuple(c.enrichment.log_uniform))

@@ -79,3 +79,26 @@ def test_crs_oedometer_same_states_strain_measure_closed_form():
     inside = ea >= em.min()
     sv = np.exp(np.interp(ea[inside], em[::-1], np.log(cm["axial_stress"][0][::-1])))
     assert np.max(np.abs(sv / ca["axial_stress"][0][inside] - 1.0)) < 1e-3
+
+
+def test_study_family_forward_reproduces_the_mcc_study():
+    """An MCC study (cases/examples/triaxial_undrained.toml: CK0UC and CIUE, ocr free) through its family's forward
+    model with every ANICREEP switch off gives the MCC study's curves (1e-8 relative), and an enriched class runs."""
+    from cases.study.family_forward import FamilyForward
+    from cases.study.forward import StudyForward
+    from cases.study.records import load_observations
+    from cases.study.schema import load_study
+    from pathlib import Path
+    study = load_study(Path(__file__).parents[1] / "cases/examples/triaxial_undrained.toml")
+    obs, _ = load_observations(study.tests)
+    batch = [{"M": 1.2, "ocr": 1.5}, {"M": 1.0, "ocr": 2.5}]
+    base = StudyForward(study, obs, {})(batch)
+    family = FamilyForward(study, obs, enrichment_family(study.model).switches)(batch)
+    for a, b in zip(base, family):
+        for t in a:
+            for c in obs[t].curves:
+                x, y = np.asarray(a[t][c]), np.asarray(b[t][c])
+                assert np.max(np.abs(x - y)) < 1e-8 * np.max(np.abs(x)), (t, c)
+    viscous = FamilyForward(study, obs, {"anisotropy": False, "viscous": True, "destructuration": False})(
+        [{**p, "C_alpha_e": 0.01} for p in batch])
+    assert all(np.all(np.isfinite(viscous[i][t][c])) for i in range(2) for t in viscous[i] for c in obs[t].curves)

@@ -19,12 +19,13 @@ import numpy as np
 
 import inference
 from constitutive import physics_catalog
-from constitutive.registry import class_name
+from constitutive.registry import class_name, enrichment_family
 from inference import diagnosis
 from inference.diagnosis import ModelClass
 from inference.priors import Bound
 
 from . import runner
+from .family_forward import FamilyForward
 from .forward import StudyForward
 from .outputs import plot_loop, write_outputs
 from .presets import FE_FIELDS
@@ -183,7 +184,7 @@ class LoopProblem:
                                                                             self.base_bounds, self.model)
             log_uniform = tuple(self.base_log_uniform) + tuple(extra_log)
             out = self.out / f"enriched_{candidate.replace(' ', '_')}"
-        name = class_name(switches, self.model)
+        name = class_name(switches, self.model if candidate is None else enrichment_family(self.model).model)
         cls, _, like = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
                                             self.seed, self.settings)
         if candidate is None:
@@ -240,6 +241,12 @@ class StudyProblem(LoopProblem):
         self.generating = generating_values(observations)
 
     def forward(self, switches):
+        """The study's forward model of the class with ``switches``: the base model's own (switches it has), or its
+        enrichment family's with the parameters translated (``cases.study.family_forward``: an MCC study enriched as
+        ANICREEP)."""
+        own = self.study.spec.switches
+        if enrichment_family(self.model).model != self.model and any(k not in own for k in switches):
+            return FamilyForward(self.study, self.observations, switches, self.preset)
         return StudyForward(self.study, self.observations, switches, self.preset)
 
     def map_curves(self, params, switches):
