@@ -2,7 +2,7 @@
 docs/reference.md section 5). The curves are measurements (digitised, CC-BY-4.0; cases/data/toyoura/SOURCE.md).
 
     python -m cases.toyoura [--quick] [--method de|o|both] [--samples N] [--seed S] [--runs R] [--out DIR] [--resume]
-                            [--undrained FILE[:E0:P0_KPA] ...] [--free NAMES] [--sweeps K]
+                            [--undrained FILE[:E0:P0_KPA] ...] [--free NAMES] [--sweeps K] [--error-groups [FILE]]
 
 The paper calibrated on drained test 2 (e0 0.916, p'0 100 kPa) and undrained tests 7 (e0 0.735, 100 kPa) and 12
 (e0 0.833, 1 MPa), and predicted the rest. The undrained curves are not available, so by default this study
@@ -19,9 +19,16 @@ isochoric). The calibration set is then test 2 plus the undrained tests (the pap
 
 Free parameters and bounds as the paper (nu = 0.2 fixed): K_0 [50, 300], n [0.1, 0.9], e_ref [0.5, 1.5],
 lambda [0.001, 0.1], xi [0.1, 1.0], phi_mu [20, 50], k_p [0.001, 0.1], A_d [0.1, 2], n_p [0, 10], n_d [0, 10],
-sigma_eps (0, 1]. n_p = 0 or n_d = 0 is valid in (VII) (phi_p = phi_pt = phi_mu) and SIMSAND accepts it, so the
+sigma_eps (0, 1). n_p = 0 or n_d = 0 is valid in (VII) (phi_p = phi_pt = phi_mu) and SIMSAND accepts it, so the
 lower bounds are kept at 0 (no clipping). ``--free`` identifies a subset, the others held at the paper's
 optimisation reference values.
+
+Error model: one sigma_eps for every curve (the paper's Eq. 4), or with ``--error-groups`` one error parameter per
+group of curves (Eq. 6g, docs/reference.md section 1) read from the ``[sigma_eps]`` table of FILE by the study
+library's reader (cases.study.error_model; default cases/examples/toyoura_groups.toml: sigma_eps_stress for q (and u
+of undrained recordings), sigma_eps_volume for the void ratio e). A dense sand's void ratio changes by about 0.01 on
+e of about 0.7: its relative errors are far below those of q, and with one sigma the volume change is effectively
+unconstrained.
 
 Forward model (cases.study.sand): all calibration tests of a batch in one batched SIMSAND call, simulated at
 0.1 % steps to 1 % and 0.25 % steps beyond, interpolated linearly to the recorded strains (0.1 % spacing).
@@ -31,7 +38,8 @@ About 5 % of the prior box fails (drained path lost control): zero-likelihood pa
 Outputs in DIR (cases.study contract): summary.json (with J_g of every test at MAP, calibration and prediction),
 report.md (MAP/mean/std beside the paper's Table 3), curves.png (Fig. 13 style: data, MAP and 95 % posterior
 predictive of all tests, calibration and prediction), marginals.png, stages.png, csl.png; ``--runs R``: runs.md and
-map_spread.png (MAP / paper's DE-TMCMC mean).
+map_spread.png (MAP / paper's DE-TMCMC mean). report.md and stdout also give the volumetric strain of the predicted
+drained tests at 3, 5 and 10 % axial strain (measured, MAP, 95 % posterior predictive; :func:`volume_lines`).
 """
 from __future__ import annotations
 
@@ -42,14 +50,21 @@ import numpy as np
 
 import inference
 from cases import study
+from cases.study.checks import Checker, read_toml
 from cases.study.cli import UsageError, command
+from cases.study.error_model import ErrorModel, read_error_model
 from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, add_options, free_subset, parameters, run_line, \
-    sampler_settings, sand_forward, write_figures, write_runs
+    sampler_settings, sand_forward, volume_change_table, write_figures, write_runs
 from inference.observations import read_csv_table
+from inference.priors import Bound
 
 CASE = "toyoura"
 DATA = Path(__file__).parent / "data" / "toyoura"
 DEFAULT_OUT = Path("results") / CASE
+#: the error groups of ``--error-groups`` without a FILE
+ERROR_GROUPS = Path(__file__).parent / "examples" / "toyoura_groups.toml"
+#: axial strains (%) at which the predicted tests' volumetric strain is reported
+VOLUME_AT_PCT = (3.0, 5.0, 10.0)
 
 #: paper test number -> data file (SOURCE.md)
 FILES = {"test1": "wang34_Tokyo_TMD6.csv", "test2": "wang34_Tokyo_TMD5.csv", "test3": "wang34_Tokyo_TMD4.csv",
@@ -120,8 +135,18 @@ def load_undrained(specs) -> list:
     return tests
 
 
-def build(undrained=(), free=None):
-    """(calibration observations, all observations, calibration forward, all-tests forward, likelihood, prior)."""
+def read_error_groups(path) -> ErrorModel:
+    """The ``[sigma_eps]`` table of a TOML file (cases.study.error_model; the file may also hold ``name`` and
+    ``description``); StudyError naming the file, table.field and value."""
+    doc = read_toml(path)
+    ck = Checker(path)
+    ck.table(doc, "(top level)", ("name", "description", "sigma_eps"), ("sigma_eps",))
+    return read_error_model(ck, doc["sigma_eps"])
+
+
+def build(undrained=(), free=None, error_model: ErrorModel | None = None):
+    """(calibration observations, all observations, calibration forward, all-tests forward, likelihood, prior).
+    ``error_model``: error groups (Eq. 6g) and their bounds; None: one sigma_eps in SIGMA_BOUNDS (the paper's)."""
     free = free_subset(free, BOUNDS)
     drained = {n: load_drained(n) for n in FILES}
     user = load_undrained(undrained)
@@ -132,9 +157,42 @@ def build(undrained=(), free=None):
     grid = _grid(all_obs)
     forward = sand_forward(cal_obs, fixed, grid)
     forward_all = sand_forward(all_obs, fixed, grid)
-    like = inference.Likelihood(cal_obs, forward, batch=True, sigma="sigma_eps")
-    prior = inference.UniformPrior({**{k: BOUNDS[k] for k in free}, "sigma_eps": SIGMA_BOUNDS})
+    like = likelihood(cal_obs, forward, error_model)
+    if error_model is None:
+        prior = inference.UniformPrior({**{k: BOUNDS[k] for k in free}, "sigma_eps": SIGMA_BOUNDS})
+    else:
+        prior = inference.Prior([Bound(k, *BOUNDS[k]) for k in free] + [
+            Bound(k, *map(float, b), error_model.kind) for k, b in error_model.parameter_bounds().items()])
     return cal_obs, all_obs, forward, forward_all, like, prior
+
+
+def likelihood(observations, forward, error_model: ErrorModel | None = None) -> inference.Likelihood:
+    """Eqs. (4)-(6) of ``observations`` (batched forward model): one sigma_eps, or the groups of ``error_model``."""
+    groups = None if error_model is None else error_model.curve_groups(observations)
+    return inference.Likelihood(observations, forward, batch=True, sigma="sigma_eps", groups=groups)
+
+
+def curve_sigmas(like: inference.Likelihood) -> dict:
+    """{curve: its error parameter} with error groups (for the posterior predictive), {} with one sigma_eps."""
+    if len(like.groups) == 1:
+        return {}
+    name = dict(zip(like.groups, like.sigma_names))
+    return {curve: name[g] for (_, curve), g in like.group_of.items()}
+
+
+def volume_lines(rows) -> list:
+    """Markdown table of :func:`cases.study.sand.volume_change_table` rows: eps_v (%) measured, MAP, 95 % band."""
+    def cell(v):
+        return "-" if v is None else f"{v:.2f}"
+
+    lines = ["| test | e0 | p'0 (kPa) | eps_a (%) | eps_v measured (%) | eps_v MAP (%) | 95 % predictive (%) |"
+             " measured in band |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        inside = ("-" if None in (r["measured"], r["lo"], r["hi"]) else
+                  "yes" if r["lo"] <= r["measured"] <= r["hi"] else "no")
+        lines.append(f"| {r['test']} | {r['e0']:g} | {r['p0']:g} | {r['eps_a']:g} | {cell(r['measured'])} | "
+                     f"{cell(r['map'])} | [{cell(r['lo'])}, {cell(r['hi'])}] | {inside} |")
+    return lines
 
 
 def _grid(obs):
@@ -147,6 +205,9 @@ def _grid(obs):
 def _options(ap):
     ap.add_argument("--undrained", nargs="+", default=[], metavar="FILE[:E0:P0_KPA]",
                     help="undrained recordings (eps_a_pct, q_kPa, u_kPa) to calibrate on as the paper did")
+    ap.add_argument("--error-groups", nargs="?", const=ERROR_GROUPS, type=Path, metavar="FILE",
+                    help="one error parameter per group of curves (Eq. 6g) from FILE's [sigma_eps] table "
+                         f"(default {ERROR_GROUPS.relative_to(Path(__file__).parents[1])})")
     add_options(ap, BOUNDS, "at the paper's reference values")
 
 
@@ -163,25 +224,31 @@ def jg_all(like_all, post) -> dict:
         return {"error": f"{type(exc).__name__}: {exc}"}
 
 
-def report_run(out, args, post, cal_obs, all_obs, forward_all, summary):
+def report_run(out, args, post, cal_obs, all_obs, forward_all, summary, like, volume_rows):
     method = study.method_name(args.method)
     note = "" if args.undrained else SUBSTITUTION_NOTE
     predicted = [t.name for t in all_obs if t.name not in cal_obs.tests]
+    sigmas = curve_sigmas(like)
     write_figures(out, all_obs, forward_all, post, f"Toyoura sand (Verdugo & Ishihara 1996, measured): {method}, "
                   f"calibrated on {', '.join(cal_obs.tests)}; predicted {', '.join(predicted)}",
                   {"paper ref.": PAPER_REFERENCE, "paper DE mean": PAPER_DE_MEAN},
                   {"paper reference": {**FIXED, **PAPER_REFERENCE}, "paper DE-TMCMC mean": parameters(
                       forward_all, PAPER_DE_MEAN)}, "Toyoura sand: CSL (VI) of the MAP vs the paper's values",
-                  "end (data)", predict=predicted)
+                  "end (data)", predict=predicted, sigmas=sigmas)
     jg = summary["J_g_all_tests"]
+    errors = ("one sigma_eps for every curve (Eq. 4)" if not sigmas else "error groups (Eq. 6g): " + "; ".join(
+        f"{n}: {', '.join(sorted({c for c, m in sigmas.items() if m == n}))}" for n in like.sigma_names))
     text = [f"# {CASE}: {method}, seed {summary['seed']} (measured data: Verdugo & Ishihara 1996, CC-BY-4.0)", ""]
     if note:
         text += [f"**{note}**", ""]
-    text += [run_line(summary), "",
+    text += [run_line(summary), "", f"Error model: {errors}.", "",
              "J_g (Eq. 5) at MAP: " + ", ".join(
                  f"{k} {v:.3g} ({'calibration' if k in cal_obs.tests else 'prediction'})"
                  for k, v in jg.items() if isinstance(v, float)), "",
              study.parameter_table(post, REFERENCES), "",
+             "Volumetric strain of the predicted drained tests (%, compression positive, dilation negative; "
+             "eps_v = 100 (e0 - e)/(1 + e0); measured: the record interpolated; 95 % posterior predictive of Eq. 1 "
+             "on e):", "", *volume_lines(volume_rows), "",
              "Figures: curves.png (Fig. 13 style), marginals.png, stages.png, csl.png."]
     (Path(out) / "report.md").write_text("\n".join(text) + "\n")
 
@@ -189,20 +256,27 @@ def report_run(out, args, post, cal_obs, all_obs, forward_all, summary):
 @command
 def main(argv=None):
     args = study.arguments(__doc__, argv, quick_help="N_s 300, at most 6 sweeps per stage", add=_options)
-    cal_obs, all_obs, forward, forward_all, like, prior = build(args.undrained, args.free)
-    like_all = inference.Likelihood(all_obs, forward_all, batch=True, sigma="sigma_eps")
+    error_model = read_error_groups(args.error_groups) if args.error_groups else None
+    cal_obs, all_obs, forward, forward_all, like, prior = build(args.undrained, args.free, error_model)
+    like_all = likelihood(all_obs, forward_all, error_model)
+    predicted = [t for t in all_obs.tests if t not in cal_obs.tests and "e" in all_obs[t].curves]
     preset = PRESETS["quick" if args.quick else "full"]
     n_samples = args.samples or preset["n_samples"]
     settings = sampler_settings(args, preset, MAX_FAILURE_FRACTION)
 
     def finish(run_args, seed, out, post):
+        volume_rows = volume_change_table(forward_all, post, all_obs, predicted, VOLUME_AT_PCT,
+                                          sigmas=curve_sigmas(like))
+        if study.is_root():
+            print("\n".join([f"volumetric strain of the predicted tests, seed {seed}:", *volume_lines(volume_rows)]))
         summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
             "synthetic": False, "calibration_tests": list(cal_obs.tests),
             "predicted_tests": [t for t in all_obs.tests if t not in cal_obs.tests],
             "substitution": "" if args.undrained else SUBSTITUTION_NOTE, "undrained_files": list(args.undrained),
             "fixed": forward.fixed, "J_g_all_tests": jg_all(like_all, post),
-            "max_failure_fraction": MAX_FAILURE_FRACTION})
-        report_run(out, run_args, post, cal_obs, all_obs, forward_all, summary)
+            "max_failure_fraction": MAX_FAILURE_FRACTION, "error_groups": str(args.error_groups or ""),
+            "volume_change": volume_rows})
+        report_run(out, run_args, post, cal_obs, all_obs, forward_all, summary, like, volume_rows)
         return summary
 
     summaries = study.run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)

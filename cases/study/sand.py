@@ -29,7 +29,7 @@ from .outputs import plot_marginals, plot_stages, pyplot, runs_table
 from .programme import TestSpec
 
 __all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
-           "predictive", "plot_curves", "plot_csl", "plot_map_spread", "write_figures", "run_line",
+           "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_csl", "plot_map_spread", "write_figures", "run_line",
            "sampler_settings", "write_runs", "CURVES"]
 
 #: observed curves per drainage type (test curve name -> CSV quantity)
@@ -89,10 +89,15 @@ def sand_forward(observations, fixed: dict, grid_pct=None) -> LabForward:
     return LabForward("SIMSAND", tests, strains, curves, fixed, grid=grid_pct)
 
 
+def is_error_parameter(name: str) -> bool:
+    """sigma_eps, or sigma_eps_<group> of an error group (Eq. 6g)."""
+    return name == "sigma_eps" or name.startswith("sigma_eps_")
+
+
 def parameters(forward: LabForward, params: dict) -> dict:
     """Full SIMSAND parameter dict: the forward model's fixed values updated with ``params`` (a sample's error
-    parameter sigma_eps, if present, is left out)."""
-    full = {**forward.fixed, **{k: v for k, v in params.items() if k != "sigma_eps"}}
+    parameters, sigma_eps or sigma_eps_<group>, if present, are left out)."""
+    full = {**forward.fixed, **{k: v for k, v in params.items() if not is_error_parameter(k)}}
     missing = set(SIMSAND.parameter_names) - set(full)
     if missing:
         raise ValueError(f"SIMSAND parameters neither free nor fixed: {sorted(missing)}")
@@ -124,11 +129,13 @@ def run_line(summary: dict) -> str:
 
 
 def write_figures(out, observations, forward, post, title, marks, csl_lines, csl_title, end_label,
-                  reference=None, predict=(), marginals_title=None):
-    """curves.png (:func:`plot_curves`), marginals.png (``marks`` {label: values}), stages.png and csl.png (the CSL
-    of ``csl_lines`` {label: parameter dict}, ``"MAP"`` added, with the end states of the drained records)."""
+                  reference=None, predict=(), marginals_title=None, sigmas=None):
+    """curves.png (:func:`plot_curves`, ``sigmas`` as :func:`predictive`), marginals.png (``marks`` {label:
+    values}), stages.png and csl.png (the CSL of ``csl_lines`` {label: parameter dict}, ``"MAP"`` added, with the end
+    states of the drained records)."""
     out = Path(out)
-    plot_curves(out / "curves.png", observations, forward, post, title, reference=reference, predict=predict)
+    plot_curves(out / "curves.png", observations, forward, post, title, reference=reference, predict=predict,
+                sigmas=sigmas)
     plot_marginals(post, out / "marginals.png", marks=marks, title=marginals_title)
     plot_stages(post, out / "stages.png")
     end = {f"{t.name} {end_label}": (conditions_of(t).p0 + t.curves["q"].y[-1] / 3.0, t.curves["e"].y[-1])
@@ -136,16 +143,22 @@ def write_figures(out, observations, forward, post, title, marks, csl_lines, csl
     plot_csl(out / "csl.png", {"MAP": parameters(forward, post.map), **csl_lines}, end, title=csl_title)
 
 
-def predictive(forward: LabForward, post, n_draws=200, seed=0):
-    """Posterior predictive of Eq. (1): U = c U_num(b), c ~ N(1, sigma_eps^2), over ``n_draws`` final-stage samples
-    (one batched forward call). Returns ({test: {curve: (q2.5, q50, q97.5) arrays}}, {test: grid}, MAP curves)."""
+def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None):
+    """Posterior predictive of Eq. (1): U = c U_num(b), c ~ N(1, sigma^2), over ``n_draws`` final-stage samples
+    (one batched forward call). ``sigmas``: {curve: error parameter} with error groups (Eq. 6g), e.g.
+    {"q": "sigma_eps_stress", "e": "sigma_eps_volume"}; a curve not named takes sigma_eps, or no noise when the
+    posterior has no sigma_eps. Returns ({test: {curve: (q2.5, q50, q97.5) arrays}}, {test: grid}, MAP curves)."""
     rng = np.random.default_rng(seed)
     names = list(post.names)
     idx = rng.choice(len(post.samples), size=min(n_draws, len(post.samples)), replace=False)
     draws = post.samples[idx]
-    sig = draws[:, names.index("sigma_eps")] if "sigma_eps" in names else np.zeros(len(draws))
+
+    def sigma_of(curve):
+        name = (sigmas or {}).get(curve, "sigma_eps")
+        return draws[:, names.index(name)] if name in names else np.zeros(len(draws))
+
     rows = np.vstack([draws, post.map_theta])
-    soil = {n: rows[:, k] for k, n in enumerate(names) if n != "sigma_eps"}
+    soil = {n: rows[:, k] for k, n in enumerate(names) if not is_error_parameter(n)}
     raw, failed = forward.simulate(soil)
     values, _ = forward.particle_values(soil)
     table = forward.arrays(raw, values, names=lambda t: ("q", "e", "u", "p"))
@@ -154,19 +167,48 @@ def predictive(forward: LabForward, post, n_draws=200, seed=0):
         band[t.name], at_map[t.name] = {}, {}
         for k, (grid, v) in table[t.name].items():
             grids[t.name] = grid
-            sims = v[:-1] * (1.0 + sig[:, None] * rng.standard_normal(v[:-1].shape))
+            sims = v[:-1] * (1.0 + sigma_of(k)[:, None] * rng.standard_normal(v[:-1].shape))
             ok = ~failed[t.name][:-1]
             band[t.name][k] = np.nanquantile(sims[ok], [0.025, 0.5, 0.975], axis=0) if ok.any() else None
             at_map[t.name][k] = v[-1]
     return band, grids, at_map
 
 
-def plot_curves(path, observations, forward, post, title, reference=None, predict=(), seed=0):
+def volume_change_table(forward: LabForward, post, observations, tests, at_pct=(3.0, 5.0, 10.0), sigmas=None,
+                        n_draws=200, seed=0) -> list:
+    """Volumetric strain eps_v (%, compression positive, dilation negative) of drained ``tests`` at the axial
+    strains ``at_pct`` (%): measured (the record, linearly interpolated), MAP and the 95 % posterior predictive
+    band (:func:`predictive`, noise on the void-ratio curve). eps_v = 100 (e0 - e) / (1 + e0), a decreasing
+    function of e, so the band of eps_v is the band of e mapped (its ends swapped). Rows of dicts: test, e0, p0
+    (kPa), eps_a (%), measured, map, lo, hi (eps_v, %); None where the record or the simulation stops short."""
+    band, grids, at_map = predictive(forward, post, n_draws=n_draws, seed=seed, sigmas=sigmas)
+    specs = {t.name: t for t in forward.tests}
+    rows = []
+    for name in tests:
+        spec, rec = specs[name], observations[name].curves["e"]
+        e0 = spec.e0
+
+        def eps_v(e):
+            return 100.0 * (e0 - e) / (1.0 + e0)
+
+        grid = grids[name]
+        for x in at_pct:
+            inside = grid[0] <= x <= grid[-1]
+            measured = float(eps_v(np.interp(x, rec.x, rec.y))) if rec.x[0] <= x <= rec.x[-1] else None
+            lo_hi = band[name]["e"]
+            rows.append(dict(test=name, e0=e0, p0=spec.p0, eps_a=x, measured=measured,
+                             map=float(eps_v(np.interp(x, grid, at_map[name]["e"]))) if inside else None,
+                             lo=float(eps_v(np.interp(x, grid, lo_hi[2]))) if inside and lo_hi is not None else None,
+                             hi=float(eps_v(np.interp(x, grid, lo_hi[0]))) if inside and lo_hi is not None else None))
+    return rows
+
+
+def plot_curves(path, observations, forward, post, title, reference=None, predict=(), seed=0, sigmas=None):
     """Data vs MAP curves with the 95 % posterior predictive band, one row per test (the paper's Figs. 2-4, 13).
     ``reference``: optional {test: {curve: (x, y)}} drawn dashed (true-value curves); ``predict``: names of tests
-    not used in the calibration (titled "prediction")."""
+    not used in the calibration (titled "prediction"); ``sigmas``: as :func:`predictive`."""
     plt = pyplot()
-    band, grids, at_map = predictive(forward, post, seed=seed)
+    band, grids, at_map = predictive(forward, post, seed=seed, sigmas=sigmas)
     tests = list(forward.tests)
     ncol = max(len(CURVES[t.drainage == "drained"]) for t in tests)
     fig, axes = plt.subplots(len(tests), ncol, figsize=(4.6 * ncol, 3.0 * len(tests)), squeeze=False)
