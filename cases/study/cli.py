@@ -54,10 +54,10 @@ def command(main):
     propagates with its traceback."""
 
     @functools.wraps(main)
-    def guarded(argv=None):
+    def guarded(argv=None, **options):
         argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
         try:
-            return main(argv)
+            return main(argv, **options)
         except inference.RunStopped:
             if "--debug" in argv:
                 raise

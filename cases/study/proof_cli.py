@@ -12,7 +12,7 @@
 from __future__ import annotations
 
 from . import proof_lab, proof_rates, proof_sbp
-from .cli import arguments
+from .cli import arguments, command
 
 __all__ = ["main", "proof_of"]
 
@@ -44,6 +44,7 @@ def proof_of(args):
     return proof_rates if args.programme == "rates" else proof_lab
 
 
+@command
 def main(argv=None, description=__doc__) -> int:
     args = arguments(description, argv, quick_help="N_s 200, at most 5 sweeps per stage, 60 predictive draws (lab); "
                      "sbp: the settings are already small", add=_options)

@@ -48,6 +48,7 @@ import numpy as np
 from constitutive.registry import class_name
 
 from . import proofs
+from .cli import UsageError
 from .covariates import post_peak_strain
 from .problem import run_loop as loop
 from .programme import TestSpec
@@ -180,7 +181,7 @@ def run(args) -> int:
     """The command line of ``cases.concealed --scale lab`` (``cases.study.proof_cli``)."""
     args.effect = args.effect or "anisotropy"
     if args.effect not in EFFECTS or args.effect == "none":
-        raise SystemExit(f"--effect {args.effect}: choose among {', '.join(e for e in EFFECTS if e != 'none')}")
+        raise UsageError(f"--effect {args.effect}: choose among {', '.join(e for e in EFFECTS if e != 'none')}")
     if args.generate:
         print(json.dumps({e: str(proofs.write_data(PROGRAMME, DATA / spec["dataset"], synthetic_curves(e, 1), NOISE, 1)[
             "T01"].parent) for e, spec in EFFECTS.items()}))

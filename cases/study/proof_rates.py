@@ -37,6 +37,7 @@ import numpy as np
 from constitutive.registry import class_name
 
 from . import proofs
+from .cli import UsageError
 from .problem import run_loop as loop
 from .programme import TestSpec
 from .proofs import PRESETS
@@ -120,7 +121,7 @@ def seeds_table(rows) -> str:
 def run(args) -> int:
     """The command line of ``cases.concealed --programme rates`` (``cases.study.proof_cli``)."""
     if args.effect not in (None, "viscosity"):
-        raise SystemExit(f"--effect {args.effect}: the six-rate programme conceals viscosity only")
+        raise UsageError(f"--effect {args.effect}: the six-rate programme conceals viscosity only")
     if args.generate:
         print(json.dumps({k: {t: str(p) for t, p in proofs.write_data(PROGRAMME, d, synthetic_curves(
             k == "control", 1), NOISE, 1).items()} for k, d in DATASETS.items()}))

@@ -34,7 +34,7 @@ import inference
 from constitutive import physics_catalog
 from inference import diagnosis
 
-from .cli import arguments
+from .cli import UsageError, arguments
 from .covariates import drainage_time_factor, programme_covariates
 from .outputs import plot_loop
 from .presets import FE_FIELDS, Preset
@@ -315,7 +315,7 @@ def run(args) -> int:
     """The command line of ``cases.concealed --scale sbp`` (``cases.study.proof_cli``)."""
     args.effect = args.effect or "viscosity"
     if args.effect not in EFFECTS or args.effect == "none":
-        raise SystemExit(f"--effect {args.effect}: choose among {', '.join(e for e in EFFECTS if e != 'none')}")
+        raise UsageError(f"--effect {args.effect}: choose among {', '.join(e for e in EFFECTS if e != 'none')}")
     if args.generate:
         for effect in EFFECTS:
             print(json.dumps({k: str(v) for k, v in write_data(effect).items()}))
