@@ -163,3 +163,17 @@ def test_fingerprint_mismatch_names_the_field_on_one_line(tmp_path):
     assert "\n" not in msg and str(path) in msg
     assert "seed: checkpoint 0, this run 1" in msg
     assert "n_samples" not in msg  # only what differs
+
+
+def test_a_rechecksummed_state_outside_the_prior_is_refused(tmp_path):
+    """A checkpoint altered and written again with a valid checksum (a sample moved outside the prior, as a corrupted
+    sigma_eps of -30.4 would be) is refused on resume, naming the file and the particle."""
+    path = tmp_path / "run.ckpt"
+    _run(path)
+    fingerprint = _fingerprint_of(path)
+    st = load_checkpoint(path, fingerprint, STATE_TYPES)
+    st.theta[2, 0] = -30.4
+    save_checkpoint(path, st, fingerprint)
+    with pytest.raises(CheckpointError, match="outside the prior") as err:
+        _run(path, resume=True)
+    assert str(path) in str(err.value) and "particle 2" in str(err.value) and "\n" not in str(err.value)

@@ -6,7 +6,9 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from ..checkpoint import load_checkpoint
+import numpy as np
+
+from ..checkpoint import CheckpointError, load_checkpoint
 from ..executors import Evaluator, Executor, RootRankError, default_executor
 from ..likelihood import Likelihood
 from ..priors import Prior
@@ -86,6 +88,7 @@ def tmcmc(loglike, prior: Prior, settings: TMCMCSettings | None = None, *, execu
                   progress, log)
         if resume and checkpoint is not None and Path(checkpoint).exists():
             st = load_checkpoint(checkpoint, fingerprint, STATE_TYPES)
+            check_resumable(st, prior, checkpoint)
             run.say(f"resuming from {checkpoint}: stage {st.stage}, phase {st.phase}, "
                     f"{st.n_evals} evaluations done")
         else:
@@ -121,3 +124,24 @@ def _fingerprint(loglike, prior, settings: TMCMCSettings) -> dict:
     else:
         fp = getattr(loglike, "__qualname__", type(loglike).__qualname__)
     return {"likelihood": str(fp), "prior": str(prior.describe()), **settings.sampling()}
+
+
+def check_resumable(st, prior: Prior, path) -> None:
+    """Refuse a checkpoint whose state contradicts the prior it was written for (a file altered and re-checksummed):
+    every population and stage sample must lie in the prior's support, the exponent in [0, 1] and the evidence so far
+    be finite. Raises :class:`CheckpointError` naming the file and the first contradiction."""
+    if not (0.0 <= st.exponent <= 1.0 and np.isfinite(st.log_evidence)):
+        raise CheckpointError(f"{path}: exponent {st.exponent} or ln Z {st.log_evidence} out of range: not a state "
+                              "this sampler writes")
+    populations = ([] if st.theta is None else [("population", st.theta)])
+    populations += [(f"stage {j} samples", t) for j, t in enumerate(st.stage_theta)]
+    for what, theta in populations:
+        theta = np.asarray(theta, dtype=float)
+        if theta.ndim != 2 or theta.shape[1] != prior.dim:
+            raise CheckpointError(f"{path}: {what} has shape {theta.shape}, the prior has {prior.dim} parameters")
+        outside = ~prior.in_support(theta)
+        if np.any(outside):
+            k = int(np.flatnonzero(outside)[0])
+            raise CheckpointError(f"{path}: {what} particle {k} = {dict(zip(prior.names, theta[k].tolist()))} lies "
+                                  "outside the prior: the checkpoint was altered")
+
