@@ -39,7 +39,7 @@ STAGE_FIELDS = {
     "hold": (("duration",), ()),
     "unloading": (("strain_rate",), ("to_cavity_strain", "to_pressure")),
 }
-#: default consolidation ramp (s), load ramp (s), shear end (%), expansion end (%)
+#: defaults: consolidation ramp (s), load ramp (s), expansion end (%)
 CONSOLIDATION_DURATION = 86400.0
 RAMP_TIME = 1.0
 EXPANSION_STRAIN_PCT = 10.0
