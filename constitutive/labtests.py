@@ -67,7 +67,7 @@ def _where_state(mask, a, b):
 
 
 def mixed_control(model, stress0, state0, strain_control, increments, dt, undrained=False, record=None,
-                  on_failure="raise", tol=1e-10, max_iterations=25, max_cuts=8):
+                  on_failure="raise", tol=1e-10, max_iterations=25, max_cuts=8, active=None):
     """Drive ``model`` through n_steps mixed strain/stress-controlled increments.
 
     stress0 (n, 6) effective stress (kPa), state0 the model state at stress0.
@@ -75,10 +75,14 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     increments: (n_steps, 6) or (n_steps, n, 6); prescribed strain increments (dimensionless, compression positive)
         on strain-controlled components, prescribed stress increments (kPa; total stress when undrained,
         effective = total otherwise) on the others.
-    dt: (n_steps,) time increments (s), or (n_steps, n) per point (the points' times then differ). undrained: bool or (n_steps,) bool: volume held constant during the step
-        (needs at least one stress-controlled normal component); drained steps keep the excess pore pressure.
+    dt: (n_steps,) time increments (s), or (n_steps, n) per point (the points' times then differ).
+    undrained: bool or (n_steps,) bool: volume held constant during the step (needs at least one stress-controlled
+        normal component); drained steps keep the excess pore pressure.
     record: bool (n_steps,), steps at whose end the results are stored (default all); the initial state is always
         stored first.
+    active: bool (n_steps, n), the points that take each step (default all); a point outside a step keeps its
+        stress, state, strain, pore pressure, time and prescribed stresses unchanged (several tests with different
+        numbers of steps share one call, the shorter ones padded with inactive steps).
     Newton: converged when the stress residual is below ``tol`` x (1 kPa + max |sigma'|) and the volume residual
     below 1e-3 ``tol``. A point that does not converge (or whose model update raises IntegrationError) repeats the
     step as two half steps (recursively, up to ``max_cuts`` times, that point only); then it raises IntegrationError
@@ -97,6 +101,7 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     inc = np.broadcast_to(inc[:, None, :] if inc.ndim == 2 else inc, (n_steps, n, 6))
     und = np.broadcast_to(np.asarray(undrained, dtype=bool), (n_steps,))
     record = np.ones(n_steps, dtype=bool) if record is None else np.asarray(record, dtype=bool)
+    active = np.ones((n_steps, n), dtype=bool) if active is None else np.asarray(active, dtype=bool)
 
     state = state0
     strain = np.zeros((n, 6))
@@ -124,23 +129,25 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
         # actual total stress
         total = stress + u[:, None] * NORMAL
         fresh = ~control[k] & (control[k - 1] if k else True)
-        prescribed = np.where(fresh, total, prescribed) + np.where(control[k], 0.0, inc[k])
+        prescribed = np.where(active[k][:, None], np.where(fresh, total, prescribed) +
+                              np.where(control[k], 0.0, inc[k]), prescribed)
         step_inc = np.where(control[k], inc[k], prescribed - total)
         step = _Step(model, control[k], bool(und[k]), tol, max_iterations)
-        res = step.advance(alive.copy(), stress, state, tangent, step_inc, dt[k], max_cuts)
-        failed = alive & ~res["ok"]
+        moving = alive & active[k]
+        res = step.advance(moving.copy(), stress, state, tangent, step_inc, dt[k], max_cuts)
+        failed = moving & ~res["ok"]
         if np.any(failed):
             if on_failure == "raise":
                 raise IntegrationError(int(np.flatnonzero(failed)[0]), f"mixed-control Newton did not converge at "
                                        f"step {k} after {max_cuts} step cuts")
             alive &= ~failed
-        keep = alive
+        keep = alive & active[k]
         stress = np.where(keep[:, None], res["stress"], stress)
         state = _where_state(keep, res["state"], state)
         tangent = np.where(keep[:, None, None], res["tangent"], tangent)
         strain = strain + np.where(keep[:, None], res["deps"], 0.0)
         u = u + np.where(keep, res["du"], 0.0)
-        t += dt[k]
+        t = t + np.where(active[k], dt[k], 0.0)
         if record[k]:
             store()
 

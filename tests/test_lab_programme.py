@@ -262,3 +262,63 @@ def test_drained_stage_after_undrained_dissipates_the_excess_pore_pressure():
     assert out["q@creep2"][0, 0] == pytest.approx(out["q@shear1"][0, 0], rel=1e-9)
     assert out["p@creep2"][0, 0] == pytest.approx(out["p@shear1"][0, 0] + out["u@shear1"][0, 0], rel=1e-9)
     assert out["u@creep2"][0, 0] == 0.0
+
+
+def _equal_to_one_test_calls(model, specs, abscissae, n, monkeypatch):
+    """simulate_programmes of the tests together against one call per test: the largest difference relative to
+    each curve's magnitude, and the number of mixed_control calls made together."""
+    from constitutive import labtests
+
+    from cases.study.lab_programme import simulate_programmes
+    calls = []
+    real = labtests.mixed_control
+    monkeypatch.setattr(labtests, "mixed_control", lambda *a, **k: calls.append(1) or real(*a, **k))
+    together = simulate_programmes(model, specs, abscissae, n)
+    n_calls = len(calls)
+    worst = 0.0
+    for spec, x, (out, failed) in zip(specs, abscissae, together):
+        one, one_failed = simulate_programme(model, spec, x, n)
+        assert not np.any(failed) and not np.any(one_failed)
+        for k in x:
+            worst = max(worst, np.max(np.abs(out[k] - one[k])) / np.max(np.abs(one[k])))
+    return worst, n_calls
+
+
+def test_programmes_sharing_a_stage_structure_equal_one_test_calls(monkeypatch):
+    """CIU series (MCC, three particles): OCR 2, 4, 8 share consolidation - swelling - undrained shear with their own
+    swelling targets, durations, shear rates, end strains and record points (one call per stage for the three),
+    OCR 1 (consolidation - shear) runs apart; ANICREEP oedometer programmes (load - creep - crs to sigma'_v) with
+    their own initial states, loads, ramps, durations, rates and targets: together they equal one test per call
+    to 1e-10 (each point takes the steps it takes alone)."""
+    ciu = [programme("triaxial", InitialState(e0=1.45, p0=25.0, ocr=1.0),
+                     Stage("consolidation", "cons", p=200.0),
+                     Stage("shear", "shear", drainage="undrained", strain_rate=2.8e-6, to_strain=0.15,
+                           abscissa="axial_strain"))]
+    x_ciu = [{"q@shear": np.linspace(0.001, 0.15, 20), "e@cons": np.array([200.0])}]
+    for j, (ocr, rate, end) in enumerate([(2.0, 2.8e-6, 0.15), (4.0, 1e-5, 0.12), (8.0, 5e-6, 0.2)]):
+        ciu.append(programme("triaxial", InitialState(e0=1.45, p0=25.0, ocr=1.0),
+                             Stage("consolidation", "cons", p=200.0, duration=86400.0 * (j + 1)),
+                             Stage("consolidation", "swell", p=200.0 / ocr, abscissa="p"),
+                             Stage("shear", "shear", drainage="undrained", strain_rate=rate, to_strain=end,
+                                   abscissa="axial_strain")))
+        x_ciu.append({"q@shear": np.geomspace(1e-4, end, 13 + 5 * j), "u@shear": np.linspace(0.002, end, 7 + j),
+                      "e@swell": 200.0 / np.array([1.5, ocr][:j + 1])})
+    model = mcc(M=np.array([1.0, 1.2, 1.4]), lambda_=np.array([0.15, 0.2, 0.25]), kappa=0.03, G=None, nu=0.3)
+    worst, n_calls = _equal_to_one_test_calls(model, ciu, x_ciu, 3, monkeypatch)
+    assert worst <= 1e-10
+    assert n_calls == 3 + 2
+
+    ani = ANICREEP(M=1.2, lambda_=np.array([0.25, 0.3]), kappa=0.03, nu=0.25, e0=1.5, sigma_p0=80.0,
+                   C_alpha_e=np.array([0.008, 0.012]))
+    oed, x_oed = [], []
+    for j, (s0, load, ramp, rate, target) in enumerate([(40.0, 200.0, 3600.0, 1e-6, 400.0),
+                                                        (30.0, 150.0, 60.0, 3e-6, 600.0),
+                                                        (50.0, 300.0, 10.0, 1e-7, 350.0)]):
+        oed.append(programme("oedometer", InitialState(e0=1.4 + 0.05 * j, sigma_v0=s0, K0=0.55),
+                             Stage("load", "load", sigma_v=load, ramp_time=ramp, duration=86400.0 * (1 + j)),
+                             Stage("creep", "creep", duration=1e5 * (j + 1)),
+                             Stage("crs", "crs", strain_rate=rate, to_sigma_v=target, abscissa="time")))
+        x_oed.append({"e@load": np.geomspace(1.0, 86400.0 * (1 + j), 8 + j), "e@creep": np.geomspace(10.0, 1e5, 6),
+                      "axial_stress@crs": np.linspace(100.0, 2000.0 * (j + 1), 5)})
+    worst, _ = _equal_to_one_test_calls(ani, oed, x_oed, 2, monkeypatch)
+    assert worst <= 1e-10

@@ -6,10 +6,11 @@ rate-dependent model, strain rate) run as ONE call over (tests x particles) mate
 repeated per test; each point is integrated on its own, so a test's curves are the same bits whatever it is batched
 with. Laboratory test types: ``triaxial`` (``labtests.drained_triaxial`` / ``undrained_triaxial``; SIMSAND through
 its own triaxial integrator when the start is isotropic), ``oedometer_crs`` (``labtests.oedometer_crs``) and
-``oedometer_creep`` (``labtests.oedometer_loading``, interpolated to the recorded times). A test written as a stage
-programme (``TestSpec.staged``: apparatus triaxial or oedometer) runs on its own through
-:func:`cases.study.lab_programme.simulate_programme`, its curves keyed ``<quantity>@<stage name>`` (the quantity alone
-for a one-stage programme) at the records of each stage.
+``oedometer_creep`` (``labtests.oedometer_loading``, interpolated to the recorded times). The tests written as stage
+programmes (``TestSpec.staged``: apparatus triaxial or oedometer) run through
+:func:`cases.study.lab_programme.simulate_programmes` (one driver call per stage for the programmes that share a
+stage structure, each point taking the steps it takes alone), their curves keyed ``<quantity>@<stage name>`` (the
+quantity alone for a one-stage programme) at the records of each stage.
 
 Simulated quantities (units kPa, %, -): q, p (mean effective stress), excess_pore_pressure, volumetric_strain (%),
 void_ratio, axial_stress, radial_stress (effective), axial_strain (%), and for the covariates stress_ratio (q/p'),
@@ -28,7 +29,7 @@ from inference import ForwardModelError
 
 from constitutive.registry import build_model, class_name
 
-from .lab_programme import simulate_programme
+from .lab_programme import simulate_programmes
 from .programme import split_key
 
 __all__ = ["LabForward", "ALIASES", "COVARIATE_CURVES", "LAB_TYPES", "programme_abscissae"]
@@ -154,7 +155,9 @@ class LabForward:
 
     def _group_key(self, t):
         x = self.x[t.name]
-        if t.type == "oedometer_creep" or t.staged:
+        if t.staged:
+            return ("programmes",)
+        if t.type == "oedometer_creep":
             return (t.name,)
         n_sub = substeps(t, x, self.max_strain_step)
         return (t.type, t.drainage, tuple(x), n_sub, t.k0 if t.type == "triaxial" else t.K0, t.strain_rate)
@@ -179,13 +182,15 @@ class LabForward:
             calls.setdefault(key, []).extend(group)
         curves, failed = {}, {}
         for specs in calls.values():
+            if specs[0].staged:  # the programmes that share a stage structure share their driver calls
+                model = build_model(self.model, values, self.switches)
+                results = simulate_programmes(model, specs, [self.x[s.name] for s in specs], m,
+                                              e0=values["e0"] if self.e0_parameter else None)
+                for spec, (curve, bad) in zip(specs, results):
+                    curves[spec.name], failed[spec.name] = curve, bad
+                continue
             k = len(specs)
             model = build_model(self.model, {n: np.tile(v, k) for n, v in values.items()}, self.switches)
-            if specs[0].staged:
-                spec = specs[0]
-                curves[spec.name], failed[spec.name] = simulate_programme(
-                    model, spec, self.x[spec.name], m, e0=values["e0"] if self.e0_parameter else None)
-                continue
             e0 = (np.tile(values["e0"], k) if self.e0_parameter else np.repeat([s.e0 for s in specs], m))
             x = self.x[specs[0].name]
             c = _driver(specs, model, e0, x, substeps(specs[0], x, self.max_strain_step), m)

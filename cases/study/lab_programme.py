@@ -29,8 +29,6 @@ stress_ratio (q/p'), mean_stress (p').
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from constitutive import labtests
@@ -39,7 +37,8 @@ from constitutive.base import ParameterError
 from .lab_stages import FALLBACK_STRAIN_STEP, OEDOMETER_STRAIN, StageSteps
 from .programme import split_key
 
-__all__ = ["simulate_programme", "specimen_model", "QUANTITIES", "ALIASES", "CROSSING_ITERATIONS"]
+__all__ = ["simulate_programme", "simulate_programmes", "structure", "specimen_model", "QUANTITIES", "ALIASES",
+           "CROSSING_ITERATIONS"]
 
 QUANTITIES = ("q", "p", "void_ratio", "volumetric_strain", "axial_strain", "excess_pore_pressure", "pore_pressure",
               "axial_stress", "radial_stress", "time", "stress_ratio", "mean_stress")
@@ -152,12 +151,13 @@ def _advance(carried, hist, u_start):
 
 
 def _to_sigma_v(model, carried, rate, target, step, max_steps=4000):
-    """Continue a crs stage (oedometer, all strains controlled) until sigma'_v reaches ``target`` for every
-    particle: strain steps of ``step`` at ``rate``; the step that crosses is repeated with the secant fraction."""
+    """Continue a crs stage (oedometer, all strains controlled) until sigma'_v reaches ``target`` (kPa, (n,)) for
+    every particle: strain steps of ``step`` at ``rate`` (1/s, (n,)); the step that crosses is repeated with the
+    secant fraction."""
     n = carried["stress"].shape[0]
     sign = np.sign(target - carried["stress"][:, 0])
     done = (sign == 0) | carried["failed"]
-    h = math.copysign(step, rate)
+    h = np.copysign(step, rate)
     for _ in range(max_steps):
         if np.all(done):
             break
@@ -218,6 +218,13 @@ def _keys_by_stage(spec, keys):
     return out
 
 
+def structure(spec) -> tuple:
+    """What lets tests share one mixed_control call per stage: the apparatus and, per stage, its kind, drainage and
+    whether a crs stage continues to sigma'_v (the control rows and the drainage of every step)."""
+    return (spec.apparatus,) + tuple((s.kind, s.drainage, s.kind == "crs" and s.to_strain is None and
+                                      s.to_sigma_v is not None) for s in spec.stages)
+
+
 def simulate_programme(model, spec, abscissae: dict, n: int, e0=None):
     """Curves of a staged laboratory test for n particles (module docstring).
 
@@ -227,44 +234,113 @@ def simulate_programme(model, spec, abscissae: dict, n: int, e0=None):
     start when the test gives none (scalar or (n,)). Returns ({curve key: (n, len(x)) values}, failed (n,) bool);
     a failed particle's curves are NaN.
     """
-    if spec.apparatus not in ("triaxial", "oedometer"):
-        raise ValueError(f"test {spec.name}: apparatus {spec.apparatus!r} is not a laboratory cell (triaxial, "
-                         f"oedometer)")
-    model, start_e = specimen_model(model, spec.initial, e0)
-    stress0 = _initial_stress(spec.initial, n)
-    state, refused = _start_state(model, stress0, start_e, n)
-    by_stage = _keys_by_stage(spec, abscissae)
-    out = {k: np.full((n, len(np.atleast_1d(abscissae[k]))), np.nan) for k in abscissae}
-    if state is None:
-        return out, np.ones(n, dtype=bool)
-    step = model.max_strain_step or FALLBACK_STRAIN_STEP
-    carried = {"stress": stress0, "state": state, "strain": np.zeros((n, 6)), "u": np.zeros(n),
-               "t": np.zeros(n), "failed": refused.copy()}
-    u0 = spec.initial.u0
-    for stage in spec.stages:
-        keys = by_stage[stage.name]
-        xs = [np.atleast_1d(np.asarray(abscissae[k], dtype=float)) for k in keys]
-        x_all = np.unique(np.concatenate(xs)) if xs else np.zeros(0)
-        plan = StageSteps(spec.apparatus, stage, carried, x_all, step)
-        inc, dt = plan.steps()
-        record = np.zeros(len(dt), dtype=bool)
+    return simulate_programmes(model, [spec], [abscissae], n, e0)[0]
+
+
+def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
+    """:func:`simulate_programme` of several tests for the same n particles: a list of (curves, failed), one per
+    test of ``specs`` (abscissae: one dict per test).
+
+    Tests of the same :func:`structure` (and whose specimen models have the same parameters set) run together: one
+    mixed_control call per stage over (tests x particles) points. Each test keeps the steps it has alone
+    (:class:`cases.study.lab_stages.StageSteps` of its own rows: its targets, rates, durations, records and initial
+    state); the tests' step tables are aligned by step index, a shorter table padded at its end with steps its rows do
+    not take (``mixed_control(active=...)``), and the states are stored at the union of the tests' record steps. Every
+    point thus takes the same steps as in a call of its own: the curves equal the one-test results to round-off."""
+    for spec in specs:
+        if spec.apparatus not in ("triaxial", "oedometer"):
+            raise ValueError(f"test {spec.name}: apparatus {spec.apparatus!r} is not a laboratory cell (triaxial, "
+                             f"oedometer)")
+    prepared = [(spec, *specimen_model(model, spec.initial, e0)) for spec in specs]
+    groups = {}
+    for j, (spec, specimen, _) in enumerate(prepared):
+        set_names = tuple(k for k, v in specimen.parameters().items() if v is not None)
+        groups.setdefault((structure(spec), set_names), []).append(j)
+    results = [None] * len(specs)
+    for members in groups.values():
+        done = _simulate_group([prepared[j] for j in members], [abscissae[j] for j in members], n)
+        for j, result in zip(members, done):
+            results[j] = result
+    return results
+
+
+def _stack(models, n):
+    """One model over (len(models) x n) points from models of the same class and parameters, each over n."""
+    if len(models) == 1:
+        return models[0]
+    names = [k for k, v in models[0].parameters().items() if v is not None]
+    return _rebuild(models[0], {k: np.concatenate([np.broadcast_to(np.asarray(m.parameters()[k], dtype=float), (n,))
+                                                   for m in models]) for k in names})
+
+
+def _merge(plans, n):
+    """(increments (K, N, 6), dt (K, N), active (K, N) or None, record (K,), column of each plan's records) of the
+    stage plans of the tests of a group (each over n rows) aligned by step index (:func:`simulate_programmes`)."""
+    tables = [plan.steps() for plan in plans]
+    size = max(len(dt) for _, dt in tables)
+    inc, dt = np.zeros((size, n * len(plans), 6)), np.zeros((size, n * len(plans)))
+    active = np.zeros(dt.shape, dtype=bool)
+    record = np.zeros(size, dtype=bool)
+    record[-1] = True  # the stage's end state is carried on
+    for j, (plan, (inc_j, dt_j)) in enumerate(zip(plans, tables)):
+        rows = slice(j * n, (j + 1) * n)
+        inc[:len(dt_j), rows], dt[:len(dt_j), rows], active[:len(dt_j), rows] = inc_j, dt_j, True
         record[plan.record_index] = True
-        record[-1] = True  # the stage's end state is carried on
-        u_start = carried["u"] if plan.undrained else np.zeros(n)
-        hist = _run(model, carried, plan.control, inc, dt, plan.undrained, record)
-        if keys:
+    slot = np.cumsum(record)  # history column of each recorded step (column 0: the stage start)
+    return inc, dt, (None if active.all() else active), record, [slot[plan.record_index] for plan in plans]
+
+
+def _rows(carried, rows):
+    return {k: carried[k][rows] for k in ("stress", "strain", "u", "t", "failed")}
+
+
+def _simulate_group(prepared, abscissae, n):
+    """simulate_programmes of tests of one group: prepared [(spec, specimen model, start void ratio)]."""
+    specs = [spec for spec, _, _ in prepared]
+    rows = [slice(j * n, (j + 1) * n) for j in range(len(specs))]
+    size = n * len(specs)
+    model = _stack([specimen for _, specimen, _ in prepared], n)
+    start_e = np.concatenate([np.broadcast_to(np.asarray(e, dtype=float), (n,)) for _, _, e in prepared])
+    stress0 = np.concatenate([_initial_stress(spec.initial, n) for spec in specs])
+    state, refused = _start_state(model, stress0, start_e, size)
+    by_stage = [_keys_by_stage(spec, x) for spec, x in zip(specs, abscissae)]
+    outs = [{k: np.full((n, len(np.atleast_1d(x[k]))), np.nan) for k in x} for x in abscissae]
+    if state is None:
+        return [(out, np.ones(n, dtype=bool)) for out in outs]
+    step = model.max_strain_step or FALLBACK_STRAIN_STEP
+    carried = {"stress": stress0, "state": state, "strain": np.zeros((size, 6)), "u": np.zeros(size),
+               "t": np.zeros(size), "failed": refused.copy()}
+    u0 = np.repeat([spec.initial.u0 for spec in specs], n)[:, None]
+    for i in range(len(specs[0].stages)):
+        plans, wanted = [], []
+        for j, spec in enumerate(specs):
+            stage = spec.stages[i]
+            keys = by_stage[j][stage.name]
+            xs = [np.atleast_1d(np.asarray(abscissae[j][k], dtype=float)) for k in keys]
+            x_all = np.unique(np.concatenate(xs)) if xs else np.zeros(0)
+            plans.append(StageSteps(spec.apparatus, stage, _rows(carried, rows[j]), x_all, step))
+            wanted.append((keys, xs, x_all))
+        inc, dt, active, record, columns = _merge(plans, n)
+        plan = plans[0]  # control and drainage are the group's (structure)
+        u_start = carried["u"] if plan.undrained else np.zeros(size)
+        hist = labtests.mixed_control(model, carried["stress"], carried["state"], plan.control, inc, dt,
+                                      undrained=plan.undrained, record=record, on_failure="nan", active=active)
+        if any(keys for keys, _, _ in wanted):
             values = _quantities(hist, carried, u_start, u0)
-            slot = np.cumsum(record)  # history column of each recorded knot (column 0: the stage start)
-            for key, x in zip(keys, xs):
-                quantity = ALIASES.get(split_key(key)[0], split_key(key)[0])
-                cols = slot[plan.record_index[np.searchsorted(x_all, x)]]
-                out[key] = values[quantity][:, cols]
+            for j, (keys, xs, x_all) in enumerate(wanted):
+                for key, x in zip(keys, xs):
+                    quantity = ALIASES.get(split_key(key)[0], split_key(key)[0])
+                    outs[j][key] = values[quantity][rows[j]][:, columns[j][np.searchsorted(x_all, x)]]
         carried = _advance(carried, hist, u_start)
-        carried["failed"] |= plan.outside
-        if stage.kind == "crs" and plan.to_sigma_v is not None:
-            carried = _to_sigma_v(model, carried, plan.rate, plan.to_sigma_v, step)
-    failed = carried["failed"] | ~np.all([np.all(np.isfinite(v), axis=1) for v in out.values()] or
-                                         [np.ones(n, dtype=bool)], axis=0)
-    for key in out:
-        out[key][failed] = np.nan
-    return out, failed
+        carried["failed"] |= np.concatenate([p.outside for p in plans])
+        if specs[0].stages[i].kind == "crs" and plan.to_sigma_v is not None:
+            carried = _to_sigma_v(model, carried, np.repeat([p.rate for p in plans], n),
+                                  np.repeat([p.to_sigma_v for p in plans], n), step)
+    results = []
+    for j, out in enumerate(outs):
+        failed = carried["failed"][rows[j]] | ~np.all([np.all(np.isfinite(v), axis=1) for v in out.values()] or
+                                                      [np.ones(n, dtype=bool)], axis=0)
+        for key in out:
+            out[key][failed] = np.nan
+        results.append((out, failed))
+    return results
