@@ -77,11 +77,18 @@ from .invariants import IDENTITY, mean_stress
 
 __all__ = ["ANICREEP", "anisotropy_constants"]
 
+_NO_TANGENT = np.empty((1, 6, 6))  # tangent_out of a call without the tangent (row 0 only, never written)
+
+
+_KERNEL = []
+
 
 def _kernel():
     """The compiled integrator, imported on first use (keeps ``import constitutive`` free of numba)."""
-    from . import _anicreep_kernel
-    return _anicreep_kernel
+    if not _KERNEL:
+        from . import _anicreep_kernel
+        _KERNEL.append(_anicreep_kernel)
+    return _KERNEL[0]
 
 
 #: default reference time tau of sigma'_p0 (s): 24 h, the duration of a standard oedometer load stage
@@ -316,11 +323,19 @@ class ANICREEP(MaterialModel):
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]
         self._n_points(n, "stress")
-        dt = np.ascontiguousarray(np.broadcast_to(np.asarray(dt, dtype=float), (n,)))
-        if np.any(~np.isfinite(dt) | (dt < 0.0)):
-            raise ValueError(f"{self.name}: time increment dt = {dt[~np.isfinite(dt) | (dt < 0.0)][0]} must be >= 0")
-        new_stress, alpha, dvp, stiffness = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6, 6))
+        if np.ndim(dt) == 0:  # one time increment for every point (the FE): checked once
+            dt = float(dt)
+            if not (dt >= 0.0 and dt < np.inf):
+                raise ValueError(f"{self.name}: time increment dt = {dt} must be >= 0")
+            dt = np.full(n, dt)
+        else:
+            dt = np.ascontiguousarray(np.broadcast_to(np.asarray(dt, dtype=float), (n,)))
+            if np.any(~np.isfinite(dt) | (dt < 0.0)):
+                raise ValueError(f"{self.name}: time increment dt = {dt[~np.isfinite(dt) | (dt < 0.0)][0]} must be "
+                                 ">= 0")
+        new_stress, alpha, dvp = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6))
         pm_ref, chi, vp_shear, ratio = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        stiffness = np.empty((n, 6, 6)) if tangent else _NO_TANGENT
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
             np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(state["chi"], dtype=float),

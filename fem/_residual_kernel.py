@@ -68,3 +68,21 @@ def coupled_residual(x, x_n, stress_fe, sig0_fe, VBt, absVBt, hg, vol_row, abs_v
             d = pdofs[e, a]
             R[d] -= n_bar[e, a] * dvol + flow + storage
             scale[d] += n_bar[e, a] * abs_dvol + abs(flow) + abs_storage
+
+
+@jit
+def relative_residual(R, scale, dofs, floor):
+    """The convergence measure of the dofs ``dofs`` (fem.Problem docstring): max_i |R_i|/(scale_i + floor max_j
+    scale_j + 1e-300) over i, j in ``dofs`` (0 for no dofs; nan when an R_i there is not finite)."""
+    smax = 0.0
+    for d in dofs:
+        smax = max(smax, scale[d])
+    ref = floor * smax
+    out = 0.0
+    for d in dofs:
+        r = abs(R[d]) / (scale[d] + ref + 1e-300)
+        if r > out:
+            out = r
+        elif r != r:
+            return r
+    return out

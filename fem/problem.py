@@ -113,11 +113,11 @@ class Problem:
     pore-pressure cells), save_fields ('phases': end of each phase, 'all', 'none'), Newton controls: rtol,
     max_iterations, refresh_ratio (0, the default: full Newton with the material tangent; > 0: modified Newton, the
     factorization refreshed when an iteration reduces the residual by less than this factor; fem.Solver._newton),
-    predictor ('extrapolate': the start of Newton in a step is the last step's solution rate times dt, within a
-    phase; 'tangent': the constrained dofs moved with the last factorized Jacobian; fem.Solver._newton),
-    max_cuts (step halvings before ConvergenceError). Convergence: at every free dof |R_i| <= rtol * (sum of the
-    absolute element contributions to dof i, floored at 1e-6 of the largest such sum of that field: the
-    round-off level, fem.solver.SCALE_FLOOR).
+    predictor ('extrapolate': the start of Newton in a step is extrapolated from the last steps' solutions (rate and
+    its change, fem.Solver._increment), within a phase; 'tangent': the constrained dofs moved with the last
+    factorized Jacobian; fem.Solver._newton), max_cuts (step halvings before ConvergenceError). Convergence: at
+    every free dof |R_i| <= rtol * (sum of the absolute element contributions to dof i, floored at 1e-6 of the
+    largest such sum of that field: the round-off level, fem.solver.SCALE_FLOOR).
     """
 
     mesh: Mesh

@@ -25,7 +25,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from constitutive import IntegrationError
 
-from ._residual_kernel import cell_strain, coupled_residual
+from ._residual_kernel import cell_strain, coupled_residual, relative_residual
 from .element import ElementGeometry
 from .material_point import MaterialPoints
 from .problem import DOFS, Problem, edges_of_set
@@ -172,10 +172,10 @@ class Solver:
         result.record(0.0, 0.0, x, self)
         if pb.save_fields != "none":
             result.snapshot(self.snapshot(0.0, x))
-        self._velocity = None
+        self._velocity = self._acceleration = None
         for i in range(1, len(self.times)):
             if i > 1 and self.phase_of[i - 1] != self.phase_of[i - 2]:
-                self._velocity = None  # a new phase: the last rate says nothing about the next step
+                self._velocity = self._acceleration = None  # a new phase: the last rates say nothing of the next
             x = self._increment(x, self.times[i - 1], self.times[i], self.amplitudes[i - 1], self.amplitudes[i])
             result.record(self.times[i], self.amplitudes[i], x, self)
             last_of_phase = i == len(self.times) - 1 or self.phase_of[i] != self.phase_of[i - 1]
@@ -197,7 +197,10 @@ class Solver:
     # ------------------------------------------------------------------ stepping
     def _increment(self, x, t0, t1, a0, a1):
         """Advance from t0 to t1, halving the sub-step on failure (up to max_cuts halvings). The extrapolated
-        predictor's rate is the last converged sub-step's; after a failure the next sub-step starts without it."""
+        predictor is second order: x_n + dt v_n + dt (dt_n + dt)/2 a_n, with v_n = (x_n - x_n-1)/dt_n the last
+        converged sub-step's mean rate (the rate at its midpoint) and a_n = (v_n - v_n-1)/((dt_n + dt_n-1)/2) the
+        change of the last two (first order, x_n + dt v_n, after one sub-step); after a failure the next sub-step
+        starts without either."""
         pb = self.problem
         frac, h, depth = 0.0, 1.0, 0
         while frac < 1.0 - 1e-12:
@@ -207,13 +210,18 @@ class Solver:
             guess = None
             if pb.predictor == "extrapolate" and self._velocity is not None:
                 guess = x + dt * self._velocity
+                if self._acceleration is not None:
+                    guess += (0.5 * dt * (self._dt_last + dt)) * self._acceleration
             try:
                 x_new = self._newton(x, dt, a0 + (a1 - a0) * f1, guess)
-                self._velocity = (x_new - x) / dt
+                velocity = (x_new - x) / dt
+                self._acceleration = (None if self._velocity is None else
+                                      (velocity - self._velocity) / (0.5 * (dt + self._dt_last)))
+                self._velocity, self._dt_last = velocity, dt
                 x = x_new
                 frac = f1
             except _StepFailed as err:
-                self._velocity = None  # the cut sub-step starts from the tangent predictor
+                self._velocity = self._acceleration = None  # the cut sub-step starts from the tangent predictor
                 self.stats["cuts"] += 1
                 depth += 1
                 if depth > pb.max_cuts:
@@ -226,20 +234,20 @@ class Solver:
     def _newton(self, x_n, dt, a1, guess=None):
         """One backward-Euler step to amplitude a1.
 
-        Iteration 0 is the predictor. With a ``guess`` (problem.predictor 'extrapolate': the last step's rate of
-        every dof times dt, after the first step of a phase) Newton starts there, with the constrained dofs at
+        Iteration 0 is the predictor. With a ``guess`` (problem.predictor 'extrapolate': every dof extrapolated
+        from the last steps of the phase, _increment) Newton starts there, with the constrained dofs at
         their new values; the residual at the guess needs a material call and may already be converged, and the
         correction from it uses the last factorization (a fresh Jacobian only from iteration 1 on). Without
         one ('tangent', or the first step of a phase), the constrained dofs move to their new values with the
         Jacobian of the last factorization (kept across steps of equal dt), and for a rate-independent material
         (``rate_dependent`` False) the residual there needs no material call (_residual). Measured on the Burswood
-        ANICREEP expansion (notes/fem.md): 222 residual evaluations and 23 factorizations against 325 and 126 with
-        the tangent predictor. From iteration 1 on: full Newton with the
-        material's tangent (``problem.refresh_ratio`` = 0, the default: the Jacobian is refactored at every
+        ANICREEP expansion (fem.bench): 215 residual evaluations and 16 factorizations (222 and 23 with the first
+        order extrapolation alone) against 325 and 126 with the tangent predictor. From iteration 1 on: full Newton
+        with the material's tangent (``problem.refresh_ratio`` = 0, the default: the Jacobian is refactored at every
         iteration that has not converged), or modified Newton (refresh_ratio > 0: the factorization is kept and
         refreshed only when an iteration reduces the relative residual by less than that factor). A linear material
-        needs one factorization per time-step size either way. Measured on the Burswood expansion (notes/fem.md):
-        MCC 266 residual evaluations (166 material calls, 67 factorizations) with full Newton against 436 (336, 5)
+        needs one factorization per time-step size either way. Measured on the Burswood expansion (fem.bench):
+        MCC 218 residual evaluations (217 material calls, 19 factorizations) with full Newton against 256 (255, 6)
         with refresh_ratio 0.1."""
         pb = self.problem
         mp = self._mp
@@ -262,8 +270,8 @@ class Solver:
                 self._lu = None
                 raise _StepFailed("non-finite residual")
             if moved:
-                ru, rp = (np.max(np.abs(R[m]) / (scale[m] + SCALE_FLOOR * scale[m].max(initial=0.0) + 1e-300), initial=0.0)
-                          for m in (self._ufree, self._pfree))
+                ru = relative_residual(R, scale, self._ufree, SCALE_FLOOR)
+                rp = relative_residual(R, scale, self._pfree, SCALE_FLOOR)
                 if ru <= pb.rtol and rp <= pb.rtol:
                     mp.commit(trial[0], trial[1])
                     self._D = D
