@@ -218,7 +218,10 @@ CATALOG = (
          _item("strain level", "supporting", 0, "the misfit changes with strain level in every test alike (above "
                "the simulation around the peak, below it at large strain)"),
          _item("overconsolidation", "supporting", 0, "tests starting further inside the apparent yield surface "
-               "destructure later and misfit differently")),
+               "destructure later and misfit differently"),
+         _item("consolidation compression", "supporting", 0, "past the apparent preconsolidation stress the recorded "
+               "compression curve is steeper than the model's (structure collapsing), so the void-ratio misfit "
+               "follows the ratio of the recorded to the simulated compression index", ("void_ratio",))),
         {"destructuration": True},
         # S-CLAY1S / EVP-SCLAY1S bonding (constitutive.anicreep, (D)). Priors (literature values recalled, not
         # re-checked against the papers here): chi0 ~ sensitivity - 1, reported 4-12 for Scandinavian and Scottish

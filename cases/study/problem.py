@@ -25,6 +25,7 @@ from inference.diagnosis import ModelClass
 from inference.priors import Bound
 
 from . import runner
+from .covariates import programme_covariates
 from .family_forward import FamilyForward
 from .forward import StudyForward
 from .outputs import plot_loop, write_outputs
@@ -279,37 +280,10 @@ class StudyProblem(LoopProblem):
                 "catalog: constitutive.physics_catalog.")
 
     def curve_covariates(self, like, map_curves) -> dict:
-        """Per-point covariates (names from physics_catalog.COVARIATES): strain rate (test condition), time, strain
-        level, the MAP's stress ratio and p', loading phase, stress-path direction, consolidation and (SIMSAND) the
-        initial state parameter at the MAP's critical state line (test conditions); a between-test covariate is kept
-        only when it takes at least two values."""
-        cov = {k: {} for k in ("strain rate", "time", "strain level", "stress ratio", "mean effective stress",
-                               "loading phase", "stress path direction", "consolidation", "initial state parameter")}
-        for spec in self.study.tests:
-            test = like.observations[spec.name]
-            for c, curve in test.curves.items():
-                k = (spec.name, c)
-                times = self.times.get(spec.name)
-                if spec.type == "oedometer_creep":
-                    cov["time"][k] = curve.x
-                    cov["strain level"][k] = np.abs(np.asarray(map_curves[spec.name]["axial_strain"])) / 100.0
-                else:
-                    cov["strain rate"][k] = spec.strain_rate
-                    cov["strain level"][k] = np.abs(curve.x) / 100.0
-                    cov["time"][k] = times if times is not None else np.abs(curve.x) / 100.0 / spec.strain_rate
-                if "stress_ratio" in map_curves[spec.name]:
-                    cov["stress ratio"][k] = np.asarray(map_curves[spec.name]["stress_ratio"])
-                    cov["mean effective stress"][k] = np.asarray(map_curves[spec.name]["mean_stress"])
-                if "initial_state_parameter" in map_curves[spec.name]:
-                    cov["initial state parameter"][k] = float(map_curves[spec.name]["initial_state_parameter"][0])
-                cov["loading phase"][k] = "hold" if spec.type == "oedometer_creep" else "load"
-                if spec.type == "triaxial":
-                    cov["stress path direction"][k] = spec.direction
-                    cov["consolidation"][k] = spec.consolidation
-        between = ("strain rate", "loading phase", "stress path direction", "consolidation",
-                   "initial state parameter")
-        return {k: v for k, v in cov.items()
-                if v and (k not in between or len({str(x) for x in v.values()}) > 1)}
+        """Per-point covariates (names from physics_catalog.COVARIATES) of the study's tests, the within-test ones
+        included (``cases.study.covariates.programme_covariates``)."""
+        return programme_covariates(self.study.tests, like.observations, map_curves, times=self.times,
+                                    within_test=True)
 
     def outputs(self, run, seed, out, post, like, cls, map_curves):
         write_outputs(out, run.method, post, like, cls, self.study, self.synthetic, self.generating)
