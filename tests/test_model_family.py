@@ -102,3 +102,14 @@ def test_study_family_forward_reproduces_the_mcc_study():
     viscous = FamilyForward(study, obs, {"anisotropy": False, "viscous": True, "destructuration": False})(
         [{**p, "C_alpha_e": 0.01} for p in batch])
     assert all(np.all(np.isfinite(viscous[i][t][c])) for i in range(2) for t in viscous[i] for c in obs[t].curves)
+
+
+def test_constant_shear_modulus_maps_to_the_initial_poisson_ratio():
+    """MCC with a constant G: ANICREEP's nu gives the same G at the initial state, so the first elastic undrained
+    increment (inside the surface, OCR 2) has the same stiffness, q = 3 G eps_a (1e-6)."""
+    values = dict(M=1.2, lambda_=0.2, kappa=0.04, G=4000.0, ocr=2.0)
+    mcc, ani = _pair(_start(100.0, 1.0), values)
+    eps = np.array([1e-6])
+    for model in (mcc, ani):
+        c = labtests.undrained_triaxial(model, E0, 100.0, eps, substeps=1, route="generic")
+        assert c["q"][0, 0] == pytest.approx(3.0 * 4000.0 * 1e-6, rel=1e-5)
