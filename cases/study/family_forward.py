@@ -16,7 +16,6 @@ from dataclasses import replace
 import numpy as np
 
 from constitutive.registry import class_name, enrichment_family
-from inference import ForwardModelError
 
 from .forward import StudyForward
 
@@ -68,14 +67,10 @@ class FamilyForward:
     def __call__(self, batch):
         out = [{} for _ in batch]
         for name, overrides, stress0, e0, forward in self.tests:
-            try:
-                particles = self.translated(batch, overrides, stress0, e0)
-            except (ValueError, ArithmeticError) as exc:
-                particles = None
-                reason = ForwardModelError(f"{self.label}: test {name}: {exc}")
-            results = forward(particles) if particles is not None else [reason] * len(batch)
+            # a model that refuses a batch's values raises, as StudyForward does: the likelihood retries particle by
+            # particle and records each one's reason
+            results = forward(self.translated(batch, overrides, stress0, e0))
             for i, result in enumerate(results):
-                if isinstance(out[i], Exception):
-                    continue
-                out[i] = result if isinstance(result, Exception) else {**out[i], **result}
+                if not isinstance(out[i], Exception):
+                    out[i] = result if isinstance(result, Exception) else {**out[i], **result}
         return out
