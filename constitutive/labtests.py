@@ -101,7 +101,7 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     inc = np.broadcast_to(inc[:, None, :] if inc.ndim == 2 else inc, (n_steps, n, 6))
     und = np.broadcast_to(np.asarray(undrained, dtype=bool), (n_steps,))
     record = np.ones(n_steps, dtype=bool) if record is None else np.asarray(record, dtype=bool)
-    active = np.ones((n_steps, n), dtype=bool) if active is None else np.asarray(active, dtype=bool)
+    active = None if active is None else np.broadcast_to(np.asarray(active, dtype=bool), (n_steps, n))
 
     state = state0
     strain = np.zeros((n, 6))
@@ -121,19 +121,23 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
         out["time"].append(np.full(n, t))
 
     store()
+    steps = {}  # one _Step per (control row, drainage)
     for k in range(n_steps):
-        if und[k] and not np.any(~control[k] & NORMAL):
-            raise ValueError(f"step {k}: an undrained step needs a stress-controlled normal component")
+        key = (control[k].tobytes(), bool(und[k]))
+        if key not in steps:
+            if und[k] and not np.any(~control[k] & NORMAL):
+                raise ValueError(f"step {k}: an undrained step needs a stress-controlled normal component")
+            steps[key] = _Step(model, control[k], bool(und[k]), tol, max_iterations)
+        step = steps[key]
         # stress-controlled components aim at the accumulated prescribed total stress, so that the Newton
         # tolerance does not accumulate into a drift; a component that becomes stress-controlled starts from the
         # actual total stress
         total = stress + u[:, None] * NORMAL
         fresh = ~control[k] & (control[k - 1] if k else True)
-        prescribed = np.where(active[k][:, None], np.where(fresh, total, prescribed) +
-                              np.where(control[k], 0.0, inc[k]), prescribed)
+        aimed = np.where(fresh, total, prescribed) + np.where(control[k], 0.0, inc[k])
+        prescribed = aimed if active is None else np.where(active[k][:, None], aimed, prescribed)
         step_inc = np.where(control[k], inc[k], prescribed - total)
-        step = _Step(model, control[k], bool(und[k]), tol, max_iterations)
-        moving = alive & active[k]
+        moving = alive if active is None else alive & active[k]
         res = step.advance(moving.copy(), stress, state, tangent, step_inc, dt[k], max_cuts)
         failed = moving & ~res["ok"]
         if np.any(failed):
@@ -141,13 +145,17 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
                 raise IntegrationError(int(np.flatnonzero(failed)[0]), f"mixed-control Newton did not converge at "
                                        f"step {k} after {max_cuts} step cuts")
             alive &= ~failed
-        keep = alive & active[k]
-        stress = np.where(keep[:, None], res["stress"], stress)
-        state = _where_state(keep, res["state"], state)
-        tangent = np.where(keep[:, None, None], res["tangent"], tangent)
-        strain = strain + np.where(keep[:, None], res["deps"], 0.0)
-        u = u + np.where(keep, res["du"], 0.0)
-        t = t + np.where(active[k], dt[k], 0.0)
+        keep = alive if active is None else alive & active[k]
+        if keep.all():
+            stress, state, tangent = res["stress"], res["state"], res["tangent"]
+            strain, u = strain + res["deps"], u + res["du"]
+        else:
+            stress = np.where(keep[:, None], res["stress"], stress)
+            state = _where_state(keep, res["state"], state)
+            tangent = np.where(keep[:, None, None], res["tangent"], tangent)
+            strain = strain + np.where(keep[:, None], res["deps"], 0.0)
+            u = u + np.where(keep, res["du"], 0.0)
+        t = t + (dt[k] if active is None else np.where(active[k], dt[k], 0.0))
         if record[k]:
             store()
 
@@ -165,23 +173,26 @@ class _Step:
         self.tol, self.max_iterations = tol, max_iterations
         self.unknown = np.flatnonzero(~control)
         self.n_u = self.unknown.size + int(undrained)
+        self.block = np.ix_(self.unknown, self.unknown)
+        self.normal = NORMAL[self.unknown]  # the unknowns on which the pore pressure acts
+        self.eye = np.eye(self.n_u)
 
     def _correction(self, C, residual):
         """Newton correction -J^-1 r for the unknowns; J from the tangent C (n, 6, 6)."""
         n, k = C.shape[0], self.unknown.size
         J = np.zeros((n, self.n_u, self.n_u))
-        J[:, :k, :k] = C[:, self.unknown][:, :, self.unknown]
+        J[:, :k, :k] = C[(slice(None),) + self.block]
         if self.undrained:
-            J[:, :k, -1] = NORMAL[self.unknown]
-            J[:, -1, :k] = NORMAL[self.unknown]
+            J[:, :k, -1] = self.normal
+            J[:, -1, :k] = self.normal
         zero = np.all(residual == 0.0, axis=1)
-        J[zero] = np.eye(self.n_u)
+        J[zero] = self.eye
         return np.linalg.solve(J, -residual[:, :, None])[:, :, 0]
 
     def _residual(self, dsig, deps, du, target):
         r = dsig[:, self.unknown] - target
         if self.undrained:
-            r = np.concatenate([r + du[:, None] * NORMAL[self.unknown], deps[:, NORMAL].sum(axis=1)[:, None]], axis=1)
+            r = np.concatenate([r + du[:, None] * self.normal, deps[:, NORMAL].sum(axis=1)[:, None]], axis=1)
         return r
 
     def _apply(self, x, deps, du):
@@ -221,9 +232,12 @@ class _Step:
             else:
                 r, ok = np.zeros((n, 0)), np.ones(n, dtype=bool)
             newly = ok & ~done
-            res["stress"][newly] = s_new[newly]
-            res["state"] = _where_state(newly, st_new, res["state"])
-            res["tangent"][newly] = C[newly]
+            if newly.all():  # every point converges at once (then done): take the update as it is
+                res.update(stress=s_new, state=st_new, tangent=C)
+            elif newly.any():
+                res["stress"][newly] = s_new[newly]
+                res["state"] = _where_state(newly, st_new, res["state"])
+                res["tangent"][newly] = C[newly]
             done |= ok
             if np.all(done):
                 break

@@ -1,5 +1,6 @@
 """Staged laboratory programmes (triaxial cell, oedometer) driven stage by stage through
-``constitutive.labtests.mixed_control``, batched over particles (a model whose parameters are (n,) arrays).
+``constitutive.labtests.mixed_control``, batched over particles (a model whose parameters are (n,) arrays) and over
+the tests that share a stage structure (:func:`simulate_programmes`).
 
 A test (:class:`cases.study.programme.TestSpec` with ``apparatus``, ``initial`` and ``stages``) starts from its
 initial state and runs its stages in order; stress, model state, strain, excess pore pressure and time are carried
@@ -291,6 +292,7 @@ def _merge(plans, n):
 
 
 def _rows(carried, rows):
+    """The carried specimen's rows ``rows`` (a slice) without the model state (what StageSteps reads)."""
     return {k: carried[k][rows] for k in ("stress", "strain", "u", "t", "failed")}
 
 
