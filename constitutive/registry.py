@@ -188,8 +188,11 @@ def mcc_as_anicreep(values: dict, stress0, void_ratio0) -> dict:
     What differs by construction (measured in tests/test_model_family.py): MCC integrates with the current specific
     volume 1 + e (dε = -de/(1 + e), a logarithmic volumetric strain), ANICREEP with the initial one 1 + e0
     (dε = -de/(1 + e0)). The stress-void-ratio path is the same in both; the strain at which a state is reached
-    differs by the factor (1 + e0)/(1 + e) ≈ exp(ε_v): nothing in undrained shear (ε_v = 0), a few per cent of the
-    strain in drained shear and oedometers.
+    differs by the factor (1 + e0)/(1 + e) ≈ exp(ε_v): nothing in undrained shear from the initial state (ε_v = 0), a
+    few per cent of the strain in drained shear and oedometers, and after a consolidation stage that changes the void
+    ratio to e_s every later stage's strains scale by (1 + e0)/(1 + e_s) (1.24 after isotropic consolidation from 25
+    to 200 kPa with lambda 0.225: undrained q 8 % apart at the same strain). ``void_ratio0`` is the void ratio at
+    which the two agree: the specimen's initial one (ANICREEP's void ratio at the start is the same parameter).
     """
     v = dict(values)
     M = np.asarray(v["M"], dtype=float)
