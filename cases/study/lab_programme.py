@@ -38,7 +38,7 @@ from constitutive.base import ParameterError
 from .lab_stages import FALLBACK_STRAIN_STEP, OEDOMETER_STRAIN, StageSteps
 from .programme import split_key
 
-__all__ = ["simulate_programme", "simulate_programmes", "structure", "specimen_model", "QUANTITIES", "ALIASES",
+__all__ = ["simulate_programme", "simulate_programmes", "stage_signature", "specimen_model", "QUANTITIES", "ALIASES",
            "CROSSING_ITERATIONS"]
 
 QUANTITIES = ("q", "p", "void_ratio", "volumetric_strain", "axial_strain", "excess_pore_pressure", "pore_pressure",
@@ -151,13 +151,13 @@ def _advance(carried, hist, u_start):
             "t": carried["t"] + hist["time"][:, -1], "failed": carried["failed"] | hist["failed"]}
 
 
-def _to_sigma_v(model, carried, rate, target, step, max_steps=4000):
+def _to_sigma_v(model, carried, rate, target, step, rows, max_steps=4000):
     """Continue a crs stage (oedometer, all strains controlled) until sigma'_v reaches ``target`` (kPa, (n,)) for
-    every particle: strain steps of ``step`` at ``rate`` (1/s, (n,)); the step that crosses is repeated with the
-    secant fraction."""
+    every particle of ``rows`` ((n,) bool; the others are left as they are): strain steps of ``step`` at ``rate``
+    (1/s, (n,)); the step that crosses is repeated with the secant fraction."""
     n = carried["stress"].shape[0]
     sign = np.sign(target - carried["stress"][:, 0])
-    done = (sign == 0) | carried["failed"]
+    done = (sign == 0) | carried["failed"] | ~rows
     h = np.copysign(step, rate)
     for _ in range(max_steps):
         if np.all(done):
@@ -219,11 +219,11 @@ def _keys_by_stage(spec, keys):
     return out
 
 
-def structure(spec) -> tuple:
-    """What lets tests share one mixed_control call per stage: the apparatus and, per stage, its kind, drainage and
-    whether a crs stage continues to sigma'_v (the control rows and the drainage of every step)."""
-    return (spec.apparatus,) + tuple((s.kind, s.drainage, s.kind == "crs" and s.to_strain is None and
-                                      s.to_sigma_v is not None) for s in spec.stages)
+def stage_signature(stage) -> tuple:
+    """What lets stages of several tests share one mixed_control call (with the apparatus): the kind, the drainage
+    and whether a crs stage continues to sigma'_v (the control rows and the drainage of every step)."""
+    return (stage.kind, stage.drainage, stage.kind == "crs" and stage.to_strain is None and
+            stage.to_sigma_v is not None)
 
 
 def simulate_programme(model, spec, abscissae: dict, n: int, e0=None):
@@ -242,12 +242,15 @@ def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
     """:func:`simulate_programme` of several tests for the same n particles: a list of (curves, failed), one per
     test of ``specs`` (abscissae: one dict per test).
 
-    Tests of the same :func:`structure` (and whose specimen models have the same parameters set) run together: one
-    mixed_control call per stage over (tests x particles) points. Each test keeps the steps it has alone
+    Tests in the same apparatus (and whose specimen models have the same parameters set) run together over
+    (tests x particles) points, in rounds: each round takes the next stage of the tests whose next stage has the most
+    common :func:`stage_signature` (tests of the same stage sequence share every round; a test with a stage fewer
+    waits one round), one mixed_control call per round. Each test keeps the steps it has alone
     (:class:`cases.study.lab_stages.StageSteps` of its own rows: its targets, rates, durations, records and initial
-    state); the tests' step tables are aligned by step index, a shorter table padded at its end with steps its rows do
-    not take (``mixed_control(active=...)``), and the states are stored at the union of the tests' record steps. Every
-    point thus takes the same steps as in a call of its own: the curves equal the one-test results to round-off."""
+    state); the step tables of a round are aligned by step index, a shorter one padded at its end with steps its
+    rows do not take, a waiting test's rows taking none (``mixed_control(active=...)``), and the states are stored at
+    the union of the tests' record steps. Every point thus takes the same steps as in a call of its own: the curves
+    equal the one-test results to round-off."""
     for spec in specs:
         if spec.apparatus not in ("triaxial", "oedometer"):
             raise ValueError(f"test {spec.name}: apparatus {spec.apparatus!r} is not a laboratory cell (triaxial, "
@@ -256,13 +259,29 @@ def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
     groups = {}
     for j, (spec, specimen, _) in enumerate(prepared):
         set_names = tuple(k for k, v in specimen.parameters().items() if v is not None)
-        groups.setdefault((structure(spec), set_names), []).append(j)
+        groups.setdefault((spec.apparatus, set_names), []).append(j)
     results = [None] * len(specs)
     for members in groups.values():
         done = _simulate_group([prepared[j] for j in members], [abscissae[j] for j in members], n)
         for j, result in zip(members, done):
             results[j] = result
     return results
+
+
+def _rounds(specs) -> list:
+    """[[(test, stage index), ...] per round] (:func:`simulate_programmes`): each round the stage signature that is
+    next for the most tests (the first such in test order on a tie)."""
+    position, rounds = [0] * len(specs), []
+    while any(position[j] < len(spec.stages) for j, spec in enumerate(specs)):
+        waiting = {}
+        for j, spec in enumerate(specs):
+            if position[j] < len(spec.stages):
+                waiting.setdefault(stage_signature(spec.stages[position[j]]), []).append(j)
+        members = max(waiting.values(), key=len)
+        rounds.append([(j, position[j]) for j in members])
+        for j in members:
+            position[j] += 1
+    return rounds
 
 
 def _stack(models, n):
@@ -274,18 +293,18 @@ def _stack(models, n):
                                                    for m in models]) for k in names})
 
 
-def _merge(plans, n):
-    """(increments (K, N, 6), dt (K, N), active (K, N) or None, record (K,), column of each plan's records) of the
-    stage plans of the tests of a group (each over n rows) aligned by step index (:func:`simulate_programmes`)."""
+def _merge(plans, rows, size):
+    """(increments (K, size, 6), dt (K, size), active (K, size) or None, record (K,), column of each plan's records)
+    of the stage plans of a round, plan j over the rows ``rows[j]`` (a slice), aligned by step index
+    (:func:`simulate_programmes`)."""
     tables = [plan.steps() for plan in plans]
-    size = max(len(dt) for _, dt in tables)
-    inc, dt = np.zeros((size, n * len(plans), 6)), np.zeros((size, n * len(plans)))
+    length = max(len(dt) for _, dt in tables)
+    inc, dt = np.zeros((length, size, 6)), np.zeros((length, size))
     active = np.zeros(dt.shape, dtype=bool)
-    record = np.zeros(size, dtype=bool)
+    record = np.zeros(length, dtype=bool)
     record[-1] = True  # the stage's end state is carried on
-    for j, (plan, (inc_j, dt_j)) in enumerate(zip(plans, tables)):
-        rows = slice(j * n, (j + 1) * n)
-        inc[:len(dt_j), rows], dt[:len(dt_j), rows], active[:len(dt_j), rows] = inc_j, dt_j, True
+    for plan, (inc_j, dt_j), rows_j in zip(plans, tables, rows):
+        inc[:len(dt_j), rows_j], dt[:len(dt_j), rows_j], active[:len(dt_j), rows_j] = inc_j, dt_j, True
         record[plan.record_index] = True
     slot = np.cumsum(record)  # history column of each recorded step (column 0: the stage start)
     return inc, dt, (None if active.all() else active), record, [slot[plan.record_index] for plan in plans]
@@ -313,31 +332,38 @@ def _simulate_group(prepared, abscissae, n):
     carried = {"stress": stress0, "state": state, "strain": np.zeros((size, 6)), "u": np.zeros(size),
                "t": np.zeros(size), "failed": refused.copy()}
     u0 = np.repeat([spec.initial.u0 for spec in specs], n)[:, None]
-    for i in range(len(specs[0].stages)):
+    for members in _rounds(specs):
         plans, wanted = [], []
-        for j, spec in enumerate(specs):
-            stage = spec.stages[i]
+        for j, i in members:
+            stage = specs[j].stages[i]
             keys = by_stage[j][stage.name]
             xs = [np.atleast_1d(np.asarray(abscissae[j][k], dtype=float)) for k in keys]
             x_all = np.unique(np.concatenate(xs)) if xs else np.zeros(0)
-            plans.append(StageSteps(spec.apparatus, stage, _rows(carried, rows[j]), x_all, step))
+            plans.append(StageSteps(specs[j].apparatus, stage, _rows(carried, rows[j]), x_all, step))
             wanted.append((keys, xs, x_all))
-        inc, dt, active, record, columns = _merge(plans, n)
-        plan = plans[0]  # control and drainage are the group's (structure)
-        u_start = carried["u"] if plan.undrained else np.zeros(size)
+        taking = np.zeros(size, dtype=bool)
+        for j, _ in members:
+            taking[rows[j]] = True
+        inc, dt, active, record, columns = _merge(plans, [rows[j] for j, _ in members], size)
+        plan = plans[0]  # control and drainage are the round's (stage_signature)
+        # the excess pore pressure of a drained stage dissipates (its effective stress path starts from the total)
+        u_start = carried["u"] if plan.undrained else np.where(taking, 0.0, carried["u"])
         hist = labtests.mixed_control(model, carried["stress"], carried["state"], plan.control, inc, dt,
                                       undrained=plan.undrained, record=record, on_failure="nan", active=active)
         if any(keys for keys, _, _ in wanted):
             values = _quantities(hist, carried, u_start, u0)
-            for j, (keys, xs, x_all) in enumerate(wanted):
+            for (j, _), (keys, xs, x_all), cols in zip(members, wanted, columns):
                 for key, x in zip(keys, xs):
                     quantity = ALIASES.get(split_key(key)[0], split_key(key)[0])
-                    outs[j][key] = values[quantity][rows[j]][:, columns[j][np.searchsorted(x_all, x)]]
+                    outs[j][key] = values[quantity][rows[j]][:, cols[np.searchsorted(x_all, x)]]
         carried = _advance(carried, hist, u_start)
-        carried["failed"] |= np.concatenate([p.outside for p in plans])
-        if specs[0].stages[i].kind == "crs" and plan.to_sigma_v is not None:
-            carried = _to_sigma_v(model, carried, np.repeat([p.rate for p in plans], n),
-                                  np.repeat([p.to_sigma_v for p in plans], n), step)
+        for (j, _), p in zip(members, plans):
+            carried["failed"][rows[j]] |= p.outside
+        if plan.stage.kind == "crs" and plan.to_sigma_v is not None:
+            rate, target = np.ones(size), np.zeros(size)
+            for (j, _), p in zip(members, plans):
+                rate[rows[j]], target[rows[j]] = p.rate, p.to_sigma_v
+            carried = _to_sigma_v(model, carried, rate, target, step, taking)
     results = []
     for j, out in enumerate(outs):
         failed = carried["failed"][rows[j]] | ~np.all([np.all(np.isfinite(v), axis=1) for v in out.values()] or
