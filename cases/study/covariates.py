@@ -247,8 +247,8 @@ def programme_covariates(tests, observations, map_curves: dict, strains=None, ti
         for name in WITHIN:
             if _varies(within[name]):
                 out[name] = {"values": within[name], "kind": "numeric", "scope": "within"}
-        phases = within["loading phase"]
-        if len({x for v in phases.values() for x in v}) > 1:
+        phases = {**cov["loading phase"], **within["loading phase"]}
+        if len({x for v in phases.values() for x in np.atleast_1d(v)}) > 1:
             out["loading phase"] = {"values": phases, "kind": "categorical"}
         ocr = within["overconsolidation"]
         if len(set(ocr.values())) > 1:
