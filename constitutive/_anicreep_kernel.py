@@ -248,6 +248,14 @@ def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, act
 
 
 @jit(inline="always")
+def _copy_square(A, B, n):
+    """B[:n, :n] = A[:n, :n], element by element (no array views)."""
+    for i in range(n):
+        for j in range(n):
+            B[i, j] = A[i, j]
+
+
+@jit(inline="always")
 def _lu_factor(A, piv, n):
     """In-place LU with partial pivoting of A[:n, :n]; False if a pivot is zero or not finite."""
     for k in range(n):
@@ -330,7 +338,10 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
                 # started right of its root): a cheap predictor of z for the full local Newton
                 for _ in range(8):
                     dl = dlam_ref * math.exp(z0)
-                    z0 += (L_t - A * dl - inv_beta * z0) / (A * dl + inv_beta)
+                    dz = (L_t - A * dl - inv_beta * z0) / (A * dl + inv_beta)
+                    z0 += dz
+                    if dz == 0.0:  # converged: the remaining iterations would change nothing
+                        break
     else:
         active = L_t > 1e-12
         dlam_ref = 1.0 if active else 0.0
@@ -344,7 +355,10 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
     for k in range(nc):
         X[k] = sig_t[k] - dl0 * K_t * (trg * _I[k] + 2.0 * r_G * (g_t[k] - trg / 3.0 * _I[k]))
         p_pred += X[k] * _I[k] / 3.0
-    if not (valid_trial and p_pred > 0.0 and _all_finite(X[:nc])):
+    finite = True
+    for k in range(nc):
+        finite = finite and math.isfinite(X[k])
+    if not (valid_trial and p_pred > 0.0 and finite):
         for k in range(nc):
             X[k] = sig_t[k]
     for k in range(nc):
@@ -361,7 +375,8 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
     step = 1.0
     m0 = 0.0
     ln_ratio, dlam, gk, chi = 0.0, 0.0, 0.0, chi_n
-    Xn[:nx] = X[:nx]
+    for i in range(nx):
+        Xn[i] = X[i]
     while True:
         with_jac = at_iterate or (step == 1.0 and want_tangent)
         ln_ratio, dlam, gk, chi = _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active,
@@ -378,7 +393,8 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
                 for i in range(nx):
                     Xn[i] = X[i] + step * dX[i]
                 continue
-            X[:nx] = Xn[:nx]
+            for i in range(nx):
+                X[i] = Xn[i]
             at_iterate = True
             if not with_jac:
                 if rmax <= tol and not want_tangent:
@@ -392,7 +408,7 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
             converged = True
             break
         n_jac += 1
-        LU[:nx, :nx] = J[:nx, :nx]
+        _copy_square(J, LU, nx)
         if n_jac >= max_it or not _lu_factor(LU, piv, nx):
             break
         for i in range(nx):
@@ -432,10 +448,12 @@ def _tangent(gk, c, g, X, dlam, prm, pm_n, nc, J, LU, piv, rhs, tan_o):
     docstring). False when J is singular or the tangent not finite."""
     nx = 2 * nc + 1
     iz = 2 * nc
-    LU[:nx, :nx] = J[:nx, :nx]
+    _copy_square(J, LU, nx)
     if not _lu_factor(LU, piv, nx):
         return False
-    tan_o[:, :] = 0.0
+    for i in range(6):
+        for j in range(6):
+            tan_o[i, j] = 0.0
     for j in range(nc):
         for i in range(nx):
             rhs[i] = _stiffness_entry(gk, c, i, j) / pm_n if i < nc else 0.0
@@ -480,11 +498,12 @@ def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_i
     units = 1 << max_depth
     for i in range(n):
         nc = components_in_play(stress[i], alpha[i], deps[i]) if reduce else 6
-        sig_c[:] = stress[i]
-        alp_c[:] = alpha[i]
+        for k in range(6):
+            sig_c[k] = stress[i, k]
+            alp_c[k] = alpha[i, k]
+            dvp_out[i, k] = 0.0
         pm_c = pm_ref[i]
         chi_c = chi[i]
-        dvp_out[i, :] = 0.0
         pos = 0
         level = 0
         while pos < units:
@@ -500,8 +519,9 @@ def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_i
                     return i
                 level += 1
                 continue
-            sig_c[:] = stress_out[i]
-            alp_c[:] = alpha_out[i]
+            for k in range(6):
+                sig_c[k] = stress_out[i, k]
+                alp_c[k] = alpha_out[i, k]
             pm_c = pm_new
             chi_c = chi_new
             ratio_out[i] = ratio
