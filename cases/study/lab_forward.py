@@ -8,9 +8,9 @@ with. Laboratory test types: ``triaxial`` (``labtests.drained_triaxial`` / ``und
 its own triaxial integrator when the start is isotropic), ``oedometer_crs`` (``labtests.oedometer_crs``) and
 ``oedometer_creep`` (``labtests.oedometer_loading``, interpolated to the recorded times). The tests written as stage
 programmes (``TestSpec.staged``: apparatus triaxial or oedometer) run through
-:func:`cases.study.lab_programme.simulate_programmes` (one driver call per stage for the programmes that share a
-stage structure, each point taking the steps it takes alone), their curves keyed ``<quantity>@<stage name>`` (the
-quantity alone for a one-stage programme) at the records of each stage.
+:func:`cases.study.lab_programme.simulate_programmes` (one driver call per round of stages of the same kind over
+the programmes of an apparatus, each point taking the steps it takes alone), their curves keyed
+``<quantity>@<stage name>`` (the quantity alone for a one-stage programme) at the records of each stage.
 
 Simulated quantities (units kPa, %, -): q, p (mean effective stress), excess_pore_pressure, volumetric_strain (%),
 void_ratio, axial_stress, radial_stress (effective), axial_strain (%), and for the covariates stress_ratio (q/p'),
@@ -156,7 +156,7 @@ class LabForward:
     def _group_key(self, t):
         x = self.x[t.name]
         if t.staged:
-            return ("programmes",)
+            return (None,)  # every programme in one call (no test name is None)
         if t.type == "oedometer_creep":
             return (t.name,)
         n_sub = substeps(t, x, self.max_strain_step)
@@ -182,7 +182,7 @@ class LabForward:
             calls.setdefault(key, []).extend(group)
         curves, failed = {}, {}
         for specs in calls.values():
-            if specs[0].staged:  # the programmes that share a stage structure share their driver calls
+            if specs[0].staged:  # the programmes share their driver calls (simulate_programmes)
                 model = build_model(self.model, values, self.switches)
                 results = simulate_programmes(model, specs, [self.x[s.name] for s in specs], m,
                                               e0=values["e0"] if self.e0_parameter else None)
