@@ -29,8 +29,8 @@ from .outputs import plot_marginals, plot_stages, pyplot, runs_table
 from .programme import TestSpec
 
 __all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
-           "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_csl", "plot_map_spread", "write_figures", "run_line",
-           "sampler_settings", "write_runs", "CURVES"]
+           "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_csl", "plot_map_spread",
+           "write_figures", "run_line", "sampler_settings", "write_runs", "CURVES"]
 
 #: observed curves per drainage type (test curve name -> CSV quantity)
 CURVES = {True: {"q": "q", "e": "e"}, False: {"q": "q", "u": "u"}}
