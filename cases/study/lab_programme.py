@@ -151,13 +151,13 @@ def _advance(carried, hist, u_start):
             "t": carried["t"] + hist["time"][:, -1], "failed": carried["failed"] | hist["failed"]}
 
 
-def _to_sigma_v(model, carried, rate, target, step, rows, max_steps=4000):
+def _to_sigma_v(model, carried, rate, target, step, max_steps=4000):
     """Continue a crs stage (oedometer, all strains controlled) until sigma'_v reaches ``target`` (kPa, (n,)) for
-    every particle of ``rows`` ((n,) bool; the others are left as they are): strain steps of ``step`` at ``rate``
-    (1/s, (n,)); the step that crosses is repeated with the secant fraction."""
+    every particle: strain steps of ``step`` at ``rate`` (1/s, (n,)); the step that crosses is repeated with the
+    secant fraction."""
     n = carried["stress"].shape[0]
     sign = np.sign(target - carried["stress"][:, 0])
-    done = (sign == 0) | carried["failed"] | ~rows
+    done = (sign == 0) | carried["failed"]
     h = np.copysign(step, rate)
     for _ in range(max_steps):
         if np.all(done):
@@ -245,11 +245,11 @@ def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
     Tests in the same apparatus (and whose specimen models have the same parameters set) run together over
     (tests x particles) points, in rounds: each round takes the next stage of the tests whose next stage has the most
     common :func:`stage_signature` (tests of the same stage sequence share every round; a test with a stage fewer
-    waits one round), one mixed_control call per round. Each test keeps the steps it has alone
-    (:class:`cases.study.lab_stages.StageSteps` of its own rows: its targets, rates, durations, records and initial
-    state); the step tables of a round are aligned by step index, a shorter one padded at its end with steps its
-    rows do not take, a waiting test's rows taking none (``mixed_control(active=...)``), and the states are stored at
-    the union of the tests' record steps. Every point thus takes the same steps as in a call of its own: the curves
+    waits one round), one mixed_control call per round over the points of its tests. Each test keeps the steps it
+    has alone (:class:`cases.study.lab_stages.StageSteps` of its own rows: its targets, rates, durations, records and
+    initial state); the step tables of a round are aligned by step index, a shorter one padded at its end with steps
+    its rows do not take (``mixed_control(active=...)``), and the states are stored at the union of the tests'
+    record steps. Every point thus takes the same steps as in a call of its own: the curves
     equal the one-test results to round-off."""
     for spec in specs:
         if spec.apparatus not in ("triaxial", "oedometer"):
@@ -295,7 +295,7 @@ def _stack(models, n):
 
 def _merge(plans, rows, size):
     """(increments (K, size, 6), dt (K, size), active (K, size) or None, record (K,), column of each plan's records)
-    of the stage plans of a round, plan j over the rows ``rows[j]`` (a slice), aligned by step index
+    of the stage plans of a round, plan j over the points ``rows[j]`` (a slice), aligned by step index
     (:func:`simulate_programmes`)."""
     tables = [plan.steps() for plan in plans]
     length = max(len(dt) for _, dt in tables)
@@ -310,15 +310,26 @@ def _merge(plans, rows, size):
     return inc, dt, (None if active.all() else active), record, [slot[plan.record_index] for plan in plans]
 
 
-def _rows(carried, rows):
-    """The carried specimen's rows ``rows`` (a slice) without the model state (what StageSteps reads)."""
-    return {k: carried[k][rows] for k in ("stress", "strain", "u", "t", "failed")}
+def _take(carried, index):
+    """The carried specimen's rows ``index`` (the model state included)."""
+    return {k: (_take(v, index) if isinstance(v, dict) else v[index]) for k, v in carried.items()}
+
+
+def _put(carried, index, part):
+    """The carried specimen with its rows ``index`` replaced by ``part``."""
+    out = {}
+    for k, v in carried.items():
+        if isinstance(v, dict):
+            out[k] = _put(v, index, part[k])
+        else:
+            out[k] = v.copy()
+            out[k][index] = part[k]
+    return out
 
 
 def _simulate_group(prepared, abscissae, n):
     """simulate_programmes of tests of one group: prepared [(spec, specimen model, start void ratio)]."""
     specs = [spec for spec, _, _ in prepared]
-    rows = [slice(j * n, (j + 1) * n) for j in range(len(specs))]
     size = n * len(specs)
     model = _stack([specimen for _, specimen, _ in prepared], n)
     start_e = np.concatenate([np.broadcast_to(np.asarray(e, dtype=float), (n,)) for _, _, e in prepared])
@@ -331,43 +342,44 @@ def _simulate_group(prepared, abscissae, n):
     step = model.max_strain_step or FALLBACK_STRAIN_STEP
     carried = {"stress": stress0, "state": state, "strain": np.zeros((size, 6)), "u": np.zeros(size),
                "t": np.zeros(size), "failed": refused.copy()}
-    u0 = np.repeat([spec.initial.u0 for spec in specs], n)[:, None]
+    u0 = np.array([spec.initial.u0 for spec in specs])
     for members in _rounds(specs):
+        tests = [j for j, _ in members]
+        index = np.concatenate([np.arange(j * n, (j + 1) * n) for j in tests])
+        whole = len(tests) == len(specs)  # the round's points: every test's, or the round's tests' only
+        part = carried if whole else _take(carried, index)
+        round_model = model if whole else _stack([prepared[j][1] for j in tests], n)
+        rows = [slice(r * n, (r + 1) * n) for r in range(len(tests))]
         plans, wanted = [], []
-        for j, i in members:
+        for (j, i), rows_j in zip(members, rows):
             stage = specs[j].stages[i]
             keys = by_stage[j][stage.name]
             xs = [np.atleast_1d(np.asarray(abscissae[j][k], dtype=float)) for k in keys]
             x_all = np.unique(np.concatenate(xs)) if xs else np.zeros(0)
-            plans.append(StageSteps(specs[j].apparatus, stage, _rows(carried, rows[j]), x_all, step))
+            start = {k: part[k][rows_j] for k in ("stress", "strain", "u")}
+            plans.append(StageSteps(specs[j].apparatus, stage, start, x_all, step))
             wanted.append((keys, xs, x_all))
-        taking = np.zeros(size, dtype=bool)
-        for j, _ in members:
-            taking[rows[j]] = True
-        inc, dt, active, record, columns = _merge(plans, [rows[j] for j, _ in members], size)
+        inc, dt, active, record, columns = _merge(plans, rows, len(index))
         plan = plans[0]  # control and drainage are the round's (stage_signature)
-        # the excess pore pressure of a drained stage dissipates (its effective stress path starts from the total)
-        u_start = carried["u"] if plan.undrained else np.where(taking, 0.0, carried["u"])
-        hist = labtests.mixed_control(model, carried["stress"], carried["state"], plan.control, inc, dt,
+        u_start = part["u"] if plan.undrained else np.zeros(len(index))
+        hist = labtests.mixed_control(round_model, part["stress"], part["state"], plan.control, inc, dt,
                                       undrained=plan.undrained, record=record, on_failure="nan", active=active)
         if any(keys for keys, _, _ in wanted):
-            values = _quantities(hist, carried, u_start, u0)
-            for (j, _), (keys, xs, x_all), cols in zip(members, wanted, columns):
+            values = _quantities(hist, part, u_start, np.repeat(u0[tests], n)[:, None])
+            for j, rows_j, (keys, xs, x_all), cols in zip(tests, rows, wanted, columns):
                 for key, x in zip(keys, xs):
                     quantity = ALIASES.get(split_key(key)[0], split_key(key)[0])
-                    outs[j][key] = values[quantity][rows[j]][:, cols[np.searchsorted(x_all, x)]]
-        carried = _advance(carried, hist, u_start)
-        for (j, _), p in zip(members, plans):
-            carried["failed"][rows[j]] |= p.outside
+                    outs[j][key] = values[quantity][rows_j][:, cols[np.searchsorted(x_all, x)]]
+        part = _advance(part, hist, u_start)
+        part["failed"] |= np.concatenate([p.outside for p in plans])
         if plan.stage.kind == "crs" and plan.to_sigma_v is not None:
-            rate, target = np.ones(size), np.zeros(size)
-            for (j, _), p in zip(members, plans):
-                rate[rows[j]], target[rows[j]] = p.rate, p.to_sigma_v
-            carried = _to_sigma_v(model, carried, rate, target, step, taking)
+            part = _to_sigma_v(round_model, part, np.repeat([p.rate for p in plans], n),
+                               np.repeat([p.to_sigma_v for p in plans], n), step)
+        carried = part if whole else _put(carried, index, part)
     results = []
     for j, out in enumerate(outs):
-        failed = carried["failed"][rows[j]] | ~np.all([np.all(np.isfinite(v), axis=1) for v in out.values()] or
-                                                      [np.ones(n, dtype=bool)], axis=0)
+        finite = [np.all(np.isfinite(v), axis=1) for v in out.values()] or [np.ones(n, dtype=bool)]
+        failed = carried["failed"][j * n:(j + 1) * n] | ~np.all(finite, axis=0)
         for key in out:
             out[key][failed] = np.nan
         results.append((out, failed))
