@@ -25,6 +25,8 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import os
+import signal
 import subprocess
 import sys
 import time
@@ -58,17 +60,24 @@ def case_order(key: dict, seeds=SEEDS, programmes=PROGRAMMES) -> list:
             if (p, e) not in LEFT_OUT and (p, e, s) in by_cell]
 
 
-def run_case(case: str, data: Path, out: Path) -> dict:
-    """Run the diagnosis loop of one case (subprocess, ``nice``); its stdout/stderr go to DIR/<case>.log;
-    returns {"returncode", "wall_s", "started"} (also written as DIR/<case>/confusion_run.json)."""
+def run_case(case: str, data: Path, out: Path, timeout: float | None = None) -> dict:
+    """Run the diagnosis loop of one case (subprocess, ``nice``, its own process group: a run past ``timeout``
+    seconds is killed with its pool workers); its stdout/stderr go to DIR/<case>.log; returns {"returncode",
+    "timed_out", "wall_s", "started", "command"} (also written as DIR/<case>/confusion_run.json)."""
     out.mkdir(parents=True, exist_ok=True)
     cmd = ["nice", sys.executable, "-m", "cases.calibrate", str(data / case / "study.toml"), "--quick",
            "--diagnose", "--debug", "--out", str(out / case)]
     started = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     t0 = time.perf_counter()
     with open(out / f"{case}.log", "w") as log:
-        rc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
-    run = {"returncode": rc, "wall_s": time.perf_counter() - t0, "started": started, "command": " ".join(cmd)}
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        try:
+            rc, timed_out = proc.wait(timeout=timeout), False
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            rc, timed_out = proc.wait(), True
+    run = {"returncode": rc, "timed_out": timed_out, "wall_s": time.perf_counter() - t0, "started": started,
+           "command": " ".join(cmd)}
     (out / case).mkdir(parents=True, exist_ok=True)
     (out / case / RUN_FILE).write_text(json.dumps(run, indent=1) + "\n")
     return run
@@ -86,7 +95,7 @@ def outcome(case: str, truth: dict, out: Path) -> dict:
     row = {"case": case, "programme": truth["programme"], "effect": truth["effect"], "seed": truth["seed"],
            "wall_s": run.get("wall_s"), "returncode": run.get("returncode"), "started": run.get("started")}
     if not (d / "loop.json").exists() or not (d / "diagnosis.json").exists():
-        return {**row, "status": "failed", "error": _error_tail(out, case)}
+        return {**row, "status": "timed out" if run.get("timed_out") else "failed", "error": _error_tail(out, case)}
     loop = json.loads((d / "loop.json").read_text())
     diag = json.loads((d / "diagnosis.json").read_text())
     named, confirmed = list(loop["named"]), loop["omitted_physics"]
@@ -122,6 +131,7 @@ def summarize(rows: list) -> list:
         times = [r["wall_s"] for r in rs if r.get("wall_s") is not None]
         out.append({"programme": prog, "effect": effect, "cases": len(rs), "ran": len(ran),
                     "failed": len(rs) - len(ran),
+                    "timed_out": sum(r["status"] == "timed out" for r in rs),
                     "named": sum(r["named_ok"] for r in ran) if effect != "none" else None,
                     "named_on_control": sum(r["named_on_control"] for r in ran) if effect == "none" else None,
                     "confirmed": sum(r["confirmed_ok"] for r in ran),
@@ -136,6 +146,8 @@ def _fmt_p(p):
 
 def _reason(r: dict) -> str:
     """The diagnosis' own reasons for one case, in one table cell."""
+    if r["status"] == "timed out":
+        return f"timed out: killed after {r['wall_s']:.0f} s"
     if r["status"] != "ran":
         last = [ln for ln in r.get("error", "").splitlines() if ln.strip()]
         return f"failed (exit {r.get('returncode')}): {last[-1] if last else 'no output'}"
@@ -165,8 +177,9 @@ def write_tables(rows: list, out: Path, settings: dict) -> None:
         named = (f"{c['named']}/{n}" if c["effect"] != "none" else f"({c['named_on_control']}/{n} named)")
         t = c["wall_s"]
         times = f"{sum(t) / len(t):.0f}, {max(t):.0f}" if t else "-"
+        timed = f" ({c['timed_out']} timed out)" if c["timed_out"] else ""
         lines.append(f"| {c['programme']} | {c['effect']} | {c['cases']} | {named} | {c['confirmed']}/{n} | "
-                     f"{c['false_alarm']}/{n} | {c['failed']} | {times} |")
+                     f"{c['false_alarm']}/{n} | {c['failed']}{timed} | {times} |")
     ran = [r for r in rows if r["status"] == "ran"]
     effects = [r for r in ran if r["effect"] != "none"]
     controls = [r for r in ran if r["effect"] == "none"]
@@ -200,6 +213,7 @@ def main(argv=None):
     ap.add_argument("--data", type=Path, default=DATA, help=f"the generator's data folder (default {DATA})")
     ap.add_argument("--skip-done", action="store_true", help="keep a case whose DIR/<case>/loop.json exists")
     ap.add_argument("--stop-at", metavar="HH:MM", help="launch no new case after this UTC time")
+    ap.add_argument("--timeout", type=float, metavar="S", help="kill a case's run after S seconds (a miss)")
     ap.add_argument("--table-only", action="store_true", help="rewrite the tables from the cases already run")
     args = ap.parse_args(argv)
     key = load_key(args.data)
@@ -214,8 +228,9 @@ def main(argv=None):
             if _past(args.stop_at):
                 print(f"{case}: not run (past --stop-at {args.stop_at} UTC)", flush=True)
                 continue
-            run = run_case(case, args.data, args.out)
-            print(f"{case}: exit {run['returncode']}, {run['wall_s']:.0f} s", flush=True)
+            run = run_case(case, args.data, args.out, args.timeout)
+            print(f"{case}: exit {run['returncode']}{' (timed out)' if run['timed_out'] else ''}, "
+                  f"{run['wall_s']:.0f} s", flush=True)
         if not (args.out / case).exists():
             continue
         rows.append(outcome(case, key[case], args.out))
