@@ -9,6 +9,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from cases import concealed_sbp as cs  # noqa: E402
 from constitutive import physics_catalog  # noqa: E402
+from tolerances import FE_RTOL
 
 FORBIDDEN = ("visc", "creep", "c_alpha", "secondary", "rate-dep", "rate dep", "drain", "permeab", "consolid",
              "set_1", "k_true")
@@ -22,7 +23,7 @@ def test_shipped_data_equal_the_generator():
             for t in obs:
                 for c, curve in t.curves.items():
                     np.testing.assert_allclose(curve.x, gen[t.name]["cavity_strain_pct"], rtol=1e-9)
-                    np.testing.assert_allclose(curve.y, gen[t.name][f"{c}_kPa"], rtol=1e-8, err_msg=(effect, c))
+                    np.testing.assert_allclose(curve.y, gen[t.name][f"{c}_kPa"], rtol=FE_RTOL, err_msg=(effect, c))
 
 
 def test_data_files_are_labelled_synthetic_and_do_not_name_the_effect():
