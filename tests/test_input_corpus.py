@@ -77,6 +77,18 @@ def test_bad_lab_csv_is_refused_by_calibrate(tmp_path, capsys, csv, named):
     refused(calibrate.main, [_lab(tmp_path, csv=csv), "--quick", "--out", out], capsys, out, ["t1.csv", *named])
 
 
+def test_a_bad_generating_value_is_refused_by_generate(tmp_path, capsys):
+    """--generate with a [synthetic] parameter the model refuses: one line naming the file and synthetic.parameters,
+    exit 2, no record written."""
+    text = (EXAMPLES / "triaxial_drained.toml").read_text().replace("parameters = { e_ref = 0.75", "parameters = { "
+                                                                     "e_ref = -0.75")
+    assert "e_ref = -0.75" in text
+    study = tmp_path / "study.toml"
+    study.write_text(text)
+    refused(calibrate.main, [study, "--generate"], capsys, tmp_path / "data",
+            [str(study), "synthetic.parameters", "e_ref = -0.75"])
+
+
 # ------------------------------------------------------------------------------------------------ bad CSVs, SBP
 @pytest.mark.parametrize("csv, named", [c[1:] for c in SBP_CSVS], ids=[c[0] for c in SBP_CSVS])
 def test_bad_sbp_csv_is_refused_by_burswood_recordings(tmp_path, capsys, csv, named):

@@ -107,7 +107,8 @@ def generate(path, noise=None, seed=None, directory=None) -> dict:
     free = {k: v for k, v in settings["parameters"].items() if k in study.free}
     result = forward([free])[0]
     if isinstance(result, Exception):
-        raise RuntimeError(f"the generating model failed: {result}")
+        raise StudyError(f"{study.path}: synthetic.parameters = {settings['parameters']}: the generating model failed: "
+                         f"{result}")
     rng = np.random.default_rng(settings["seed"])
     paths = {}
     for spec in study.tests:
