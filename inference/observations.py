@@ -51,9 +51,10 @@ def _split_unit(column: str):
     return column, "-"
 
 
-def read_text(path) -> str:
+def read_text(path, save_as='"CSV UTF-8"') -> str:
     """The text of a CSV file: UTF-8 with or without a byte-order mark (Excel's "CSV UTF-8"), any line ends (LF,
-    CRLF, CR) turned into LF. DataError naming the file for a missing file, a folder, or another encoding."""
+    CRLF, CR) turned into LF. DataError naming the file for a missing file, a folder, or another encoding (whose
+    message says to save the file as ``save_as``)."""
     path = Path(path)
     if not path.exists():
         raise DataError(f"{path}: file not found")
@@ -66,7 +67,7 @@ def read_text(path) -> str:
     if raw.startswith(b"\xef\xbb\xbf"):
         raw = raw[3:]
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-        raise DataError(f"{path}: not UTF-8 (looks like UTF-16, Excel's \"Unicode text\"): save it as \"CSV UTF-8\"")
+        raise DataError(f"{path}: not UTF-8 (looks like UTF-16, Excel's \"Unicode text\"): save it as {save_as}")
     if b"\x00" in raw:
         raise DataError(f"{path}: not UTF-8 (looks like binary: NUL bytes), not a CSV text file")
     try:
@@ -76,7 +77,7 @@ def read_text(path) -> str:
         controls = sum(b < 32 and b not in (9, 10, 13) for b in raw)
         looks = "binary" if controls > len(raw) // 100 else "Latin-1 / Windows-1252"
         raise DataError(f"{path}, line {line}: not UTF-8 (looks like {looks}: byte 0x{raw[exc.start]:02x}); save it "
-                        "as \"CSV UTF-8\"") from None
+                        f"as {save_as}") from None
     return text.replace("\r\n", "\n").replace("\r", "\n")
 
 

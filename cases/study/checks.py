@@ -5,6 +5,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from inference import DataError
+from inference.observations import read_text
+
 __all__ = ["StudyError", "Checker", "read_toml", "fe_value"]
 
 
@@ -29,16 +32,9 @@ def read_toml(path) -> dict:
     if not path.is_file():
         raise StudyError(f"{path}: not a file (a study file is a TOML file)")
     try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise StudyError(f"{path}: cannot read the study file ({exc.strerror or exc})") from None
-    try:
-        text = raw.removeprefix(b"\xef\xbb\xbf").decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        looks = "binary" if b"\x00" in raw else "Latin-1 / Windows-1252"
-        raise StudyError(f"{path}, line {line}: not UTF-8 (looks like {looks}: byte 0x{raw[exc.start]:02x}); save "
-                         "the study file as UTF-8") from None
+        text = read_text(path, save_as="UTF-8")  # the one decoder of input files (UTF-8, with or without a BOM)
+    except DataError as exc:
+        raise StudyError(str(exc)) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
