@@ -267,3 +267,11 @@ def test_loop_enriches_every_plausible_candidate_and_decides():
     assert named_only.calibrated == [None, "step"]
     with pytest.raises(ValueError, match="enrich"):
         run_loop(Fixed(), enrich="some")
+
+
+def test_an_item_naming_a_quantity_names_its_staged_curves():
+    """A curve "quantity@stage" (one stage of a staged test) is named by an item's quantity, never by another one."""
+    from inference.diagnosis.rank import names_curve
+
+    assert names_curve(["q"], "q@shear3") and names_curve(["q"], "q") and names_curve(None, "void_ratio@load2")
+    assert not names_curve(["q"], "p@shear3") and not names_curve(["q"], "qq") and not names_curve([], "q")

@@ -75,12 +75,18 @@ def _check_candidate(c):
             raise ValueError(f"candidate {c['name']!r}: weight {item['weight']!r} must be > 0")
 
 
+def names_curve(curves, curve) -> bool:
+    """Whether a signature item's ``curves`` (None: every curve) name ``curve``. A curve named "quantity@part" (one
+    part of a recorded quantity, e.g. one stage of a staged test) is named by its quantity."""
+    return curves is None or curve in curves or curve.partition("@")[0] in curves
+
+
 def _rank_correlation(residuals, covariate, curves):
     """Spearman rho between a numeric covariate and the residual, pooled over the points of ``curves`` (None: all);
     None when not computable (categorical, no points, constant)."""
     xs, rs = [], []
     for (t, c), r in residuals.items():
-        if (curves is not None and c not in curves) or (t, c) not in covariate:
+        if not names_curve(curves, c) or (t, c) not in covariate:
             continue
         v = np.asarray(covariate[t, c])
         if v.dtype.kind not in "biuf":
@@ -101,7 +107,7 @@ def _contrast_p(a, item, want):
     z, effect |mean b|), or None when the covariate has no contrast on the item's curves. Bonferroni over those
     curves, then the covariate's Holm factor p_adjusted / p_value."""
     details = {c: d for c, d in (a.get("contrast") or {}).items()
-               if item.get("curves") is None or c in item["curves"]}
+               if names_curve(item.get("curves"), c)}
     if not details:
         return None
     m = len(details)

@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from .attribution import Attribution, expand_covariates, split_spec
-from .rank import STRONG_LOG_BAYES, conclude, pattern_explained, rank_candidates
+from .rank import STRONG_LOG_BAYES, conclude, names_curve, pattern_explained, rank_candidates
 from .screening import POSITION, CurveStatistics, ScreenReport, relative_residuals, screen
 from .structure import Region
 
@@ -138,7 +138,7 @@ def next_tests(ranked: list, attribution: list, recorded: list) -> list:
         for i in r["items"]:
             if i["role"] != "primary":
                 continue
-            if i["curves"] is not None and not set(i["curves"]) & set(recorded):
+            if not any(names_curve(i["curves"], c) for c in recorded):
                 needs.append(f"record {' or '.join(i['curves'])} (its pattern: {i['meaning']})")
             elif i["status"] == "not reported":
                 needs.append(f"tests that differ in {i['covariate']}, reported as a covariate (its pattern: "
