@@ -393,9 +393,10 @@ def test_covariates_keep_only_informative_between_test_conditions():
     gen = study.synthetic["parameters"]
     like = inference.Likelihood(obs, problem.forward(study.switches), batch=True)
     cov = problem.curve_covariates(like, problem.map_curves(gen, study.switches))
-    # one strain rate and one loading phase: not reported; two directions and two consolidations: reported
+    # one strain rate and one loading phase: not reported; two directions and two consolidations: reported; records
+    # follow the largest recorded |q| of each shear test (a noisy plateau): post-peak strain, within the tests
     assert set(cov) == {"time", "strain level", "stress ratio", "mean effective stress", "stress path direction",
-                        "consolidation"}
+                        "consolidation", "post-peak strain"}
     assert cov["stress path direction"][("CIUE", "p")] == "extension"
 
 
