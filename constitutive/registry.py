@@ -185,7 +185,7 @@ def mcc_as_anicreep(values: dict, stress0, void_ratio0) -> dict:
       one parameter mapped only approximately).
     Other names (an enrichment's extra parameters: C_alpha_e, tau, chi0, xi, xi_d) pass through.
 
-    What differs by construction (measured in tests/test_model_family.py): MCC integrates with the current specific
+    What differs by construction (measured in tests/constitutive/test_model_family.py): MCC integrates with the current specific
     volume 1 + e (dε = -de/(1 + e), a logarithmic volumetric strain), ANICREEP with the initial one 1 + e0
     (dε = -de/(1 + e0)). The stress-void-ratio path is the same in both; the strain at which a state is reached
     differs by the factor (1 + e0)/(1 + e) ≈ exp(ε_v): nothing in undrained shear from the initial state (ε_v = 0), a

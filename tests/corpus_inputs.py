@@ -1,4 +1,4 @@
-"""The corpus of bad inputs replayed by tests/test_input_corpus.py, and the valid inputs they are variants of.
+"""The corpus of bad inputs replayed by tests/cases/test_input_corpus.py, and the valid inputs they are variants of.
 
 Each bad case is (name, input, [parts the one-line error must hold]): recording CSVs (text or bytes) of a laboratory
 study and of a pressuremeter record, edits of a study file, command-line options of cases.calibrate and

@@ -15,7 +15,7 @@ viscous, or resulting) changes by more than ``max_strain`` and no controlled str
 times p', with the step also at most ``growth`` times the time since the stage start (log-spaced steps in holds).
 A step that leaves the elastic domain is split at the crossing (linear interpolation of f); a plastic step whose
 multiplier turns negative is redone elastically (unloading). The error is first order in the sub-step size
-(measured in tests/test_independent_generator.py).
+(measured in tests/cases/test_independent_generator.py).
 """
 from __future__ import annotations
 

@@ -34,8 +34,8 @@ autocorrelation:
   logging: 0.052 / 0.053, 0.029 / 0.050, 0.051 / 0.044; numeric: 2 tests as categorical, 3 tests 0.030 / 0.045
   (same), 0.035 / 0.029 (different), 4 tests 0.045 / 0.056, 0.048 / 0.035 (binomial SE 0.007; the step of
   `contrast.mean_test` did not change one of these rates against the line alone: it stays out of noise).
-  tests/test_diagnosis_power.py checks 6 of them over 400 programmes at alpha + 3 SE. Earlier measurement for the rate trend, 2 tests x 40
-  points, 3000 pairs (tests/test_covariates_contrast.py): white 0.036, AR(1) phi 0.3 0.047, 0.5 0.057, 0.7 0.060;
+  tests/inference/test_diagnosis_power.py checks 6 of them over 400 programmes at alpha + 3 SE. Earlier measurement for the rate trend, 2 tests x 40
+  points, 3000 pairs (tests/inference/test_covariates_contrast.py): white 0.036, AR(1) phi 0.3 0.047, 0.5 0.057, 0.7 0.060;
   with 20 points 0.038, 0.061, 0.068, 0.091 (read the p-value as approximate below about 30 points). Power at 40
   points: a 1-sigma offset in white noise 0.98, 2 sigma in AR(1) phi 0.5 0.90, a difference growing 0 -> 3 sigma
   0.98; +9 % / -15 % offsets over the last 70 % of two tests logged at different points, noise 2 %: 20/20.
@@ -45,7 +45,7 @@ autocorrelation:
   test (valid whatever their dependence), Stouffer over the tests (independent; weights sqrt(points), each z
   clipped to +-8), so one test can carry the evidence; per test p in ``Attribution.per_test``. Measured false-alarm
   rate on white noise, 1 and 2 tests x 2 curves, post-peak points only: at most 0.05 + 3 SE over 300 programmes
-  (tests/test_diagnosis_power.py).
+  (tests/inference/test_diagnosis_power.py).
 
 Covariate specs. Plain form (as forward models have always given them): {(test, curve): array aligned with the
 curve's points, or scalar} or {test: scalar or array}; numeric values are "numeric", strings "categorical", the
@@ -254,6 +254,20 @@ def _within(residuals, cov, degree, n_shifts, rng):
     return explained, total, null, n_points, n_curves
 
 
+def _varies_within_tests(residuals, cov) -> bool:
+    """Whether a covariate varies inside a test: along one of its curves, or from one of its curves to another (a
+    stage property of a staged test, constant along each stage's curve). Such a covariate is tested within the tests
+    (circular shifts); one constant over each test is a between-test condition."""
+    seen = {}
+    for (t, c), v in cov.items():
+        values = np.unique(v[np.isfinite(residuals[t, c]) & _valid(v)])
+        if values.size > 1:
+            return True
+        if values.size == 1 and seen.setdefault(t, values[0]) != values[0]:
+            return True
+    return False
+
+
 def _between(residuals, cov, n_shifts, rng):
     """R^2 and test-permutation p-value for a covariate constant along every curve."""
     keys = [k for k in cov if np.any(np.isfinite(residuals[k]) & _valid(cov[k]))]
@@ -375,10 +389,10 @@ def attribute(residuals: dict, covariates: dict, degree=3, n_shifts=1000, seed=0
     for name, spec in covariates.items():
         cov, meta = _coded(name, per_curve(name, spec, residuals), split_spec(name, spec)[1])
         rng = np.random.default_rng(seed)  # the same shifts for every covariate (common random numbers)
-        varying = any(np.unique(v[np.isfinite(residuals[k]) & _valid(v)]).size > 1 for k, v in cov.items())
+        varying = _varies_within_tests(residuals, cov)
         scope = meta.get("scope")
         if scope == "between" and varying:
-            raise ValueError(f"covariate {name!r}: declared 'between' but varies along a curve")
+            raise ValueError(f"covariate {name!r}: declared 'between' but varies inside a test")
         if scope == "within" and not varying:
             raise ValueError(f"covariate {name!r}: declared 'within' but constant along every curve")
         per_test = None

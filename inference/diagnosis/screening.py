@@ -21,7 +21,7 @@ physical parameters are smooth along a curve, so the fitted residuals have less 
 and a negative lag-1 bias (about -p/(n - p)); all four tests are one-sided against too much scatter or too much
 smoothness, so fitting makes them conservative. sigma_eps at the MAP is fitted to the pooled residuals too: a curve
 that holds all the points then has S = n and p about 0.5 (never a false alarm). Verified by Monte Carlo with
-least-squares polynomial fits in tests/test_inference_mismatch.py.
+least-squares polynomial fits in tests/inference/test_inference_mismatch.py.
 """
 from __future__ import annotations
 

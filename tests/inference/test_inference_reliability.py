@@ -20,7 +20,7 @@ from inference.benchmarks import PROBLEMS
 from inference.tmcmc.run import remaining_evaluations
 from inference.tmcmc.state import StageRecord
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 linux_only = pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="reads /proc (Linux)")
 

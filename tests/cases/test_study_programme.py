@@ -20,7 +20,7 @@ from cases.study.stages import recorded_programme
 from inference import DataError
 from tolerances import FE_RTOL, PRINTED_RTOL
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "cases" / "examples"
 
 MCC = """

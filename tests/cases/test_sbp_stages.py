@@ -2,7 +2,7 @@
 dissipation at a held cavity strain) and unloading, against closed forms and the FE's own phases.
 
 Oracles: the hold's wall pore pressure against Randolph & Wroth (1979) (fem.oracles.randolph_wroth, the set-up of
-tests/test_fem_dissipation.py: elastic soil during dissipation); an elastic unloading from an undrained expansion
+tests/fem/test_fem_dissipation.py: elastic soil during dissipation); an elastic unloading from an undrained expansion
 along the slope 2G (cavity pressure against cavity strain, isochoric elastic increment of an infinite medium, no
 pore-pressure change), up to the reverse yield at 2G x strain change = 2 s_u; a record at zero cavity strain reads
 the in situ total stress K0 sigma'_v0 + u0 and pore pressure u0.
@@ -18,7 +18,7 @@ from cases.study.presets import Preset
 from cases.study.programme import Stage, TestSpec
 from cases.study.sbp_forward import (HOLD_FIRST_STEP, MAX_STRAIN, SBPForward, check_sbp_stages, hold_growth,
                                      pressuremeter_problem, stage_phases)
-from test_fem_dissipation import A0, CH, NU, SU, ElasticDissipation, G, K, R_OUT, series_wall, t50
+from dissipation import A0, CH, NU, SU, ElasticDissipation, G, K, R_OUT, series_wall, t50
 
 SITE = {"sigma_v0": 50.0, "K0": 1.0, "u0": 30.0, "permeability": K, "a0": A0}
 FIXED = {"e0": 1.0}

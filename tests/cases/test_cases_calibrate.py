@@ -18,7 +18,7 @@ from constitutive import ANICREEP, SIMSAND, ModifiedCamClay, labtests
 from inference.observations import DataError
 from tolerances import FE_RTOL, PRINTED_RTOL
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "cases" / "examples"
 LAB_EXAMPLES = ("triaxial_drained", "triaxial_undrained", "oedometer_crs", "oedometer_creep")
 DESIGN_FIELDS = ("case", "method", "seed", "n_samples", "n_stages", "n_forward_solves", "wall_s", "ranks",

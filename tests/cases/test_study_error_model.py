@@ -10,7 +10,7 @@ from cases.study.problem import StudyProblem
 from cases.study.records import load_observations
 from cases.study.schema import load_study
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "cases" / "examples" / "triaxial_undrained.toml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "cases" / "examples" / "triaxial_undrained.toml"
 
 
 def _study(tmp_path, model="", sigma="[sigma_eps]\nbounds = [0.001, 0.3]", weight=""):

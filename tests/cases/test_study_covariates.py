@@ -18,7 +18,7 @@ from constitutive import physics_catalog
 from constitutive.anicreep import ANICREEP
 from inference.diagnosis.attribution import KINDS, SCOPES
 
-EXAMPLES = Path(__file__).parents[1] / "cases" / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "cases" / "examples"
 
 
 def _programme(initial, *stages):

@@ -275,3 +275,13 @@ def test_an_item_naming_a_quantity_names_its_staged_curves():
 
     assert names_curve(["q"], "q@shear3") and names_curve(["q"], "q") and names_curve(None, "void_ratio@load2")
     assert not names_curve(["q"], "p@shear3") and not names_curve(["q"], "qq") and not names_curve([], "q")
+
+
+def test_a_stage_property_constant_along_each_curve_is_a_within_test_covariate():
+    """A covariate constant along each stage's curve but different between the stages of one test (loading vs
+    unloading) varies inside the test: attributed within the tests, never refused as a between-test condition."""
+    rng = np.random.default_rng(3)
+    residuals = {(t, c): rng.normal(0.0, 0.02, 30) for t in ("A", "B") for c in ("p@load1", "p@unload2")}
+    phase = {(t, c): np.full(30, "loading" if c.endswith("load1") else "unloading") for t, c in residuals}
+    (a,) = attribute(residuals, {"loading phase": phase}, n_shifts=200)
+    assert a.kind == "within" and 0.0 <= a.p_value <= 1.0

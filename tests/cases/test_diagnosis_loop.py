@@ -17,7 +17,7 @@ from constitutive import physics_catalog as catalog
 from inference import diagnosis
 from inference.diagnosis import relative_residuals, screen
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BASE = {"viscous": False, "anisotropy": True}
 # ------------------------------------------------------------------------------------------------ catalog
 def test_catalog_entries_are_complete_and_well_formed():

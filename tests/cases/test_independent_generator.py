@@ -16,8 +16,8 @@ from cases.independent.models import ClayState, ElastoplasticClay, ViscousClay
 from cases.independent.programmes import EFFECTS, PROGRAMMES, simulate
 from cases.independent.recording import COLUMNS, SEEDS, records
 
-PACKAGE = Path(__file__).resolve().parent.parent / "cases" / "independent"
-DATA = Path(__file__).resolve().parent.parent / "cases" / "data" / "independent"
+PACKAGE = Path(__file__).resolve().parents[2] / "cases" / "independent"
+DATA = Path(__file__).resolve().parents[2] / "cases" / "data" / "independent"
 LAM, KAP, M, NU = 0.25, 0.05, 1.2, 0.25
 ALLOWED = {"numpy", "scipy", "math", "dataclasses", "json", "pathlib", "argparse", "__future__"}
 

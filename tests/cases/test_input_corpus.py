@@ -28,7 +28,7 @@ from cases.study.problem import StudyProblem
 from cases.study.records import load_observations, load_sbp_recordings
 from cases.study.schema import load_study
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "cases" / "examples"
 
 # ------------------------------------------------------------------------------------------------ helpers

@@ -86,7 +86,7 @@ def test_a_calibration_prints_and_reports_its_warnings(tmp_path, capsys):
     from pathlib import Path
 
     from cases import calibrate
-    example = Path(__file__).resolve().parents[1] / "cases" / "examples" / "triaxial_drained.toml"
+    example = Path(__file__).resolve().parents[2] / "cases" / "examples" / "triaxial_drained.toml"
     text = example.read_text().replace('file = "data/', f'file = "{example.parent}/data/')
     study = tmp_path / "bound.toml"
     study.write_text(text.replace("phi_mu = [20.0, 50.0]", "phi_mu = [20.0, 29.5]"))

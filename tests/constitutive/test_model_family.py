@@ -89,7 +89,7 @@ def test_study_family_forward_reproduces_the_mcc_study():
     from cases.study.records import load_observations
     from cases.study.schema import load_study
     from pathlib import Path
-    study = load_study(Path(__file__).parents[1] / "cases/examples/triaxial_undrained.toml")
+    study = load_study(Path(__file__).resolve().parents[2] / "cases/examples/triaxial_undrained.toml")
     obs, _ = load_observations(study.tests)
     batch = [{"M": 1.2, "ocr": 1.5}, {"M": 1.0, "ocr": 2.5}]
     base = StudyForward(study, obs, {})(batch)

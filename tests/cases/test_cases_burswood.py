@@ -11,7 +11,7 @@ from cases import burswood_sbp as sbp
 from cases.study.records import load_sbp_recordings
 from inference.observations import DataError
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TINY = sbp.Preset(radial_cells=8, layers=1, increments=10, outer="fixed", outer_radius_a0=200.0)
 TINY_ARGS = ["--radial-cells", "8", "--layers", "1", "--increments", "10"]
 

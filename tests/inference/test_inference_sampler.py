@@ -20,7 +20,7 @@ import pytest
 from inference import (CheckpointError, PoolExecutor, SamplerError, SerialExecutor, UniformPrior, tmcmc)
 from inference.benchmarks import PROBLEMS, reference_evidence_by_quadrature
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(ROOT, "tests", "scripts", "small_run.py")
 SCRIPTS = {"de": SCRIPT, "mixture": os.path.join(ROOT, "tests", "scripts", "mixture_run.py")}
 
