@@ -18,8 +18,9 @@ Within a test (``within_test=True``, the study path; each declared kind/scope, k
   neighbouring records of a consolidation stage recorded against its stress;
 - loading phase (categorical): "loading", "unloading" or "hold" of each point's stage (a load stage: its ramp, then
   hold);
-- overconsolidation (numeric, between): the stress history's largest stress over the stage's starting stress (from
-  the test's ``ocr`` / ``preconsolidation`` and its consolidation targets; 1 without either), per stage.
+- overconsolidation (numeric; per stage, so it may differ between the stages of one test): the stress history's
+  largest stress over the stage's starting stress (from the test's ``ocr`` / ``preconsolidation`` and its
+  consolidation targets; 1 without either).
 Staged curves are keyed "<quantity>@<stage>" (``cases.study.programme.curve_key``); their stage comes from the key.
 Further covariates of particular programmes: :func:`drainage_time_factor`.
 """
@@ -252,7 +253,7 @@ def programme_covariates(tests, observations, map_curves: dict, strains=None, ti
             out["loading phase"] = {"values": phases, "kind": "categorical"}
         ocr = within["overconsolidation"]
         if len(set(ocr.values())) > 1:
-            out["overconsolidation"] = {"values": ocr, "kind": "numeric", "scope": "between"}
+            out["overconsolidation"] = {"values": ocr, "kind": "numeric"}  # per stage: may vary inside a test
     return out
 
 

@@ -210,7 +210,7 @@ def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: 
     (out / "loop.json").write_text(json.dumps({
         "label": label, "seed": seed, "verdict": final["verdict"], "omitted_physics": final["omitted_physics"],
         "named": result.named, "named_without_enrichment": result.named_without_enrichment,
-        "log_bayes": final["log_bayes"], "timing": result.timing, "settings": vars(settings)},
+        "not_calibrated": result.not_calibrated, "log_bayes": final["log_bayes"], "timing": result.timing, "settings": vars(settings)},
         indent=1, default=float))
     return {**final, "timing": result.timing}
 

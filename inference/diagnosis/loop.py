@@ -17,7 +17,8 @@ Steps of `run_loop`:
    structure); then the problem's ``also_enrich(first)`` names, in their order, not chosen already;
 4. each chosen candidate's enriched class is calibrated (``problem.calibrate(name)``); under "all" a candidate
    beyond the first named one whose calibration the problem refuses (ValueError: no enrichment for this forward
-   model) is listed in ``LoopResult.not_calibrated`` with the reason;
+   model) is listed in ``LoopResult.not_calibrated`` with the reason, and so is every enriched class whose
+   calibration stopped (``SamplerError``: too many failed solves), which the verdict then cannot confirm;
 5. when an enriched class was calibrated, the final diagnosis compares every class (`report.diagnose`: a candidate
    is confirmed by its ln B, the margin over the other enriched classes and its own residual pattern explained,
    `rank.conclude`); else the first is final.
@@ -30,6 +31,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ..tmcmc import SamplerError
 from .rank import STRONG_LOG_BAYES
 from .report import diagnose
 
@@ -185,6 +187,8 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, threshold=STRONG_LOG_
             if k < n_named_rule or name in extra:
                 raise
             refused[name] = str(err)
+        except SamplerError as err:  # the enriched class's calibration stopped (e.g. too many failed solves)
+            refused[name] = f"calibration stopped: {err}"
     final, final_s = first, 0.0
     if len(classes) > 1:
         t0 = time.perf_counter()

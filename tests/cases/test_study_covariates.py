@@ -70,10 +70,11 @@ def test_relaxation_study_hold_time_and_phase():
 
 def test_ciu_ocr_overconsolidation_from_the_stage_targets():
     """ciu_ocr.toml: consolidation to p'_c then swelling to p'_c/OCR: the shear stages' overconsolidation is the
-    programme's ratio of its two consolidation targets."""
+    programme's ratio of its two consolidation targets; per stage, so it is not declared a between-test condition
+    (the consolidation stage of the same test is normally consolidated)."""
     study, obs, cov = _study_covariates("ciu_ocr.toml")
     ocr = cov["overconsolidation"]
-    assert ocr["scope"] == "between"
+    assert "scope" not in ocr and ocr["kind"] == "numeric"
     for spec in study.tests:
         targets = [s.p for s in spec.stages if s.kind == "consolidation"]
         expected = max(targets) / targets[-1]
