@@ -1,4 +1,4 @@
-"""Catalog of candidate missing physics for the diagnosis of issue 6 ("explain"), kept beside the models.
+"""Catalog of candidate missing physics for the missing-physics diagnosis (its "explain" step), kept beside the models.
 
 Each entry states the physics in words, its residual signature as plain data that the generic scoring in
 ``inference.diagnose`` can use without knowing any soil mechanics, and the enrichment (model class, switches and

@@ -1,4 +1,4 @@
-"""The missing-physics loop of issue 6: catalog (constitutive.physics_catalog), generic scoring and the run-directory
+"""The missing-physics loop: catalog (constitutive.physics_catalog), generic scoring and the run-directory
 command (inference.diagnosis), and the concealed-viscosity proof case (cases.concealed_viscosity)."""
 import inspect
 import json
