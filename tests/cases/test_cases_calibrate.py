@@ -16,6 +16,7 @@ from cases.study.records import generating_values, load_observations
 from cases.study.schema import Settings, load_study
 from constitutive import ANICREEP, SIMSAND, ModifiedCamClay, labtests
 from inference.observations import DataError
+from corpus_inputs import LAB_CSV as CSV, LAB_TOML as TOML
 from tolerances import FE_RTOL, PRINTED_RTOL
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -24,44 +25,9 @@ LAB_EXAMPLES = ("triaxial_drained", "triaxial_undrained", "oedometer_crs", "oedo
 DESIGN_FIELDS = ("case", "method", "seed", "n_samples", "n_stages", "n_forward_solves", "wall_s", "ranks",
                  "parameters", "sigma_eps", "log_evidence", "J_g_at_map")
 
+
+
 # ------------------------------------------------------------------------------------------------ a valid study
-CSV = """# a small drained test (values only need to be plausible for the loader)
-axial_strain_pct,q_kPa,void_ratio
-0.5,40,0.99
-1.0,70,0.98
-2.0,95,0.97
-4.0,110,0.96
-"""
-TOML = """name = "mini"
-
-[model]
-name = "ModifiedCamClay"
-
-[model.fixed]
-lambda_ = 0.2
-kappa = 0.04
-nu = 0.3
-
-[model.free]
-M = [0.8, 1.8]
-ocr = { bounds = [1.0, 4.0], prior = "log-uniform" }
-
-[sigma_eps]
-bounds = [0.001, 0.3]
-
-[[tests]]
-name = "T1"
-file = "t1.csv"
-type = "triaxial"
-drainage = "drained"
-direction = "compression"
-consolidation = "isotropic"
-p0 = 100.0
-e0 = 1.0
-strain_rate = 1e-5
-"""
-
-
 def _study(tmp_path, toml=TOML, csv=CSV, name="study.toml"):
     (tmp_path / "t1.csv").write_text(csv)
     path = tmp_path / name
