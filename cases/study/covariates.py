@@ -254,6 +254,12 @@ def programme_covariates(tests, observations, map_curves: dict, strains=None, ti
         ocr = within["overconsolidation"]
         if len(set(ocr.values())) > 1:
             out["overconsolidation"] = {"values": ocr, "kind": "numeric"}  # per stage: may vary inside a test
+        if "stress path direction" in out:
+            # compression and extension are compared at equal strain magnitude: extension strains are negative
+            # (compression positive), so on the signed abscissa the two tests' ranges would not overlap
+            direction = out["stress path direction"]
+            out["stress path direction"] = {"values": direction, "kind": "categorical", "abscissa": {
+                (t, c): np.abs(np.asarray(observations[t].curves[c].x, dtype=float)) for t, c in direction}}
     return out
 
 

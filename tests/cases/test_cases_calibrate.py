@@ -363,7 +363,11 @@ def test_covariates_keep_only_informative_between_test_conditions():
     # follow the largest recorded |q| of each shear test (a noisy plateau): post-peak strain, within the tests
     assert set(cov) == {"time", "strain level", "stress ratio", "mean effective stress", "stress path direction",
                         "consolidation", "post-peak strain"}
-    assert cov["stress path direction"][("CIUE", "p")] == "extension"
+    direction = cov["stress path direction"]
+    assert direction["values"][("CIUE", "p")] == "extension" and direction["kind"] == "categorical"
+    # compared at equal strain magnitude: the extension test's negative strains on the compression test's axis
+    np.testing.assert_array_equal(direction["abscissa"][("CIUE", "p")], np.abs(obs["CIUE"].curves["p"].x))
+    assert np.all(direction["abscissa"][("CIUE", "p")] >= 0)
 
 
 # ------------------------------------------------------------------------------------------------ end to end
