@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DataError", "Curve", "Test", "Observations", "read_text", "read_csv_rows", "read_csv_table",
+__all__ = ["DataError", "Curve", "Test", "Observations", "read_text", "read_csv_rows", "split_unit", "read_csv_table",
            "converted"]
 
 
@@ -41,7 +41,9 @@ _RANGES = {"stress": (-1e6, 1e6, "|stress| <= 1e6 kPa (1 GPa)"), "time": (0.0, 1
            "percent": (-100.0, 100.0, "|strain| <= 100 %"), "length": (-1e4, 1e4, "|length| <= 1e4 m")}
 
 
-def _split_unit(column: str):
+def split_unit(column: str) -> tuple:
+    """(quantity, unit) of a column name: ``q_kPa`` and ``q [kPa]`` give ("q", "kPa"), a name without a known unit
+    suffix gives (name, "-")."""
     m = _BRACKET.match(column)
     if m:
         return m.group(1), (m.group(2) or "-")
@@ -119,7 +121,7 @@ def _check_header(path, lineno, header):
     for j, col in enumerate(header):
         if not col:
             raise DataError(f"{path}, line {lineno}: column {j + 1} of {header} has no name")
-        quantity = _split_unit(col)[0]
+        quantity = split_unit(col)[0]
         if quantity in seen:
             other = header[seen[quantity]]
             what = (f"column {col!r} appears twice" if other == col else
@@ -139,7 +141,7 @@ def read_csv_table(path) -> tuple[dict, dict]:
     meta, header, rows = read_csv_rows(path)
     table = {}
     for j, col in enumerate(header):
-        quantity, unit = _split_unit(col)
+        quantity, unit = split_unit(col)
         dimension, factor = _UNITS.get(unit, (None, 1.0))
         lo, hi, rule = _RANGES.get(dimension, (-np.inf, np.inf, ""))
         values = np.empty(len(rows))

@@ -20,14 +20,13 @@ that it does not control (:data:`HELD`) are its curves, keyed by :func:`cases.st
 """
 from __future__ import annotations
 
-import re
 from dataclasses import replace
 
 import numpy as np
 
 import inference
 from inference import DataError
-from inference.observations import converted, read_csv_rows
+from inference.observations import converted, read_csv_rows, split_unit
 
 from .programme import curve_key, split_key
 from .stage_entries import stage_times
@@ -55,20 +54,14 @@ HELD = {"consolidation": ("q", "p", "sigma_v", "excess_pore_pressure"),
         "load": ("sigma_v",),
         "expansion": ("cavity_strain",), "hold": ("cavity_strain",), "unloading": ("cavity_strain",),
         "drained": ("excess_pore_pressure",), "undrained": ("volumetric_strain", "void_ratio")}
-_BRACKET = re.compile(r"^\s*(.*?)\s*\[\s*(.*?)\s*\]\s*$")
 
 
 def _column(path, col, apparatus):
     """(quantity, unit) of a header cell ``q_kPa`` / ``q [MPa]`` / ``void_ratio`` among the apparatus's columns."""
     known = COLUMNS[apparatus]
-    m = _BRACKET.match(col)
-    if m and m.group(1) in known:
-        return m.group(1), m.group(2) or "-"
-    for q in sorted(known, key=len, reverse=True):
-        if col == q:
-            return q, "-"
-        if col.startswith(q + "_") and col[len(q) + 1:]:
-            return q, col[len(q) + 1:]
+    q, unit = split_unit(col)
+    if q in known:
+        return q, unit
     names = ["stage"] + [q if u == "-" else f"{q}_{'pct' if u == '%' else u}" for q, u in known.items()]
     raise DataError(f"{path}: column {col!r} is not a column of an {apparatus} programme; known: {', '.join(names)}")
 
