@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DataError", "Curve", "Test", "Observations", "read_text", "read_csv_rows", "split_unit", "read_csv_table",
-           "converted"]
+__all__ = ["DataError", "Curve", "Test", "Observations", "read_text", "read_csv_rows", "split_unit",
+           "read_csv_table", "converted"]
 
 
 class DataError(ValueError):
