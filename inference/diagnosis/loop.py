@@ -11,10 +11,10 @@ Steps of `run_loop`:
 2. first diagnosis (`report.diagnose`) of the base class alone;
 3. the candidates to enrich, by the problem's ``enrich`` (optional attribute, or `run_loop`'s argument):
    "named": the first candidate in ranked order that is named and has an enrichment (named candidates before it
-   without an enrichment are listed as "named without enrichment"); "all" (default): that one, then every other
-   named candidate with an enrichment, then every plausible one (`rank.rank_candidates`: some signature evidence,
-   no primary item against it) with an enrichment, in ranked order (nothing when the screening finds no
-   structure); then the problem's ``also_enrich(first)`` names, in their order, not chosen already;
+   without an enrichment are listed as "named without enrichment"); "all" (default): that one, then, when the
+   screening finds structure, every other candidate with an enrichment that the base model lacks, named or not, in
+   ranked order (`rank.conclude` then decides by the evidence together with the signatures); then the problem's
+   ``also_enrich(first)`` names, in their order, not chosen already;
 4. each chosen candidate's enriched class is calibrated (``problem.calibrate(name)``); under "all" a candidate
    beyond the first named one whose calibration the problem refuses (ValueError: no enrichment for this forward
    model) is listed in ``LoopResult.not_calibrated`` with the reason, and so is every enriched class whose
@@ -147,10 +147,8 @@ def _chosen(first: dict, enrich: str) -> tuple:
         chosen.append(cand["name"])
         break
     n_named_rule = len(chosen)
-    if enrich == "all":
-        chosen += [c["name"] for c in first["candidates"] if c["named"] and c["enrichment"] is not None
-                   and c["name"] not in chosen]
-        chosen += [c["name"] for c in first["candidates"] if c.get("plausible") and c["enrichment"] is not None
+    if enrich == "all" and first["verdict"] == "structured mismatch":
+        chosen += [c["name"] for c in first["candidates"] if c["enrichment"] is not None and not c["in_base"]
                    and c["name"] not in chosen]
     return skipped, chosen, n_named_rule
 

@@ -17,21 +17,26 @@ direction" when the two-sided p is <= alpha with the other sign. Each item also 
 |mean difference| of the contrast, else the root mean square of the residual the covariate explains.
 A candidate is *named* when the screening verdict is "structured mismatch", the base model does not already have the
 physics, and at least one of its primary items supports it; *plausible* when it is named, or the verdict is
-structured, it is not in the base, its score is > 0 and no primary item is in the opposite direction (the loop's
-enrich "all" calibrates the enriched class of every plausible candidate with an enrichment). Candidates are ranked
-named first, then by score.
+structured, it is not in the base, its score is > 0 and no primary item is in the opposite direction. Candidates
+are ranked named first, then by score.
 
-Confirmation (`conclude`): by evidence together with the signature. A named candidate is confirmed when
-1. ln B = ln Z_enriched - ln Z_base (TMCMC log-evidences) >= ``threshold``;
-2. its enriched class explains its own predicted residual pattern (`pattern_explained`): every primary item that
-   supports the candidate on the base class no longer supports it on the enriched class's screening, or its effect
-   size fell to at most PATTERN_REDUCTION = 0.5 of the base's;
-3. no other enriched class has ln B >= its ln B + ``margin``, and, unless it is the best-ranked named candidate
-   with a calibrated class, it beats every other enriched class by the margin.
-The omitted physics is the first confirmed candidate in ranked order, or "none"; every other named candidate gets
-"named, not confirmed" with the reason. An enriched class that wins the evidence without its candidate being named
-is reported ("evidence without the signature") but never confirmed. A named candidate without an implemented
-enrichment is "candidate named, enrichment not available".
+Confirmation (`conclude`): by evidence together with the signature. When the screening finds structure, the loop
+calibrates the enriched class of every candidate with an enrichment (`loop`), named or not, so the evidence itself
+can point at physics whose signature the records test weakly (two or three tests). With ln B = ln Z_enriched -
+ln Z_base (TMCMC log-evidences):
+1. the contenders are the enriched classes within ``margin`` of the best ln B; the chosen one is the only contender,
+   or among several the best-ranked one named by its signature (none when no contender is named: the evidence does
+   not separate them);
+2. the chosen candidate is confirmed when its ln B >= ``threshold``, no primary item of its signature points the
+   other way ("opposite direction" on the base class), and its enriched class explains its own predicted pattern:
+   every primary item that supports it on the base class no longer supports it on the enriched class's screening,
+   or its effect size fell to at most PATTERN_REDUCTION = 0.5 of the base's (`pattern_explained`), and the misfit
+   the base's screening located (its mismatch regions) falls to at most that fraction (`misfit_explained`).
+A candidate is *named by its signature* (`rank_candidates`) or *named by the evidence*: a contender with ln B >=
+``threshold`` whose signature does not point the other way. The omitted physics is the confirmed candidate, or
+"none"; every other candidate's decision gives the reason (below the threshold, its signature contradicted, beaten
+by the leader by the margin, its pattern left, not separated from another). A named candidate without an
+implemented enrichment is "candidate named, enrichment not available".
 
 Threshold and margin. Default 3 for both (STRONG_LOG_BAYES: 2 ln B > 6, "strong" on the Kass & Raftery 1995
 scale). Under a misspecified error model (independent errors where the residuals are autocorrelated, one sigma for
@@ -50,7 +55,8 @@ from scipy import stats
 from . import contrast
 from .attribution import per_curve
 
-__all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "rank_candidates", "pattern_explained", "conclude"]
+__all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "rank_candidates", "pattern_explained", "misfit_explained",
+           "conclude"]
 
 #: ln B at and above which the evidence for the enriched class is "strong" (B >= 20, Kass & Raftery 1995)
 STRONG_LOG_BAYES = 3.0
@@ -207,14 +213,36 @@ def pattern_explained(base_entry: dict, enriched_entry: dict | None, reduction=P
     return not left, left
 
 
+def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, reduction=PATTERN_REDUCTION) -> tuple:
+    """(explained, reasons): does an enriched class remove the misfit the base class's screening located?
+
+    regions: the base class's mismatch regions (``structure.Region`` or their dicts: test, curve, i_start, i_stop);
+    base_residuals, enriched_residuals: {(test, curve): r} relative residuals of the two classes at the records.
+    Explained when the points-weighted mean |mean residual| over the regions falls to at most ``reduction`` times the
+    base's (no region: explained). reasons: the regions left, in words."""
+    regions = [r if isinstance(r, dict) else r.to_dict() for r in regions]
+    if not regions:
+        return True, []
+    before = after = 0.0
+    for g in regions:
+        key, sl = (g["test"], g["curve"]), slice(g["i_start"], g["i_stop"])
+        n = g["i_stop"] - g["i_start"]
+        before += n * abs(float(np.nanmean(base_residuals[key][sl])))
+        after += n * abs(float(np.nanmean(enriched_residuals[key][sl])))
+    if after <= reduction * before:
+        return True, []
+    return False, [f"the located misfit ({len(regions)} region(s)) falls only to {100 * after / before:.0f} % of the "
+                   f"base's (needs <= {100 * reduction:.0f} %)"]
+
+
 def conclude(ranked: list, classes: list, threshold=STRONG_LOG_BAYES, margin=None, explained=None) -> dict:
     """The omitted physics from ranked candidates and model classes [{name, role, candidate, log_evidence, ...}]
-    (module docstring: confirmation). margin: ln B by which a candidate's enriched class must beat every other
-    enriched class unless it is the best-ranked named candidate passing the other conditions (default: threshold);
-    explained: {candidate: (explained, reasons)} of `pattern_explained` (missing: explained).
+    (module docstring: confirmation). margin: ln B by which the leading enriched class must beat the runner-up
+    (default: threshold); explained: {candidate: (explained, reasons)} of `pattern_explained` and the located-misfit
+    check (missing: explained).
 
-    Returns {omitted_physics, log_bayes: {class: ln Z - ln Z_base}, candidates: [{name, decision, confirmed}],
-    threshold, margin}."""
+    Returns {omitted_physics, log_bayes: {class: ln Z - ln Z_base}, candidates: [{name, decision, confirmed,
+    named_by_evidence}], threshold, margin}."""
     margin = float(threshold if margin is None else margin)
     explained = explained or {}
     base = [c for c in classes if c["role"] == "base"]
@@ -224,45 +252,60 @@ def conclude(ranked: list, classes: list, threshold=STRONG_LOG_BAYES, margin=Non
     enriched = {c["candidate"]: c for c in classes if c["role"] == "enriched"}
     log_bayes = {c["name"]: c["log_evidence"] - lnz0 for c in classes if c["role"] == "enriched"}
     by_candidate = {cand: log_bayes[c["name"]] for cand, c in enriched.items()}
-    omitted, decisions = "none", []
+    entry = {r["name"]: r for r in ranked}
+    order = sorted(by_candidate, key=lambda k: -by_candidate[k])
+    leader = order[0] if order else None
+    against = {name: _against(entry.get(name)) for name in by_candidate}
+    # the candidates within the margin of the best ln B; among several, the best-ranked one named by its signature
+    contenders = [k for k in order if by_candidate[k] > by_candidate[leader] - margin] if order else []
+    chosen = contenders[0] if len(contenders) == 1 else next(
+        (r["name"] for r in ranked if r["named"] and r["name"] in contenders), None)
+    omitted = "none"
+    if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] \
+            and explained.get(chosen, (True, []))[0]:
+        omitted = chosen
+    decisions = []
     for r in ranked:
-        lnb = by_candidate.get(r["name"])
-        others = {k: v for k, v in by_candidate.items() if k != r["name"]}
-        best_other = max(others.items(), key=lambda kv: kv[1]) if others else None
-        ok, left = explained.get(r["name"], (True, []))
-        confirmed = False
-        if not r["named"]:
-            decision = "already in the base model" if r["in_base"] else "not named"
-            if lnb is not None:
-                decision += f" (its enriched class: ln B = {lnb:.2f}; evidence without the signature)"
+        name, lnb = r["name"], by_candidate.get(r["name"])
+        named = bool(r["named"])
+        by_evidence = lnb is not None and lnb >= threshold and not against[name] and name in contenders
+        confirmed = name == omitted
+        ok, left = explained.get(name, (True, []))
+        prefix = "named, not confirmed" if named else "not confirmed"
+        if r["in_base"]:
+            decision = "already in the base model"
         elif r["enrichment"] is None:
-            decision = f"candidate named, enrichment not available ({r['unavailable']})"
+            decision = (f"candidate named, enrichment not available ({r['unavailable']})" if named else "not named")
         elif lnb is None:
-            decision = "candidate named, enriched class not calibrated"
+            decision = "candidate named, enriched class not calibrated" if named else "not named"
+        elif confirmed:
+            decision = f"confirmed: ln B = {lnb:.2f} >= {threshold:g}" + (
+                "" if named else " (named by the evidence; its signature is not contradicted)")
         elif lnb < threshold:
-            decision = f"named, not confirmed: ln B = {lnb:.2f} < {threshold:g}"
-        elif not ok:
-            decision = (f"named, not confirmed: ln B = {lnb:.2f} but its enriched class leaves its own residual "
-                        f"pattern: {'; '.join(left)}")
-        elif best_other is not None and best_other[1] >= lnb + margin:
-            decision = (f"named, not confirmed: ln B = {lnb:.2f}, beaten by the enriched class of {best_other[0]} "
-                        f"(ln B = {best_other[1]:.2f}, margin {margin:g})")
+            decision = f"{prefix}: ln B = {lnb:.2f} < {threshold:g}"
+        elif against[name]:
+            decision = f"{prefix}: ln B = {lnb:.2f} but its signature points the other way: {against[name]}"
         elif omitted != "none":
-            decision = f"also supported: ln B = {lnb:.2f} (ranked below {omitted})"
-        elif best_other is not None and best_other[1] > lnb - margin and not _first_named_with_class(ranked, r,
-                                                                                                        by_candidate):
-            decision = (f"named, not confirmed: ln B = {lnb:.2f} does not beat the enriched class of {best_other[0]} "
-                        f"(ln B = {best_other[1]:.2f}) by the margin {margin:g}, and a candidate ranks above it")
-        else:
-            omitted, confirmed = r["name"], True
-            decision = f"confirmed: ln B = {lnb:.2f} >= {threshold:g}"
-        decisions.append({"name": r["name"], "decision": decision, "confirmed": confirmed})
+            decision = f"also raises the evidence: ln B = {lnb:.2f} (the omitted physics is {omitted})"
+        elif name not in contenders:
+            decision = (f"{prefix}: ln B = {lnb:.2f}, beaten by the enriched class of {leader} "
+                        f"(ln B = {by_candidate[leader]:.2f}, margin {margin:g})")
+        elif not ok:
+            decision = (f"{prefix}: ln B = {lnb:.2f} but its enriched class leaves its own residual pattern: "
+                        f"{'; '.join(left)}")
+        else:  # a contender that is not the chosen one
+            others = ", ".join(f"{k} (ln B = {by_candidate[k]:.2f})" for k in contenders if k != name)
+            decision = (f"{prefix}: ln B = {lnb:.2f} is not separated by the margin {margin:g} from the enriched "
+                        f"class of {others}" + ("" if chosen is None else f", and {chosen} ranks above it"))
+        decisions.append({"name": name, "decision": decision, "confirmed": confirmed,
+                          "named_by_evidence": by_evidence and not named})
     return {"omitted_physics": omitted, "log_bayes": log_bayes, "threshold": float(threshold), "margin": margin,
             "candidates": decisions}
 
 
-def _first_named_with_class(ranked, r, by_candidate) -> bool:
-    """True when ``r`` is the best-ranked named candidate whose enriched class was calibrated."""
-    first = next((c for c in ranked if c["named"] and c["enrichment"] is not None and c["name"] in by_candidate),
-                 None)
-    return first is not None and first["name"] == r["name"]
+def _against(entry) -> str:
+    """The meanings of the candidate's primary signature items that point the other way ("" when none)."""
+    if not entry:
+        return ""
+    return "; ".join(f"{i['covariate']}: {i['meaning']}" for i in entry.get("items", ())
+                     if i["role"] == "primary" and i["status"] == "opposite direction")

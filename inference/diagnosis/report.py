@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from .attribution import Attribution, expand_covariates, split_spec
-from .rank import STRONG_LOG_BAYES, conclude, names_curve, pattern_explained, rank_candidates
+from .rank import STRONG_LOG_BAYES, conclude, misfit_explained, names_curve, pattern_explained, rank_candidates
 from .screening import POSITION, CurveStatistics, ScreenReport, relative_residuals, screen
 from .structure import Region
 
@@ -77,12 +77,16 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
     base = next(cl for cl in classes if cl["role"] == "base")
     ranked = ranked_by_class[base["name"]]
     explained = {}
+    base_r = relative_residuals(likelihood, base["map_simulated"])
     for cl in classes:
         if cl["role"] == "enriched":
             own = {r["name"]: r for r in ranked_by_class[cl["name"]]}
             entry = next((r for r in ranked if r["name"] == cl["candidate"]), None)
             if entry is not None:
-                explained[cl["candidate"]] = pattern_explained(entry, own.get(cl["candidate"]))
+                ok, left = pattern_explained(entry, own.get(cl["candidate"]))
+                ok2, left2 = misfit_explained(screens[base["name"]].regions, base_r,
+                                              relative_residuals(likelihood, cl["map_simulated"]))
+                explained[cl["candidate"]] = (ok and ok2, left + left2)
     verdict = conclude(ranked, classes, threshold, margin, explained)
     recorded = sorted({c for t in likelihood.observations for c in t.curves})
     warnings = {cl["name"]: list(cl.get("warnings") or []) for cl in classes if cl.get("warnings")}
@@ -92,7 +96,10 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
            "mismatch_regions": [{**r.to_dict(), "x_unit": likelihood.observations[r.test].curves[r.curve].x_unit}
                                 for r in screens[base["name"]].regions],
            "attribution": [a.to_dict() for a in screens[base["name"]].attribution],
-           "candidates": [{**r, "decision": d["decision"], "confirmed": d["confirmed"],
+           "candidates": [{**r, "named": r["named"] or d["named_by_evidence"] or d["confirmed"],
+                           "named_by": ("signature" if r["named"] else "evidence" if d["named_by_evidence"]
+                                        or d["confirmed"] else None),
+                           "decision": d["decision"], "confirmed": d["confirmed"],
                            "pattern_explained": explained.get(r["name"], (None, []))[0],
                            "pattern_left": explained.get(r["name"], (None, []))[1]}
                           for r, d in zip(ranked, verdict["candidates"])],
@@ -210,14 +217,19 @@ def _engineer_summary(d) -> list:
         lines.append("The structured residual follows " + ", ".join(_follows(a) for a in sig) + ".")
     else:
         lines.append("No reported covariate explains it beyond the false-alarm level.")
-    top = d["candidates"][0] if d["candidates"] else {"named": False}
-    if top["named"]:
+    top = next((c for c in d["candidates"] if c.get("named_by", "signature" if c["named"] else None)
+                == "signature"), None)
+    if top is not None:
         said = [i["meaning"] + ("" if i["rank_correlation"] is None else
                                 f" (rank correlation {i['rank_correlation']:+.2f})")
                 for i in top["items"] if i["status"] == "supports"]
         lines.append(f"This is the signature of {top['name']}: " + "; ".join(said) + ".")
     else:
         lines.append("No catalog entry's signature explains this structure.")
+    by_evidence = [c["name"] for c in d["candidates"] if c.get("named_by") == "evidence"]
+    if by_evidence:
+        lines.append(f"The evidence points at {', '.join(by_evidence)}: the enriched class raises ln Z beyond the "
+                     f"threshold {d['threshold_log_bayes']:g} and no primary item of the signature contradicts it.")
     for c in d["candidates"]:
         if c["named"] and not c.get("confirmed", c["name"] == d["omitted_physics"]):
             lines.append(f"{c['name']}: {c['decision']}.")

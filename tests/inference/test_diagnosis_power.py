@@ -176,29 +176,50 @@ def _classes(lnb):
         {"name": f"base + {n}", "role": "enriched", "candidate": n, "log_evidence": v} for n, v in lnb.items()]
 
 
-def test_conclude_needs_threshold_margin_and_the_own_pattern():
+def test_conclude_by_evidence_with_the_signature():
     ranked = _ranked({"A": True, "B": True, "C": False})
-    # the best-ranked named candidate: confirmed at ln B >= 3 unless another class beats it by the margin
+    # two signature-named contenders within the margin: the better-ranked one is confirmed, the other reported
     d = diagnosis.conclude(ranked, _classes({"A": 10.0, "B": 11.0}))
-    assert d["omitted_physics"] == "A" and d["candidates"][1]["decision"].startswith("also supported")
+    assert d["omitted_physics"] == "A" and d["candidates"][1]["decision"].startswith("also raises the evidence")
+    # a class beyond the margin wins
     d = diagnosis.conclude(ranked, _classes({"A": 10.0, "B": 14.0}))
-    assert d["omitted_physics"] == "B" and "beaten by the enriched class of B" in d["candidates"][0]["decision"]
-    # a plausible, not named candidate wins the evidence: nothing confirmed, its evidence reported
+    assert d["omitted_physics"] == "B" and d["candidates"][0]["decision"].startswith("also raises the evidence")
+    # a candidate the signature does not name wins the evidence by the margin: confirmed, named by the evidence
     d = diagnosis.conclude(ranked, _classes({"A": 10.0, "C": 20.0}))
-    assert d["omitted_physics"] == "none" and "evidence without the signature" in d["candidates"][2]["decision"]
-    # below the threshold, or the own pattern left: named, not confirmed, with the reason
+    assert d["omitted_physics"] == "C" and d["candidates"][2]["named_by_evidence"]
+    assert "named by the evidence" in d["candidates"][2]["decision"]
+    # two contenders, neither named by its signature: the evidence does not separate them, nothing confirmed
+    d = diagnosis.conclude(_ranked({"A": False, "B": False}), _classes({"A": 10.0, "B": 11.0}))
+    assert d["omitted_physics"] == "none" and "not separated by the margin 3" in d["candidates"][0]["decision"]
+    assert all(c["named_by_evidence"] for c in d["candidates"])
+    # below the threshold, or the own pattern left: not confirmed, with the reason
     d = diagnosis.conclude(ranked, _classes({"A": 2.0}))
     assert d["omitted_physics"] == "none" and d["candidates"][0]["decision"].startswith("named, not confirmed")
     d = diagnosis.conclude(ranked, _classes({"A": 50.0}), explained={"A": (False, ["x: the pattern"])})
     assert d["omitted_physics"] == "none" and "leaves its own residual pattern: x: the pattern" in \
         d["candidates"][0]["decision"]
-    # a lower-ranked candidate needs to beat every other class by the margin when the first is not confirmed
-    d = diagnosis.conclude(ranked, _classes({"A": 0.5, "B": 4.0}), threshold=3.0, margin=3.0)
-    assert d["omitted_physics"] == "B"
-    d = diagnosis.conclude(ranked, _classes({"A": 2.0, "B": 4.0}), threshold=3.0, margin=3.0)
-    assert d["omitted_physics"] == "none" and "does not beat the enriched class of A" in d["candidates"][1]["decision"]
+    # the leader fails its pattern: a lower contender is not promoted over it
     d = diagnosis.conclude(ranked, _classes({"A": 5.0, "B": 6.0}), explained={"A": (False, ["x"])})
-    assert d["omitted_physics"] == "none" and "a candidate ranks above it" in d["candidates"][1]["decision"]
+    assert d["omitted_physics"] == "none" and "leaves its own residual pattern" in d["candidates"][0]["decision"]
+    assert "A ranks above it" in d["candidates"][1]["decision"]
+    # a class beaten by the margin
+    d = diagnosis.conclude(ranked, _classes({"A": 0.5, "B": 4.0}), threshold=3.0, margin=3.0)
+    assert d["omitted_physics"] == "B" and "< 3" in d["candidates"][0]["decision"]
+    # a primary item pointing the other way vetoes the evidence
+    contra = [{**ranked[2], "items": [{"covariate": "rate", "role": "primary", "status": "opposite direction",
+                                       "meaning": "faster is stronger"}]}]
+    d = diagnosis.conclude(contra, _classes({"C": 30.0}))
+    assert d["omitted_physics"] == "none" and "points the other way: rate: faster is stronger" in \
+        d["candidates"][0]["decision"]
+
+
+def test_misfit_explained_by_the_located_regions():
+    regions = [{"test": "T", "curve": "y", "i_start": 2, "i_stop": 6}]
+    base = {("T", "y"): np.array([0.0, 0.0, 0.1, 0.1, 0.1, 0.1, 0.0])}
+    assert diagnosis.rank.misfit_explained(regions, base, {("T", "y"): np.array([0.0] * 2 + [0.04] * 4 + [0.0])})[0]
+    ok, left = diagnosis.rank.misfit_explained(regions, base, {("T", "y"): np.array([0.0] * 2 + [0.07] * 4 + [0.0])})
+    assert not ok and "70 %" in left[0]
+    assert diagnosis.rank.misfit_explained([], base, base) == (True, [])
 
 
 def test_pattern_explained_by_effect_size():
@@ -250,15 +271,16 @@ class Fixed:
         return {"x": {t: x for t, x in self.x.items()}}
 
 
-def test_loop_enriches_every_plausible_candidate_and_decides():
+def test_loop_enriches_every_enrichable_candidate_and_decides():
     problem = Fixed()
     result = run_loop(problem, n_shifts=200)
-    assert problem.calibrated == [None, "step", "slope"]              # 'never' is contradicted: not calibrated
+    assert problem.calibrated == [None, "step", "slope", "never"]      # structure found: every enrichment tried
     final = result.final
     assert final["omitted_physics"] == "step"
     decisions = {c["name"]: c for c in final["candidates"]}
     assert decisions["step"]["confirmed"] and decisions["step"]["pattern_explained"]
     assert decisions["slope"]["plausible"] and not decisions["slope"]["named"]
+    assert decisions["never"]["decision"].startswith("not confirmed: ln B = -5.00 < 3")
     assert final["warnings"] == {"None": ["sigma_eps near its upper bound"]}
     assert "fits poorly (sigma_eps near its upper bound)" in final["recommendation"]
     assert "Poor fit of None: sigma_eps near its upper bound." in diagnosis.markdown(final)
