@@ -256,6 +256,16 @@ class StudyProblem(LoopProblem):
     def catalog_switches(self, switches):
         return {**self.study.spec.catalog, **switches}
 
+    def candidates(self) -> list:
+        """The catalog for the study's base model; an enrichment that needs forward-model arguments (the coupled
+        FE's permeability) is unavailable to a study without pressuremeter tests (its laboratory specimens are
+        material points, drained or undrained), with the catalog's reason."""
+        out = super().candidates()
+        if any(t.type == "sbp" for t in self.study.tests):
+            return out
+        return [{**c, "enrichment": None, "unavailable": physics_catalog.candidate(c["name"]).unavailable}
+                if c["enrichment"] is not None and c["enrichment"]["forward_arguments"] else c for c in out]
+
     def executor(self):
         return inference.default_executor(self.dispatch, self.processes)
 

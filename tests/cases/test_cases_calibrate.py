@@ -41,8 +41,14 @@ def test_a_valid_study_loads(tmp_path):
     assert s.log_uniform == ("ocr",) and s.tests[0].start_p == 100.0
     obs, times = load_observations(s.tests)
     assert list(obs["T1"].curves) == ["q", "void_ratio"] and times["T1"] is None
-    prior = StudyProblem(s, obs, times, quick=True).prior(s.free, s.log_uniform)
+    problem = StudyProblem(s, obs, times, quick=True)
+    prior = problem.prior(s.free, s.log_uniform)
     assert prior.names == ("M", "sigma_eps", "ocr") and prior.bounds[2].kind == "log-uniform"
+    # a laboratory study's specimens are material points: the coupled FE's drainage enrichment is unavailable
+    cands = {c["name"]: c for c in problem.candidates()}
+    assert cands["partial drainage"]["enrichment"] is None and "material point" in cands["partial drainage"][
+        "unavailable"]
+    assert cands["viscosity"]["enrichment"]["switches"] == {"viscous": True}
 
 
 def _replace(old, new):
