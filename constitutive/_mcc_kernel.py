@@ -6,7 +6,8 @@ engineering shear. Per point: elastic trial; if f > 0, Newton with backtracking 
 (y = d eps_v^p, d lambda), residuals r1 = y - d lambda M^2 (2p' - p'_c), r2 = f/p'_cn^2 with p' = p'_n exp(a(d eps_v - y)),
 a = v_n/kappa, p'_c = p'_cn exp(b y), b = v_n/(lambda - kappa), q = q_tr/(1 + 6 G_bar d lambda); the consistent
 tangent from the implicit-function theorem on (r1, r2). A point that fails is sub-stepped (depth-first bisection,
-``max_depth`` levels, the void ratio frozen within each sub-step).
+``max_depth`` levels, the void ratio frozen within each sub-step); where it fails at the deepest level, the
+stability margin of its state there (:func:`stability_margin`) tells whether the continuum problem has a solution.
 """
 from __future__ import annotations
 
@@ -70,6 +71,28 @@ def _jacobian(dl, p, p_x, Gb, Gb_x, den, q, pc, Pde, n_tr, M2, b, pcn):
     J21 = -M2 * p * pc_y / pc_ref2 - r2_x
     J22 = 2.0 * q * q_l / pc_ref2
     return J11, J12, J21, J22, r1_x, r2_x
+
+
+@jit
+def stability_margin(sig, pc, v, prm, constant_G):
+    """1 + H / (n : D : n) at the stress ``sig`` (6,) with yield-surface size ``pc`` and specific volume ``v``, for
+    a plastic strain increment: n = (df/dp', df/dq) = (M^2 (2p' - p'_c), 2q), D the tangent elasticity (K = v p'/kappa,
+    G), n : D : n = K (df/dp')^2 + 3 G (df/dq)^2 and H = M^2 p' b p'_c df/dp' the hardening term (b = v/(lambda -
+    kappa)). Negative: softening (df/dp' < 0, the dry side of critical) faster than the elasticity, so that no
+    plastic state follows the current one under any small strain increment (the material point is unstable even
+    under strain control: no return mapping exists for small increments)."""
+    M2, lam, kap, shear = prm[0], prm[1], prm[2], prm[3]
+    p = (sig[0] + sig[1] + sig[2]) / 3.0
+    q2 = 0.0
+    for k in range(6):
+        d = sig[k] - p * _I[k]
+        q2 += _W[k] * d * d
+    q = math.sqrt(1.5 * q2)
+    K = v * p / kap
+    G = shear if constant_G else 3.0 * K * (1.0 - 2.0 * shear) / (2.0 * (1.0 + shear))
+    f_p = M2 * (2.0 * p - pc)
+    ndn = K * f_p * f_p + 12.0 * G * q * q
+    return 1.0 + M2 * p * v / (lam - kap) * pc * f_p / ndn if ndn > 0.0 else 1.0
 
 
 @jit(inline="always")  # one call site (update_points): compiled once, inside it
@@ -147,11 +170,12 @@ def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o
 
 @jit
 def update_points(stress, pc, void_ratio, deps, prm, constant_G, tol, max_it, max_depth,
-                  stress_out, pc_out, dep_out, tangent_out):
+                  stress_out, pc_out, dep_out, tangent_out, failure_out):
     """One increment at every point (stress, deps (n, 6); pc, void_ratio (n,); prm (n, 4) in the order
     PARAMETER_COLUMNS). A point that fails is split into halves (depth-first bisection, ``max_depth`` levels; the
     void ratio is updated between sub-steps, e <- e - (1 + e) d eps_v). Returns the index of the first point that
-    failed at the deepest level, or -1."""
+    failed at the deepest level, or -1; for that point ``failure_out`` (5,) gets p', q, p'_c at the start of the
+    sub-step that failed, the fraction of the increment done before it and :func:`stability_margin` there."""
     n = stress.shape[0]
     sig_c, sub, dep_c = np.empty(6), np.empty(6), np.empty(6)
     s_n, Pde, s_tr, n_tr, q_eps = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
@@ -171,6 +195,13 @@ def update_points(stress, pc, void_ratio, deps, prm, constant_G, tol, max_it, ma
                                       dep_c, tangent_out[i], s_n, Pde, s_tr, n_tr, q_eps)
             if not ok:
                 if level >= max_depth:
+                    p_c = (sig_c[0] + sig_c[1] + sig_c[2]) / 3.0
+                    q2 = 0.0
+                    for k in range(6):
+                        q2 += _W[k] * (sig_c[k] - p_c * _I[k]) ** 2
+                    failure_out[0], failure_out[1], failure_out[2] = p_c, math.sqrt(1.5 * q2), pc_c
+                    failure_out[3] = pos / units
+                    failure_out[4] = stability_margin(sig_c, pc_c, 1.0 + e_c, prm[i], constant_G)
                     return i
                 level += 1
                 continue

@@ -67,7 +67,7 @@ def _where_state(mask, a, b):
 
 
 def mixed_control(model, stress0, state0, strain_control, increments, dt, undrained=False, record=None,
-                  on_failure="raise", tol=1e-10, max_iterations=25, max_cuts=8, active=None):
+                  on_failure="raise", tol=1e-10, max_iterations=25, max_cuts=8, active=None, stop=None):
     """Drive ``model`` through n_steps mixed strain/stress-controlled increments.
 
     stress0 (n, 6) effective stress (kPa), state0 the model state at stress0.
@@ -83,12 +83,22 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     active: bool (n_steps, n), the points that take each step (default all); a point outside a step keeps its
         stress, state, strain, pore pressure, time and prescribed stresses unchanged (several tests with different
         numbers of steps share one call, the shorter ones padded with inactive steps).
+    stop: (component, target (n,), direction (n,) of +1 or -1) or None: a point whose effective stress component
+        would reach or pass ``target`` in the ``direction`` (direction x (sigma'_c - target) >= 0) at the end of a
+        step does not take that step nor any later one (it stays at the start of that step): the caller locates
+        the crossing within that step (``stopped``, ``stop_step`` and ``stop_value`` returned).
     Newton: converged when the stress residual is below ``tol`` x (1 kPa + max |sigma'|) and the volume residual
     below 1e-3 ``tol``. A point that does not converge (or whose model update raises IntegrationError) repeats the
     step as two half steps (recursively, up to ``max_cuts`` times, that point only); then it raises IntegrationError
-    (``on_failure="raise"``) or is frozen with NaN curves from then on (``"nan"``).
+    (``on_failure="raise"``) or is frozen with NaN curves from then on (``"nan"``). A step with every strain
+    prescribed has no unknown: a failure there is the model's own (it sub-steps within its update) and is final at
+    once, without cuts.
     Returns a dict of arrays over (n, n_records): ``stress`` (..., 6), ``strain`` (..., 6), ``pore_pressure``,
-    ``void_ratio``, ``time``; plus ``state`` (final) and ``failed`` (n,).
+    ``void_ratio``, ``time``; plus ``state`` and ``final_stress`` (n, 6) at the end (a failed point's at its last
+    converged step, the state's stress), ``failed`` (n,), ``reasons`` {failed point: why, the model's
+    IntegrationError reason where it raised one}, and with ``stop``: ``stopped`` (n,), ``stop_step`` (n,)
+    the step a stopped point did not take (-1 otherwise) and ``stop_value`` (n,) its component at the end of that
+    step (NaN otherwise).
     """
     if on_failure not in ("raise", "nan"):
         raise ValueError(f"on_failure must be 'raise' or 'nan', got {on_failure!r}")
@@ -102,6 +112,13 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     und = np.broadcast_to(np.asarray(undrained, dtype=bool), (n_steps,))
     record = np.ones(n_steps, dtype=bool) if record is None else np.asarray(record, dtype=bool)
     active = None if active is None else np.broadcast_to(np.asarray(active, dtype=bool), (n_steps, n))
+    if not np.all(np.isfinite(stress)):
+        raise ValueError("mixed_control: the initial stress must be finite at every point")
+    stopped = np.zeros(n, dtype=bool)
+    stop_step, stop_value = np.full(n, -1), np.full(n, np.nan)
+    if stop is not None:
+        stop_component = int(stop[0])
+        stop_target, stop_direction = (np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in stop[1:])
 
     state = state0
     strain = np.zeros((n, 6))
@@ -109,6 +126,7 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     t = 0.0
     alive = np.ones(n, dtype=bool)
     prescribed = np.zeros((n, 6))  # accumulated prescribed total stress on stress-controlled components
+    reasons = {}
     _, _, tangent = model.update(stress, state, np.zeros((n, 6)), 0.0)
     out = {k: [] for k in ("stress", "strain", "pore_pressure", "void_ratio", "time")}
 
@@ -135,17 +153,27 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
         total = stress + u[:, None] * NORMAL
         fresh = ~control[k] & (control[k - 1] if k else True)
         aimed = np.where(fresh, total, prescribed) + np.where(control[k], 0.0, inc[k])
-        prescribed = aimed if active is None else np.where(active[k][:, None], aimed, prescribed)
+        taking = ~stopped if active is None else active[k] & ~stopped  # the points that take step k
+        prescribed = np.where(taking[:, None], aimed, prescribed)
         step_inc = np.where(control[k], inc[k], prescribed - total)
-        moving = alive if active is None else alive & active[k]
-        res = step.advance(moving.copy(), stress, state, tangent, step_inc, dt[k], max_cuts)
+        moving = alive & taking
+        res = step.advance(moving.copy(), stress, state, tangent, step_inc, dt[k], max_cuts if step.n_u else 0)
         failed = moving & ~res["ok"]
         if np.any(failed):
+            for i in np.flatnonzero(failed):
+                reasons[int(i)] = f"step {k}: " + res["reasons"].get(int(i), (
+                    f"mixed-control Newton did not converge after {max_cuts} step cuts"))
             if on_failure == "raise":
-                raise IntegrationError(int(np.flatnonzero(failed)[0]), f"mixed-control Newton did not converge at "
-                                       f"step {k} after {max_cuts} step cuts")
+                first = int(np.flatnonzero(failed)[0])
+                raise IntegrationError(first, reasons[first])
             alive &= ~failed
-        keep = alive if active is None else alive & active[k]
+        keep = alive & taking
+        if stop is not None:
+            past = keep & (stop_direction * (res["stress"][:, stop_component] - stop_target) >= 0.0)
+            stop_step[past], stop_value[past] = k, res["stress"][past, stop_component]
+            stopped |= past
+            taking &= ~past
+            keep &= ~past
         if keep.all():
             stress, state, tangent = res["stress"], res["state"], res["tangent"]
             strain, u = strain + res["deps"], u + res["du"]
@@ -155,13 +183,14 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
             tangent = np.where(keep[:, None, None], res["tangent"], tangent)
             strain = strain + np.where(keep[:, None], res["deps"], 0.0)
             u = u + np.where(keep, res["du"], 0.0)
-        t = t + (dt[k] if active is None else np.where(active[k], dt[k], 0.0))
+        t = t + (dt[k] if active is None and stop is None else np.where(taking, dt[k], 0.0))
         if record[k]:
             store()
 
     hist = {k: np.stack(v, axis=1) for k, v in out.items()}
-    hist["state"] = state
-    hist["failed"] = ~alive
+    hist.update(state=state, final_stress=stress, failed=~alive, reasons=reasons)
+    if stop is not None:
+        hist.update(stopped=stopped, stop_step=stop_step, stop_value=stop_value)
     return hist
 
 
@@ -213,6 +242,7 @@ class _Step:
             self._apply(self._correction(tangent, r), deps, du)
         done = ~active
         excluded = np.zeros(n, dtype=bool)
+        reasons = {}
         res = {"stress": stress.copy(), "state": state, "tangent": tangent.copy()}
         for _ in range(self.max_iterations):
             try:
@@ -222,7 +252,10 @@ class _Step:
                 if excluded[bad] or not active[bad]:
                     raise
                 excluded[bad] = done[bad] = True
+                reasons[bad] = err.reason
                 deps[bad], du[bad] = 0.0, 0.0
+                if np.all(done):
+                    break
                 continue
             if self.n_u:
                 r = self._residual(s_new - stress, deps, du, target)
@@ -243,7 +276,8 @@ class _Step:
                 break
             self._apply(self._correction(C, np.where(done[:, None], 0.0, r)), deps, du)
         converged = done & ~excluded & active
-        res.update(deps=np.where(converged[:, None], deps, 0.0), du=np.where(converged, du, 0.0), ok=converged)
+        res.update(deps=np.where(converged[:, None], deps, 0.0), du=np.where(converged, du, 0.0), ok=converged,
+                   reasons=reasons)
         return res
 
     def advance(self, active, stress, state, tangent, inc, dt, cuts_left):
@@ -263,6 +297,7 @@ class _Step:
         res["deps"] = np.where(fixed[:, None], first["deps"] + second["deps"], res["deps"])
         res["du"] = np.where(fixed, first["du"] + second["du"], res["du"])
         res["ok"] = res["ok"] | fixed
+        res["reasons"] = {**res["reasons"], **first["reasons"], **second["reasons"]}
         return res
 
 

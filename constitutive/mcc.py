@@ -21,7 +21,11 @@ Integration of one strain increment (backward Euler, closest-point projection in
       the tangent one as the increment vanishes;
     - unknowns (d eps_v^p, dlambda) per point, residuals r1 = d eps_v^p - dlambda df/dp',  r2 = f/p'_cn^2,
       Newton with backtracking line search; points whose Newton fails are sub-stepped (halved recursively, up to
-      ``max_substep_depth`` levels, v frozen within each sub-step) and only then raise IntegrationError.
+      ``max_substep_depth`` levels, v frozen within each sub-step) and only then raise IntegrationError, whose
+      reason says whether the state there is unstable (``_mcc_kernel.stability_margin`` < 0: plastic softening on
+      the dry side of critical faster than the elastic stiffness, 1 + H/(n:D:n) < 0 with
+      H = M^2 p' p'_c (2p' - p'_c) M^2 v/(lambda - kappa), n:D:n = K (df/dp')^2 + 3G (df/dq)^2: no plastic state
+      follows it under a small strain increment, e.g. a heavily overconsolidated point with lambda - kappa small).
 The returned tangent is the consistent (algorithmic) tangent of this update, obtained from the implicit-function
 theorem on the local system; for points that had to be sub-stepped it is the tangent of the last sub-step.
 """
@@ -135,13 +139,26 @@ class ModifiedCamClay(MaterialModel):
         n = stress.shape[0]
         e = np.ascontiguousarray(np.broadcast_to(np.asarray(state["void_ratio"], dtype=float), (n,)))
         new_stress, pc, deps_p, tangent = np.empty((n, 6)), np.empty(n), np.empty((n, 6)), np.empty((n, 6, 6))
+        where = np.empty(5)
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["pc"], dtype=float), e,
             np.ascontiguousarray(dstrain), self.kernel_parameters(n), self.G is not None, self.tolerance,
-            self.max_iterations, self.max_substep_depth, new_stress, pc, deps_p, tangent)
+            self.max_iterations, self.max_substep_depth, new_stress, pc, deps_p, tangent, where)
         if failed >= 0:
+            p, q, pc_f, done, margin = where
+            at = (f"at p' = {p:.4g} kPa, q = {q:.4g} kPa, p'_c = {pc_f:.4g} kPa, {done:.3g} of the strain increment "
+                  f"{dstrain[failed]} done")
+            if margin < 0.0:
+                raise IntegrationError(failed, f"unstable material point {at}: plastic softening faster than the "
+                                       f"elastic stiffness (1 + H/(n:D:n) = {margin:.3g} < 0; dry side of critical, "
+                                       f"lambda - kappa small), no plastic state follows under a small strain "
+                                       f"increment")
             raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
-                                   f"sub-stepping (strain increment {dstrain[failed]})")
-        new_state = {"pc": pc, "void_ratio": e - (1.0 + e) * dstrain[:, :3].sum(axis=1),
-                     "plastic_strain": state["plastic_strain"] + deps_p}
+                                   f"sub-stepping {at}")
+        e_new = e - (1.0 + e) * dstrain[:, :3].sum(axis=1)
+        if np.any(e_new <= 0.0):
+            i = int(np.argmax(e_new <= 0.0))
+            raise IntegrationError(i, f"void ratio {e_new[i]:.3g} <= 0 after the strain increment {dstrain[i]} "
+                                   f"(from e = {e[i]:.4g}): compressed beyond the solids")
+        new_state = {"pc": pc, "void_ratio": e_new, "plastic_strain": state["plastic_strain"] + deps_p}
         return new_stress, new_state, tangent

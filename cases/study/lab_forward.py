@@ -172,6 +172,10 @@ class LabForward:
     def simulate(self, params: dict) -> tuple:
         """params {name: (m,) array} -> ({test: {quantity: (m, n)}} at the simulated abscissae, {test: failed (m,)}).
         Raises ParameterError/ValueError when the model refuses the values."""
+        return self._simulate(params)[:2]
+
+    def _simulate(self, params: dict) -> tuple:
+        """:meth:`simulate` and {test: the reason each particle failed ("" where it did not or none is known)}."""
         values, m = self.particle_values(params)
         rate_dependent = getattr(build_model(self.model, {k: v[:1] for k, v in values.items()}, self.switches),
                                  "rate_dependent", True)
@@ -180,14 +184,14 @@ class LabForward:
             if not rate_dependent and len(key) > 1:
                 key = key[:-1]  # the strain rate only sets the time of a rate-independent model
             calls.setdefault(key, []).extend(group)
-        curves, failed = {}, {}
+        curves, failed, why = {}, {}, {}
         for specs in calls.values():
             if specs[0].staged:  # the programmes share their driver calls (simulate_programmes)
                 model = build_model(self.model, values, self.switches)
                 results = simulate_programmes(model, specs, [self.x[s.name] for s in specs], m,
                                               e0=values["e0"] if self.e0_parameter else None)
-                for spec, (curve, bad) in zip(specs, results):
-                    curves[spec.name], failed[spec.name] = curve, bad
+                for spec, (curve, bad, reason) in zip(specs, results):
+                    curves[spec.name], failed[spec.name], why[spec.name] = curve, bad, reason
                 continue
             k = len(specs)
             model = build_model(self.model, {n: np.tile(v, k) for n, v in values.items()}, self.switches)
@@ -202,7 +206,8 @@ class LabForward:
                     out["initial_state_parameter"] = np.broadcast_to(psi0[:, None], out["q"].shape)
                 curves[spec.name] = out
                 failed[spec.name] = c["failed"][rows] | ~np.all(np.isfinite(out["q"]), axis=1)
-        return curves, failed
+                why[spec.name] = [""] * m
+        return curves, failed, why
 
     def _start_values(self, spec, e0, quantity):
         """The initial state of a triaxial test (the grid's first point)."""
@@ -235,16 +240,18 @@ class LabForward:
             out[t.name] = sim if self.start is None else {c: self._on_grid(t, c, v, e0) for c, v in sim.items()}
         return out
 
-    def failure(self, failed, i):
-        """The reason particle i failed, or None."""
+    def failure(self, failed, why, i):
+        """The reason particle i failed (the tests, with the first reason known), or None."""
         bad = [t.name for t in self.tests if failed[t.name][i]]
-        return f"{self.label}: integration failed in test(s) {bad}" if bad else None
+        reasons = [why[t][i] for t in bad if why[t][i]]
+        return (f"{self.label}: integration failed in test(s) {bad}" + (f" ({reasons[0]})" if reasons else "")
+                if bad else None)
 
     def __call__(self, batch):
         names = list(batch[0])
         params = {n: np.array([p[n] for p in batch], dtype=float) for n in names}
         try:
-            curves, failed = self.simulate(params)
+            curves, failed, why = self._simulate(params)
         except (ParameterError, ValueError) as exc:
             if len(batch) == 1:
                 return [ForwardModelError(f"{self.label}: {exc}")]
@@ -253,7 +260,7 @@ class LabForward:
         table = self.arrays(curves, values)
         out = []
         for i in range(len(batch)):
-            reason = self.failure(failed, i)
+            reason = self.failure(failed, why, i)
             out.append(ForwardModelError(reason) if reason else
                        {t: {c: ((v[0], v[1][i]) if isinstance(v, tuple) else v[i]) for c, v in cs.items()}
                         for t, cs in table.items()})
@@ -264,7 +271,7 @@ class LabForward:
         (m, k) -> ({test: {curve: (m, n) or (grid, (m, n + 1))}}, [None or the failure reason per particle])."""
         values = np.asarray(values, dtype=float)
         params = {n: values[:, k] for k, n in enumerate(names) if n != "sigma_eps"}
-        curves, failed = self.simulate(params)
+        curves, failed, why = self._simulate(params)
         full, m = self.particle_values(params)
         table = self.arrays(curves, full, names=lambda t: self.curves[t.name])
-        return table, [self.failure(failed, i) for i in range(m)]
+        return table, [self.failure(failed, why, i) for i in range(m)]

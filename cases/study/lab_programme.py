@@ -6,8 +6,9 @@ A test (:class:`cases.study.programme.TestSpec` with ``apparatus``, ``initial`` 
 initial state and runs its stages in order; stress, model state, strain, excess pore pressure and time are carried
 from one stage to the next. Units kPa, s, 1/s; strains are fractions, compression positive; axial = Voigt 11,
 radial = 22 and 33. The controls, stepping and abscissae of each stage kind: :mod:`cases.study.lab_stages`; a crs
-stage ended by ``to_sigma_v`` is continued here in strain steps until sigma'_v crosses the target, the crossing located
-within the last step by ``CROSSING_ITERATIONS`` regula-falsi iterations.
+stage ended by ``to_sigma_v`` is continued here past its last record until sigma'_v reaches the target
+(:func:`_to_sigma_v`: strain steps in chunks sized from the strain still needed, the crossing located within its step
+by bracketing iterations).
 
 Initial state per test (``InitialState``): effective stress ``p0`` (isotropic) or ``sigma_v0`` with ``K0``; void
 ratio ``e0`` (else the ``e0`` argument, else the model's own ``e0`` parameter); for a
@@ -20,7 +21,7 @@ p'_c0 = ocr p'_0); neither given: the model's parameter (MCC ocr/pc0, ANICREEP s
 preconsolidation state (SIMSAND) refuses them (ValueError).
 
 A particle whose initial state is refused by the model or whose integration fails gets NaN curves and
-``failed = True``; no exception for a particle.
+``failed = True``; no exception for a particle, and a failed particle takes no further step.
 
 Quantities (curve key ``<quantity>`` for a one-stage test, ``<quantity>@<stage name>`` otherwise; ``e`` and ``u``
 are aliases of void_ratio and excess_pore_pressure): q (sigma'_a - sigma'_r, kPa), p (p', kPa), void_ratio,
@@ -39,13 +40,18 @@ from .lab_stages import FALLBACK_STRAIN_STEP, OEDOMETER_STRAIN, StageSteps
 from .programme import split_key
 
 __all__ = ["simulate_programme", "simulate_programmes", "stage_signature", "specimen_model", "QUANTITIES", "ALIASES",
-           "CROSSING_ITERATIONS"]
+           "CROSSING_ITERATIONS", "CROSSING_TOLERANCE", "CHUNKS", "CHUNK_STEPS"]
 
 QUANTITIES = ("q", "p", "void_ratio", "volumetric_strain", "axial_strain", "excess_pore_pressure", "pore_pressure",
               "axial_stress", "radial_stress", "time", "stress_ratio", "mean_stress")
 ALIASES = {"e": "void_ratio", "u": "excess_pore_pressure", "sigma_v": "axial_stress"}
-#: regula-falsi iterations locating the end of a crs stage at to_sigma_v within its last strain step
-CROSSING_ITERATIONS = 4
+#: a crs stage ended by to_sigma_v (:func:`_to_sigma_v`): |sigma'_v - to_sigma_v| / to_sigma_v at its end, the
+#: bracketing iterations at most locating it within a strain step, the chunks of strain steps at most and the steps
+#: at most in one chunk
+CROSSING_TOLERANCE = 1e-9
+CROSSING_ITERATIONS = 40
+CHUNKS = 12
+CHUNK_STEPS = 400
 
 
 # ---------------------------------------------------------------------------------------------- the specimen
@@ -105,29 +111,31 @@ def _particle(model, i):
 
 
 def _start_state(model, stress, e, n):
-    """(state, refused (n,)): the model's initial state; a particle whose start the model refuses is marked and
-    given the state of an accepted one (its curves become NaN)."""
+    """(state, why (n,) object array): the model's initial state; a particle whose start the model refuses gets the
+    model's reason in ``why`` ("" for the others) and the state of an accepted one (its curves become NaN)."""
     e = np.broadcast_to(np.asarray(e, dtype=float), (n,))
+    why = np.full(n, "", dtype=object)
     try:
-        return model.initial_state(stress, e), np.zeros(n, dtype=bool)
-    except (ValueError, ParameterError):
+        return model.initial_state(stress, e), why
+    except (ValueError, ParameterError) as exc:
         if n == 1:
-            return None, np.ones(1, dtype=bool)
-    refused = np.zeros(n, dtype=bool)
+            why[0] = f"initial state refused: {exc}"
+            return None, why
     for i in range(n):
         try:
             _particle(model, i).initial_state(stress[i:i + 1], e[i:i + 1])
-        except (ValueError, ParameterError):
-            refused[i] = True
+        except (ValueError, ParameterError) as exc:
+            why[i] = f"initial state refused: {exc}"
+    refused = why != ""
     if np.all(refused):
-        return None, refused
+        return None, why
     good = int(np.flatnonzero(~refused)[0])
     stress[refused] = stress[good]
     e = np.where(refused, e[good], e)
     trial = _rebuild(model, {k: (np.where(refused, np.asarray(v)[good], v) if np.ndim(v) else v)
                              for k, v in model.parameters().items() if v is not None})
     state = trial.initial_state(stress, e)
-    return state, refused
+    return state, why
 
 
 # ---------------------------------------------------------------------------------------------- the programme
@@ -138,54 +146,119 @@ def _select(mask, a, b):
     return np.where(mask.reshape((-1,) + (1,) * (np.ndim(a) - 1)), a, b)
 
 
-def _run(model, carried, control, inc, dt, undrained, record):
-    hist = labtests.mixed_control(model, carried["stress"], carried["state"], control, inc, dt,
-                                  undrained=undrained, record=record, on_failure="nan")
-    return hist
+def _advance(carried, hist, u_start, stage):
+    """The carried specimen after a mixed_control history of ``stage`` (its end; a point that did not move keeps its
+    values, and so does the strain, pore pressure and time of one that failed in it: finite values for the stage
+    plans that follow, which it does not take; its reason is the integration's)."""
+    moved = {"strain": carried["strain"] + hist["strain"][:, -1], "u": u_start + hist["pore_pressure"][:, -1],
+             "t": carried["t"] + hist["time"][:, -1]}
+    kept = _select(hist["failed"], {k: carried[k] for k in moved}, moved)
+    out = {**carried, "stress": hist["final_stress"], "state": hist["state"], **kept}
+    for i, why in hist["reasons"].items():
+        out = _fail(out, np.arange(out["failed"].size) == i, f"stage {stage.name}: {why}")
+    return out
 
 
-def _advance(carried, hist, u_start):
-    """The carried specimen after a mixed_control history (final record)."""
-    return {"stress": hist["stress"][:, -1], "state": hist["state"], "strain": carried["strain"] +
-            hist["strain"][:, -1], "u": u_start + hist["pore_pressure"][:, -1],
-            "t": carried["t"] + hist["time"][:, -1], "failed": carried["failed"] | hist["failed"]}
+def _fail(carried, mask, why):
+    """The carried specimen with the particles ``mask`` (n,) failed, a particle keeping the first reason it got."""
+    reasons = carried["why"].copy()
+    reasons[mask & ~carried["failed"]] = why
+    return {**carried, "failed": carried["failed"] | mask, "why": reasons}
 
 
-def _to_sigma_v(model, carried, rate, target, step, max_steps=4000):
-    """Continue a crs stage (oedometer, all strains controlled) until sigma'_v reaches ``target`` (kPa, (n,)) for
-    every particle: strain steps of ``step`` at ``rate`` (1/s, (n,)); the step that crosses is repeated with the
-    secant fraction."""
-    n = carried["stress"].shape[0]
-    sign = np.sign(target - carried["stress"][:, 0])
-    done = (sign == 0) | carried["failed"]
-    h = np.copysign(step, rate)
-    for _ in range(max_steps):
-        if np.all(done):
+def _strain_steps(model, carried, rate, steps, size, active, stage, stop=None):
+    """``steps`` (K,) axial strain steps of ``size`` (n,) signed as ``rate`` (1/s, (n,)) with every strain controlled
+    (oedometer), for the ``active`` (n,) particles, each taking its own number ``steps`` (n,) of them: one
+    mixed_control call from the carried specimen. Returns (the carried specimen after it, the history)."""
+    n = rate.size
+    count = int(steps[active].max(initial=0))
+    inc = np.zeros((count, n, 6))
+    inc[:, :, 0] = np.sign(rate) * size
+    dt = np.broadcast_to(size / np.abs(rate), (count, n))
+    taking = active & (np.arange(count)[:, None] < steps[None])
+    record = np.zeros(count, dtype=bool)
+    record[-1] = True
+    hist = labtests.mixed_control(model, carried["stress"], carried["state"], OEDOMETER_STRAIN, inc, dt,
+                                  record=record, on_failure="nan", active=taking, stop=stop)
+    return _advance(carried, hist, carried["u"], stage), hist
+
+
+def _to_sigma_v(model, carried, rate, target, step, stage):
+    """Continue a crs stage (oedometer, every strain controlled) until sigma'_v reaches ``target`` (kPa, (n,)) at
+    the axial strain rate ``rate`` (1/s, (n,), signed): the stage ends at the later of its last record and the
+    crossing (a particle whose sigma'_v has reached or passed the target, in the direction the rate drives it, by
+    the last record ends there).
+
+    In chunks, each one mixed_control call of axial strain steps of ``step`` stopped before the step that would pass
+    the target (``mixed_control(stop=...)``): the first chunk one step, the next ones 1.25 times the strain still
+    needed estimated from the secant d ln sigma'_v / d eps_a of the chunk before (at most ``CHUNK_STEPS``). The
+    crossing within the step it stopped before is located by Illinois iterations on the fraction of that step (each
+    a one-step call from the state before it) to ``CROSSING_TOLERANCE`` relative. A particle whose sigma'_v does not
+    move toward the target, leaves the positive range, or has not reached the target after ``CHUNKS`` chunks
+    fails (a zero-likelihood particle), as does one whose integration fails."""
+    n = rate.size
+    direction = np.sign(rate)  # an oedometer's sigma'_v rises with its axial strain
+    going = ~carried["failed"] & (direction * (target - carried["stress"][:, 0]) > 0.0)
+    steps = np.ones(n, dtype=int)
+    size = np.full(n, float(step))
+    for _ in range(CHUNKS):
+        if not going.any():
             break
-        inc = np.zeros((1, n, 6))
-        inc[0, :, 0] = np.where(done, 0.0, h)
-        dt = np.where(done, 0.0, abs(h / rate))[None]
-        hist = _run(model, carried, OEDOMETER_STRAIN, inc, dt, False, None)
-        nxt = _advance(carried, hist, carried["u"])
-        s0, s1 = carried["stress"][:, 0], nxt["stress"][:, 0]
-        crossed = ~done & (np.sign(target - s1) != sign)
-        if np.any(crossed):  # regula falsi on the fraction of the step that reaches the target
-            lo, hi, s_lo, s_hi = np.zeros(n), np.ones(n), s0, s1
-            for _ in range(CROSSING_ITERATIONS):
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    f = lo + (target - s_lo) * (hi - lo) / (s_hi - s_lo)
-                f = np.where(np.isfinite(f) & crossed, np.clip(f, lo, hi), 0.0)
-                hist2 = _run(model, carried, OEDOMETER_STRAIN, inc * f[None, :, None], dt * f[None], False, None)
-                cut = _advance(carried, hist2, carried["u"])
-                s_f = cut["stress"][:, 0]
-                below = np.sign(target - s_f) == sign
-                lo, s_lo = np.where(below, f, lo), np.where(below, s_f, s_lo)
-                hi, s_hi = np.where(below, hi, f), np.where(below, s_hi, s_f)
-            nxt = _select(crossed, cut, nxt) | {"failed": nxt["failed"] | cut["failed"]}
-        carried = _select(~done, nxt, carried) | {"failed": nxt["failed"]}
-        done |= crossed | carried["failed"]
-    carried["failed"] = carried["failed"] | ~done
-    return carried
+        before = carried["stress"][:, 0]
+        moved, hist = _strain_steps(model, carried, rate, steps, size, going, stage, (0, target, direction))
+        carried = _select(going, moved, carried)
+        at = going & hist["stopped"] & ~moved["failed"]
+        if at.any():
+            carried = _cross(model, carried, rate, target, size, at, hist["stop_value"], stage)
+        going &= ~at & ~moved["failed"]
+        now = carried["stress"][:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            slope = direction * np.log(now / before) / (steps * size)  # d ln sigma'_v per unit strain, toward it
+            need = direction * np.log(target / now) / slope
+        stuck = going & ~(np.isfinite(need) & (slope > 0.0) & (now > 0.0))
+        carried = _fail(carried, stuck, f"stage {stage.name}: sigma'_v does not move toward to_sigma_v "
+                                        f"(or leaves the positive range) past the last record")
+        going &= ~stuck
+        steps = np.clip(np.ceil(1.25 * np.where(going, need, 0.0) / size), 1, CHUNK_STEPS).astype(int)
+    return _fail(carried, going, f"stage {stage.name}: to_sigma_v not reached in {CHUNKS} chunks of strain steps "
+                                 f"past the last record")
+
+
+def _log_ratio(stress, target):
+    """ln(stress / target), NaN where the stress is not positive (the iterations then bisect)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.log(np.where(stress > 0.0, stress, np.nan) / target)
+
+
+def _cross(model, carried, rate, target, size, at, reached, stage):
+    """The ``at`` particles (n,) taken from their state to the point of the next strain step of ``size`` where
+    sigma'_v equals ``target``; ``reached`` (n,) their sigma'_v at the end of the whole step. Illinois iterations
+    on the step's fraction, on ln sigma'_v (linear in the fraction where the step is elastic: MCC's p' is exponential
+    in the volumetric strain)."""
+    lo, hi = np.zeros(rate.size), np.ones(rate.size)
+    g_lo, g_hi = _log_ratio(carried["stress"][:, 0], target), _log_ratio(reached, target)
+    result, open_ = carried, at.copy()
+    side = np.zeros(rate.size)  # the side moved last: -1 lo, +1 hi
+    ones = np.ones(rate.size, dtype=int)
+    for _ in range(CROSSING_ITERATIONS):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = np.where(g_hi == 0.0, 1.0, lo - g_lo * (hi - lo) / (g_hi - g_lo))
+        f = np.where(np.isfinite(f), np.clip(f, lo, hi), 0.5 * (lo + hi))
+        trial, _ = _strain_steps(model, carried, rate, ones, f * size, open_, stage)
+        g = _log_ratio(trial["stress"][:, 0], target)
+        done = open_ & ((np.abs(g) <= CROSSING_TOLERANCE) | trial["failed"])
+        result = _select(done, trial, result)
+        open_ &= ~done
+        if not open_.any():
+            break
+        high = np.sign(g) == np.sign(g_hi)
+        g_lo = np.where(high & (side > 0), 0.5 * g_lo, g_lo)  # Illinois: halve the value kept twice
+        g_hi = np.where(~high & (side < 0), 0.5 * g_hi, g_hi)
+        hi, g_hi = np.where(high, f, hi), np.where(high, g, g_hi)
+        lo, g_lo = np.where(high, lo, f), np.where(high, g_lo, g)
+        side = np.where(high, 1.0, -1.0)
+        result = _select(open_, trial, result)  # the last iterate where the iterations run out
+    return result
 
 
 def _quantities(hist, carried, u_start, u0):
@@ -235,12 +308,13 @@ def simulate_programme(model, spec, abscissae: dict, n: int, e0=None):
     start when the test gives none (scalar or (n,)). Returns ({curve key: (n, len(x)) values}, failed (n,) bool);
     a failed particle's curves are NaN.
     """
-    return simulate_programmes(model, [spec], [abscissae], n, e0)[0]
+    return simulate_programmes(model, [spec], [abscissae], n, e0)[0][:2]
 
 
 def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
-    """:func:`simulate_programme` of several tests for the same n particles: a list of (curves, failed), one per
-    test of ``specs`` (abscissae: one dict per test).
+    """:func:`simulate_programme` of several tests for the same n particles: a list of (curves, failed, why), one
+    per test of ``specs`` (abscissae: one dict per test; why: the reason each particle failed, "" where it did
+    not).
 
     Tests in the same apparatus (and whose specimen models have the same parameters set) run together over
     (tests x particles) points, in rounds: each round takes the next stage of the tests whose next stage has the most
@@ -334,14 +408,15 @@ def _simulate_group(prepared, abscissae, n):
     model = _stack([specimen for _, specimen, _ in prepared], n)
     start_e = np.concatenate([np.broadcast_to(np.asarray(e, dtype=float), (n,)) for _, _, e in prepared])
     stress0 = np.concatenate([_initial_stress(spec.initial, n) for spec in specs])
-    state, refused = _start_state(model, stress0, start_e, size)
+    state, why = _start_state(model, stress0, start_e, size)
     by_stage = [_keys_by_stage(spec, x) for spec, x in zip(specs, abscissae)]
     outs = [{k: np.full((n, len(np.atleast_1d(x[k]))), np.nan) for k in x} for x in abscissae]
     if state is None:
-        return [(out, np.ones(n, dtype=bool)) for out in outs]
+        return [(out, np.ones(n, dtype=bool), list(why[j * n:(j + 1) * n])) for j, out in enumerate(outs)]
     step = model.max_strain_step or FALLBACK_STRAIN_STEP
+    timed = getattr(model, "rate_dependent", True)
     carried = {"stress": stress0, "state": state, "strain": np.zeros((size, 6)), "u": np.zeros(size),
-               "t": np.zeros(size), "failed": refused.copy()}
+               "t": np.zeros(size), "failed": why != "", "why": why}
     u0 = np.array([spec.initial.u0 for spec in specs])
     for members in _rounds(specs):
         tests = [j for j, _ in members]
@@ -357,11 +432,13 @@ def _simulate_group(prepared, abscissae, n):
             xs = [np.atleast_1d(np.asarray(abscissae[j][k], dtype=float)) for k in keys]
             x_all = np.unique(np.concatenate(xs)) if xs else np.zeros(0)
             start = {k: part[k][rows_j] for k in ("stress", "strain", "u")}
-            plans.append(StageSteps(specs[j].apparatus, stage, start, x_all, step))
+            plans.append(StageSteps(specs[j].apparatus, stage, start, x_all, step, timed))
             wanted.append((keys, xs, x_all))
         inc, dt, active, record, columns = _merge(plans, rows, len(index))
         plan = plans[0]  # control and drainage are the round's (stage_signature)
         u_start = part["u"] if plan.undrained else np.zeros(len(index))
+        if part["failed"].any():  # a failed particle takes no further step
+            active = (np.ones(dt.shape, dtype=bool) if active is None else active) & ~part["failed"]
         hist = labtests.mixed_control(round_model, part["stress"], part["state"], plan.control, inc, dt,
                                       undrained=plan.undrained, record=record, on_failure="nan", active=active)
         if any(keys for keys, _, _ in wanted):
@@ -370,17 +447,22 @@ def _simulate_group(prepared, abscissae, n):
                 for key, x in zip(keys, xs):
                     quantity = ALIASES.get(split_key(key)[0], split_key(key)[0])
                     outs[j][key] = values[quantity][rows_j][:, cols[np.searchsorted(x_all, x)]]
-        part = _advance(part, hist, u_start)
-        part["failed"] |= np.concatenate([p.outside for p in plans])
+        part = _advance(part, hist, u_start, plan.stage)
+        for p, rows_j in zip(plans, rows):
+            outside = np.zeros(len(index), dtype=bool)
+            outside[rows_j] = p.outside
+            part = _fail(part, outside, f"stage {p.stage.name}: a record lies outside the stage")
         if plan.stage.kind == "crs" and plan.to_sigma_v is not None:
             part = _to_sigma_v(round_model, part, np.repeat([p.rate for p in plans], n),
-                               np.repeat([p.to_sigma_v for p in plans], n), step)
+                               np.repeat([p.to_sigma_v for p in plans], n), step, plan.stage)
         carried = part if whole else _put(carried, index, part)
     results = []
     for j, out in enumerate(outs):
         finite = [np.all(np.isfinite(v), axis=1) for v in out.values()] or [np.ones(n, dtype=bool)]
-        failed = carried["failed"][j * n:(j + 1) * n] | ~np.all(finite, axis=0)
+        rows = slice(j * n, (j + 1) * n)
+        failed = carried["failed"][rows] | ~np.all(finite, axis=0)
+        why = np.where(carried["failed"][rows], carried["why"][rows], "non-finite values in a recorded curve")
         for key in out:
             out[key][failed] = np.nan
-        results.append((out, failed))
+        results.append((out, failed, [str(w) if f else "" for w, f in zip(why, failed)]))
     return results

@@ -25,8 +25,10 @@ its stress-controlled components (their effective stress rises by it; ``excess_p
 Stepping: every stage is stepped through its recorded points (values come out AT the records, no interpolation),
 with sub-steps between them: strain-controlled ramps in steps of at most the model's ``max_strain_step`` (0.25 %
 when the model leaves it to its own triaxial integrator), stress ramps in steps of at most ``STRESS_STEP`` in
-ln(stress), holds at times since the hold start growing geometrically from ``HOLD_FIRST`` s,
-``HOLD_STEPS_PER_DECADE`` per decade (and the recorded times).
+ln(stress), holds of a rate-dependent model at times since the hold start growing geometrically from
+``HOLD_FIRST`` s, ``HOLD_STEPS_PER_DECADE`` per decade (and the recorded times). A rate-independent model
+(``timed=False``) takes a hold at its recorded times only: nothing changes in it but what the first step brings
+(the dissipation of an excess pore pressure), so sub-steps would repeat the same state.
 
 Abscissa of a stage's records (``Stage.abscissa``): ``time`` (s since the stage start, every kind), ``axial_strain``
 (shear: the stage's own axial strain, magnitude or signed; crs: the total axial strain of the test), ``p`` or
@@ -83,11 +85,11 @@ def _linear_knots(points, bound):
     return np.array(knots), np.array(index)
 
 
-def _hold_knots(start, end, records):
+def _hold_knots(start, end, records, timed=True):
     """Knots of a hold from stage time ``start`` to ``end`` (s, shared by the particles): geometric in the time
-    since the hold start, plus the recorded times ``records`` (within the hold)."""
+    since the hold start (``timed``; else its end only), plus the recorded times ``records`` (within the hold)."""
     length = end - start
-    if length <= 0.0:
+    if length <= 0.0 or not timed:
         grid = np.array([end])
     else:
         first = min(HOLD_FIRST, length / 10.0)
@@ -117,11 +119,12 @@ def _ramp_target(start, end, fraction):
 class StageSteps:
     """The steps of one stage (module docstring) from the specimen at the stage start ``carried`` ({"stress" (n, 6),
     "strain" (n, 6), "u" (n,), ...}), the stage's recorded abscissae ``record_x`` (sorted, unique) and the largest
-    strain step. Attributes: ``control`` (6,), ``undrained``, ``knots`` (K, n) stage times of the steps,
-    ``record_index`` the knot of each record, ``outside`` (n,) particles with a record outside the stage;
-    :meth:`steps` the increments and time steps."""
+    strain step; ``timed``: the model is rate dependent (holds sub-stepped in time, module docstring). Attributes:
+    ``control`` (6,), ``undrained``, ``knots`` (K, n) stage times of the steps, ``record_index`` the knot of each
+    record, ``outside`` (n,) particles with a record outside the stage; :meth:`steps` the increments and time
+    steps."""
 
-    def __init__(self, apparatus, stage, carried, record_x, strain_step):
+    def __init__(self, apparatus, stage, carried, record_x, strain_step, timed=True):
         self.stage, self.apparatus = stage, apparatus
         kind = stage.kind
         if (apparatus, kind) not in STAGE_CONTROLS:
@@ -132,7 +135,7 @@ class StageSteps:
         # every strain held (oedometer relaxation): isochoric whatever the drainage, no pore pressure unknown
         self.undrained = stage.drainage == "undrained" and bool(np.any(~self.control & NORMAL))
         self.carried = carried
-        self.strain_step = strain_step
+        self.strain_step, self.timed = strain_step, timed
         n = carried["stress"].shape[0]
         self.n = n
         # effective stress at the start of the path: an excess pore pressure dissipates at the start of a drained
@@ -173,7 +176,7 @@ class StageSteps:
         if self.stage.abscissa != "time":
             raise ValueError(f"stage {self.stage.name}: records of a {self.stage.kind} stage are against time")
         tau = self._tau_records(np.broadcast_to(self.x[:, None], (len(self.x), self.n)), np.full(self.n, duration))
-        grid = _hold_knots(0.0, duration, tau[:, 0])
+        grid = _hold_knots(0.0, duration, tau[:, 0], self.timed)
         self.knots = np.broadcast_to(grid[:, None], (grid.size, self.n))
         self.record_index = np.searchsorted(grid, tau[:, 0])
         self.stress_target = self._zero_stress()
@@ -293,7 +296,7 @@ class StageSteps:
             ramp_knots = _linear_knots(fractions, _ln_parts(start, end))[0][:, 0] * ramp
         else:
             ramp_knots = np.zeros(0)
-        hold = _hold_knots(ramp, duration, t[~in_ramp])
+        hold = _hold_knots(ramp, duration, t[~in_ramp], self.timed)
         grid = np.unique(np.concatenate([ramp_knots, t[in_ramp], hold]))
         self.knots = np.broadcast_to(grid[:, None], (grid.size, self.n))
         self.record_index = np.searchsorted(grid, t)

@@ -215,9 +215,9 @@ def test_refused_start_and_failed_particle_are_nan():
 
 def test_load_ramp_records_and_crs_to_sigma_v():
     """Oedometer (MCC): a load stage recorded during its ramp gives sigma'_v on the linear ramp (stress control, to
-    the Newton tolerance); a crs unloading stage ended by to_sigma_v stops at that stress (the crossing found by
-    four regula-falsi iterations within the last strain step: measured 1.3e-7 relative, tolerance 1e-5), and the
-    next stage starts there."""
+    the Newton tolerance); a crs unloading stage ended by to_sigma_v stops at that stress (the crossing located
+    within its strain step to 1e-9 in ln sigma'_v: measured 7e-11 relative, tolerance 1e-8), and the next stage
+    starts there."""
     spec = programme("oedometer", InitialState(e0=1.2, sigma_v0=50.0, K0=0.6),
                      Stage("load", "load1", sigma_v=250.0, ramp_time=1000.0, duration=5000.0),
                      Stage("crs", "crs2", strain_rate=-1e-6, to_sigma_v=100.0),
@@ -227,7 +227,7 @@ def test_load_ramp_records_and_crs_to_sigma_v():
                                                                  "axial_stress@creep3": np.array([0.0, 100.0])}, 1)
     assert not failed[0]
     np.testing.assert_allclose(out["axial_stress@load1"][0], [70.0, 130.0, 250.0, 250.0], rtol=1e-9)
-    np.testing.assert_allclose(out["axial_stress@creep3"][0], 100.0, rtol=1e-5)
+    np.testing.assert_allclose(out["axial_stress@creep3"][0], 100.0, rtol=1e-8)
 
 
 def test_undrained_creep_and_extension_of_a_rate_independent_model():
@@ -276,7 +276,7 @@ def _equal_to_one_test_calls(model, specs, abscissae, n, monkeypatch):
     together = simulate_programmes(model, specs, abscissae, n)
     n_calls = len(calls)
     worst = 0.0
-    for spec, x, (out, failed) in zip(specs, abscissae, together):
+    for spec, x, (out, failed, _) in zip(specs, abscissae, together):
         one, one_failed = simulate_programme(model, spec, x, n)
         assert not np.any(failed) and not np.any(one_failed)
         for k in x:

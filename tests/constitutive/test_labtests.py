@@ -131,3 +131,64 @@ def test_route_falls_back_to_the_generic_driver_or_refuses_when_asked_for_fast()
         lt.drained_triaxial(_simsand_batch(), 0.8, 100.0, ea, k0=0.5, route="fast")
     with pytest.raises(ValueError, match="route must be one of"):
         lt.drained_triaxial(m, 1.0, 100.0, ea, route="quick")
+
+
+# ------------------------------------------------------------------------------ stopping at a target stress
+def _oedometer_ramp(n_steps, step=0.0025):
+    """MCC (two points, lambda 0.2 and 0.3) at sigma'_v = 50 kPa, K0 0.6, normally consolidated; an oedometer strain
+    ramp (every strain prescribed) of ``n_steps`` axial steps."""
+    m = ModifiedCamClay(M=M, lambda_=np.array([LAM, 0.3]), kappa=KAP, nu=0.3)
+    stress = np.tile([50.0, 30.0, 30.0, 0.0, 0.0, 0.0], (2, 1))
+    inc = np.zeros((n_steps, 2, 6))
+    inc[:, :, 0] = step
+    return m, stress, m.initial_state(stress, 1.2), inc, np.full(n_steps, step / 1e-6)
+
+
+def test_stop_leaves_a_point_before_the_step_that_passes_the_target():
+    """``stop``: the point whose sigma'_v would pass 100 kPa stays where it was before that step (its values those
+    of the run without stop after the step before, bit for bit), the value it would have reached is returned; the
+    point that does not reach its target (1e4 kPa) is the run without stop."""
+    m, stress, state, inc, dt = _oedometer_ramp(40)
+    free = lt.mixed_control(m, stress, state, lt.ALL_STRAIN, inc, dt)
+    target = np.array([100.0, 1e4])
+    hist = lt.mixed_control(m, stress, state, lt.ALL_STRAIN, inc, dt, stop=(0, target, np.ones(2)))
+    assert list(hist["stopped"]) == [True, False]
+    k = hist["stop_step"][0]
+    s_free = free["stress"][0, :, 0]
+    assert s_free[k] < 100.0 <= s_free[k + 1]  # record k + 1 is the end of step k
+    assert hist["stop_value"][0] == s_free[k + 1]
+    assert np.all(hist["final_stress"][0] == free["stress"][0, k])
+    assert hist["strain"][0, -1, 0] == pytest.approx(0.0025 * k, rel=1e-12)
+    assert hist["time"][0, -1] == pytest.approx(2500.0 * k, rel=1e-12)
+    np.testing.assert_array_equal(hist["stress"][1], free["stress"][1])
+    assert np.all(hist["final_stress"][1] == free["final_stress"][1])
+
+
+class _CountingMCC(ModifiedCamClay):
+    """MCC counting its updates."""
+    calls = 0
+
+    def update(self, *args, **kwargs):
+        type(self).calls += 1
+        return super().update(*args, **kwargs)
+
+
+def test_a_step_with_every_strain_prescribed_fails_at_once_with_the_models_reason():
+    """Every strain prescribed: nothing for the driver's Newton to solve, so a model failure is final without step
+    cuts (one update per step, the failing one included), and the error carries the model's reason: here MCC's
+    unstable point (M 0.8, lambda - kappa = 0.01, yield on the dry side of critical under oedometer loading)."""
+    m = _CountingMCC(M=0.8, lambda_=0.1, kappa=0.09, nu=0.25, pc0=400.0)
+    stress = np.array([[20.0, 11.0, 11.0, 0.0, 0.0, 0.0]])
+    inc = np.zeros((80, 6))
+    inc[:, 0] = 0.0025
+    _CountingMCC.calls = 0
+    hist = lt.mixed_control(m, stress, m.initial_state(stress, 1.26), lt.ALL_STRAIN, inc, np.ones(80),
+                            on_failure="nan")
+    assert hist["failed"][0]
+    (k, reason), = hist["reasons"].items()
+    assert k == 0 and "unstable material point" in reason
+    failed_at = int(reason.split(":")[0].split()[1])
+    assert _CountingMCC.calls == 1 + 80  # the start's tangent and one update per step
+    assert np.all(np.isnan(hist["stress"][0, failed_at + 1:]))
+    with pytest.raises(IntegrationError, match="unstable material point"):
+        lt.mixed_control(m, stress, m.initial_state(stress, 1.26), lt.ALL_STRAIN, inc, np.ones(80))

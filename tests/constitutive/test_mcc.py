@@ -185,3 +185,48 @@ def test_batch_equals_separate_calls_bitwise_and_inputs_untouched():
         one = ModifiedCamClay(**{k: v[i] for k, v in prm.items()}, ocr=1.5)
         si, sti, Ci = one.update(stress[i:i + 1], {k: v[i:i + 1] for k, v in state.items()}, deps[i:i + 1], 1.0)
         assert np.array_equal(si[0], s[i]) and np.array_equal(Ci[0], C[i]) and sti["pc"][0] == st["pc"][i]
+
+
+def _dry_side_margin(M, lam, kap, nu, v, p, q, pc):
+    """1 + H/(n:D:n) of MCC at (p', q) on its yield surface (Wood 1990): n = (df/dp', df/dq) = (M^2 (2p' - p'_c),
+    2q), D the tangent elasticity (K = v p'/kappa, G from nu), H = -df/dp'_c dp'_c/d eps_v^p df/dp' with
+    dp'_c/d eps_v^p = v p'_c/(lambda - kappa): the denominator of the plastic multiplier under strain control."""
+    K = v * p / kap
+    G = 1.5 * K * (1.0 - 2.0 * nu) / (1.0 + nu)
+    fp, fq = M**2 * (2.0 * p - pc), 2.0 * q
+    H = M**2 * p * v * pc / (lam - kap) * fp
+    return 1.0 + H / (K * fp**2 + 3.0 * G * fq**2)
+
+
+@pytest.mark.parametrize("lam, kap", [(0.1, 0.09), (0.3, 0.03)])
+def test_a_dry_side_point_yields_or_is_refused_as_unstable(lam, kap):
+    """A point on the yield surface on the dry side of critical (p' = p'_c/4) loaded by a small axial strain: where
+    the plastic multiplier's denominator 1 + H/(n:D:n) is negative (softening faster than the elasticity, lambda -
+    kappa = 0.01) no plastic state follows and MCC says so; where it is positive the point yields (p'_c falls:
+    dilation) and ends on the surface."""
+    M, nu, e, pc, p = 0.8, 0.25, 1.0, 400.0, 100.0
+    q = M * np.sqrt(p * (pc - p))
+    margin = _dry_side_margin(M, lam, kap, nu, 1.0 + e, p, q, pc)
+    m = ModifiedCamClay(M=M, lambda_=lam, kappa=kap, nu=nu, pc0=pc)
+    stress = np.array([[p + 2.0 * q / 3.0, p - q / 3.0, p - q / 3.0, 0.0, 0.0, 0.0]])
+    deps = np.array([[1e-4, -1e-5, -1e-5, 0.0, 0.0, 0.0]])
+    if margin < 0.0:
+        with pytest.raises(IntegrationError, match=f"unstable material point.*{margin:.3g} < 0"):
+            m.update(stress, m.initial_state(stress, e), deps, 1.0)
+        return
+    s, new, _ = m.update(stress, m.initial_state(stress, e), deps, 1.0)
+    assert new["pc"][0] < pc
+    f = deviatoric_stress(s) ** 2 + M**2 * mean_stress(s) * (mean_stress(s) - new["pc"])
+    assert abs(f[0]) / new["pc"][0] ** 2 < 1e-9
+
+
+def test_compression_beyond_the_solids_is_refused():
+    """A strain increment that would take the void ratio to or below zero (e_new = e - (1 + e) d eps_v) raises
+    IntegrationError naming the point."""
+    m = ModifiedCamClay(M=1.2, lambda_=0.2, kappa=0.04, nu=0.3)
+    stress = np.tile([100.0, 100.0, 100.0, 0, 0, 0], (2, 1))
+    deps = np.zeros((2, 6))
+    deps[:, 0] = [0.01, 0.2]  # e = 0.2: d eps_v = 0.2 leaves e = -0.04
+    with pytest.raises(IntegrationError, match="void ratio") as info:
+        m.update(stress, m.initial_state(stress, 0.2), deps, 1.0)
+    assert info.value.point == 1
