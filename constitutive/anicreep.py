@@ -45,7 +45,20 @@ Switches of the one implementation:
                         chi > 0);
   ``viscous=False``     rate-independent limit (beta -> infinity): consistency f(sigma', p'_m^r) = 0 on the same
                         surfaces with an elastic domain (S-CLAY1-like); with anisotropy=False it is Modified Cam Clay
-                        (with (1 + e0) in place of (1 + e)).
+                        (with (1 + e0) in place of (1 + e) unless ``specific_volume="current"``).
+
+Specific volume (constructor keyword ``specific_volume``, docs/reference.md section 4 "Specific volume"): the
+factor v written (1 + e0) above in (E), (H), mu of (V) and omega of (K) is
+  ``"initial"`` (default)  v = 1 + e0, a constant (Yin et al.); the void ratio follows e = e_n - (1 + e0) d eps_v;
+  ``"current"``           v = v_n = 1 + e_n, the specific volume at the start of each increment, frozen over the
+                        increment and its sub-steps; e = e_n - v_n d eps_v. This is Modified Cam Clay's convention
+                        (``constitutive.mcc``): K = (1 + e) p'/kappa, dp'_m^r = p'_m^r (1 + e)/(lambda - kappa)
+                        d eps_v^vp. With v_n frozen, an isotropic normally consolidated rate-independent increment
+                        gives d eps_v = lambda ln(p'_{n+1}/p'_n)/v_n, so e = e_0 - lambda ln(p'/p'_0) holds exactly
+                        for any step size, and the volumetric strain sum_n (e_n - e_{n+1})/(1 + e_n) tends to the
+                        logarithmic ln((1 + e_0)/(1 + e)) as the steps shrink (tested).
+  The option is carried by the class (``ANICREEP(..., specific_volume="current")`` is a
+  :class:`CurrentVolumeANICREEP`), so a model rebuilt from its class, parameters and switches keeps it.
 
 Integration of one increment (backward Euler, per point, compiled: :mod:`constitutive._anicreep_kernel`):
   unknowns X = (sigma'_{n+1} (6), alpha_d,{n+1} (6), z), the viscoplastic multiplier d lambda = d lambda_ref exp(z),
@@ -75,7 +88,7 @@ import numpy as np
 from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
 from .invariants import IDENTITY, mean_stress
 
-__all__ = ["ANICREEP", "anisotropy_constants"]
+__all__ = ["ANICREEP", "CurrentVolumeANICREEP", "anisotropy_constants"]
 
 _NO_TANGENT = np.empty((1, 6, 6))  # tangent_out of a call without the tangent (row 0 only, never written)
 
@@ -118,7 +131,8 @@ class ANICREEP(MaterialModel):
         lambda_   : slope of the NCL in e-ln p' (> kappa);
         kappa     : slope of the swelling line in e-ln p' (> 0);
         nu        : Poisson's ratio, -1 < nu < 0.5;
-        e0        : initial void ratio (> 0); (1 + e0) is used in K and in the hardening law, as docs/reference.md states;
+        e0        : initial void ratio (> 0); (1 + e0) is used in K and in the hardening law, as docs/reference.md
+                    states (with ``specific_volume="current"`` only as the default initial void ratio);
         C_alpha_e : natural-log secondary compression index de/dln t (> 0; needed only when viscous);
         tau       : reference time of sigma'_p0 in s (> 0, default 86400 s = 24 h);
         sigma_p0  : vertical preconsolidation stress at the reference rate, kPa (> 0);
@@ -136,6 +150,8 @@ class ANICREEP(MaterialModel):
         vertical_axis : 1, 2 or 3, the Voigt component that is the deposition (vertical, K0-consolidation) axis of
                     the initial fabric alpha_d = alpha_K0 (e_v e_v - I/3). Default 1 (the axial direction of the lab
                     drivers); the axisymmetric FE maps r->1, z->2, theta->3, so the pressuremeter needs 2.
+        specific_volume : "initial" (v = 1 + e0 in (E), (H), mu and omega; default: the class's own, "initial" for
+                    ANICREEP) or "current" (v = 1 + e_n frozen over each increment; module docstring).
 
     State (dict of arrays over n points): ``alpha`` (n, 6) the deviatoric fabric tensor alpha_d (stress-like Voigt),
     ``pm_ref`` (n,) the reference-surface size p'_m^r (kPa), ``void_ratio`` (n,), ``vp_strain`` (n, 6) accumulated
@@ -177,9 +193,18 @@ class ANICREEP(MaterialModel):
     #: 7 or 9 local unknowns instead of 13: _anicreep_kernel docstring); False integrates all 6 (the tests' oracle)
     reduce_components = True
 
+    #: the specific volume v of (E), (H), mu and omega: "initial" (1 + e0) or "current" (1 + e_n, module docstring)
+    specific_volume = "initial"
+
     def __init__(self, M, lambda_, kappa, nu, e0, sigma_p0, C_alpha_e=None, tau=REFERENCE_TIME, *, anisotropy=True,
-                 viscous=True, destructuration=False, chi0=None, xi=None, xi_d=None, vertical_axis=1):
+                 viscous=True, destructuration=False, chi0=None, xi=None, xi_d=None, vertical_axis=1,
+                 specific_volume=None):
         name = self.name
+        if specific_volume is not None:
+            if specific_volume not in _VOLUME_CLASSES:
+                raise ParameterError(f"{name}: specific_volume = {specific_volume!r} must be one of "
+                                     f"{', '.join(map(repr, _VOLUME_CLASSES))}")
+            self.__class__ = _VOLUME_CLASSES[specific_volume]  # the class carries the option (module docstring)
         self.M = self._checked("M", M)
         self.lambda_ = self._checked("lambda_", lambda_)
         self.kappa = self._checked("kappa", kappa)
@@ -239,40 +264,59 @@ class ANICREEP(MaterialModel):
                                      f"M^2 + 2 alpha_K0 omega_d <= 0 (no rotational-hardening rate omega)")
             self.alpha_k0 = alpha_k0
             self.omega_d = omega_d
-            self.omega = (1.0 + self.e0) / (self.lambda_ - self.kappa) * np.log((10.0 * M2 + 2.0 * alpha_k0 * omega_d)
-                                                                              / arg_den)
+            self._rotation_log = np.log((10.0 * M2 + 2.0 * alpha_k0 * omega_d) / arg_den)  # omega/c_p, (K)
         else:
             self.alpha_k0 = np.zeros_like(alpha_k0)
             self.omega_d = np.zeros_like(omega_d)
-            self.omega = np.zeros(np.broadcast_shapes(np.shape(self.e0), np.shape(self.M)))
-        if self.viscous:
-            self.beta = (self.lambda_ - self.kappa) / self.C_alpha_e
-            self.mu = (self.C_alpha_e / ((1.0 + self.e0) * self.tau)
-                       * (M2 - self.alpha_k0**2) / (M2 - eta_k0**2))
-        else:
-            self.beta = np.inf
-            self.mu = np.nan
+            self._rotation_log = np.zeros(np.shape(self.M))
+        self.beta = (self.lambda_ - self.kappa) / self.C_alpha_e if self.viscous else np.inf
+        initial = self._volume_columns(1.0 + self.e0)
+        #: omega of (K) and mu of (V) (1/s; nan when rate independent) with v = 1 + e0
+        self.omega, self.mu = initial["omega"], (initial["mu"] if self.viscous else np.nan)
 
     # ------------------------------------------------------------------ helpers
     def _n_points(self, n, what):
         if self._shape and self._shape[0] not in (1, n):
             raise ValueError(f"{self.name}: parameters are given for {self._shape[0]} points but {what} has {n}")
 
+    def _volume_columns(self, v):
+        """The kernel columns that carry the specific volume ``v`` (scalar or (n,)): c_e = v/kappa of (E),
+        c_p = v/(lambda - kappa) of (H), omega = c_p ln[(10M^2 + 2 alpha_K0 omega_d)/(M^2 + 2 alpha_K0 omega_d)] of
+        (K) and mu = C_alpha_e/(v tau) (M^2 - alpha_K0^2)/(M^2 - eta_K0^2) of (V) in 1/s (1, unused, when rate
+        independent)."""
+        c_p = v / (self.lambda_ - self.kappa)
+        M2 = self.M**2
+        return {"c_e": v / self.kappa, "c_p": c_p, "omega": c_p * self._rotation_log,
+                "mu": (self.C_alpha_e / (v * self.tau) * (M2 - self.alpha_k0**2) / (M2 - self.eta_k0**2)
+                       if self.viscous else 1.0)}
+
     def _kernel_columns(self, n):
         """Everything the local solver needs, in the column order of ``_anicreep_kernel.PARAMETER_COLUMNS``
-        (``kernel_parameters``)."""
+        (``kernel_parameters``), with v = 1 + e0."""
         prm = {
             "M2": self.M**2,
-            "c_e": (1.0 + self.e0) / self.kappa,                  # (E)
-            "c_p": (1.0 + self.e0) / (self.lambda_ - self.kappa),  # (H)
+            **self._volume_columns(1.0 + self.e0),                 # (E), (H), (K), (V)
             "r_G": 1.5 * (1.0 - 2.0 * self.nu) / (1.0 + self.nu),  # G/K
-            "omega": self.omega, "omega_d": self.omega_d,
+            "omega_d": self.omega_d,
             "inv_beta": 1.0 / self.beta if self.viscous else 0.0,
-            "mu": self.mu if self.viscous else 1.0,
             "xi": self.xi if self.destructuration else 0.0,                  # (D)
             "xi_d": self.xi_d if self.destructuration else 0.0,
         }
         return [prm[k] for k in _kernel().PARAMETER_COLUMNS]
+
+    def _current_volume_parameters(self, v, n):
+        """The kernel's parameter rows with the specific volume ``v`` = 1 + e_n per point ((n,),
+        ``specific_volume="current"``): c_e, c_p and omega are proportional to v, mu to 1/v (``_volume_columns``);
+        their values at v = 1 are built once per n."""
+        cache = self.__dict__.setdefault("_unit_volume_cache", {})
+        if n not in cache:
+            columns = _kernel().PARAMETER_COLUMNS
+            cache[n] = [(columns.index(k), np.broadcast_to(np.asarray(x, dtype=float), (n,)).copy(), k == "mu")
+                        for k, x in self._volume_columns(1.0).items() if k != "mu" or self.viscous]
+        prm = self.kernel_parameters(n).copy()
+        for column, at_unit_volume, inverse in cache[n]:
+            prm[:, column] = at_unit_volume / v if inverse else at_unit_volume * v
+        return prm
 
     def initial_fabric(self, n):
         """alpha_d = alpha_K0 (e_v e_v - I/3) for the vertical axis, (n, 6) stress-like Voigt."""
@@ -336,10 +380,16 @@ class ANICREEP(MaterialModel):
         new_stress, alpha, dvp = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6))
         pm_ref, chi, vp_shear, ratio = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
         stiffness = np.empty((n, 6, 6)) if tangent else _NO_TANGENT
+        e = state["void_ratio"]
+        if self.specific_volume == "current":
+            v = 1.0 + e
+            prm = self._current_volume_parameters(v, n)
+        else:
+            v, prm = 1.0 + self.e0, self.kernel_parameters(n)
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
             np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(state["chi"], dtype=float),
-            np.ascontiguousarray(dstrain), dt, self.kernel_parameters(n), self.viscous, self.tolerance,
+            np.ascontiguousarray(dstrain), dt, prm, self.viscous, self.tolerance,
             self.max_iterations, self.max_dz, self.max_substep_depth, self.reduce_components, bool(tangent),
             new_stress, alpha, pm_ref, chi, dvp, vp_shear, ratio, stiffness)
         if failed >= 0:
@@ -347,8 +397,21 @@ class ANICREEP(MaterialModel):
                                    f"sub-stepping (strain increment {dstrain[failed]}, dt {dt[failed]:g} s, "
                                    f"stress {stress[failed]})")
         new_state = {"alpha": alpha, "pm_ref": pm_ref,
-                     "void_ratio": state["void_ratio"] - (1.0 + self.e0) * dstrain[:, :3].sum(axis=1),
+                     "void_ratio": e - v * dstrain[:, :3].sum(axis=1),
                      "vp_strain": state["vp_strain"] + dvp,
                      "vp_shear": state["vp_shear"] + vp_shear,
                      "overstress": ratio, "chi": chi}
         return new_stress, new_state, stiffness if tangent else None
+
+
+class CurrentVolumeANICREEP(ANICREEP):
+    """ANICREEP with ``specific_volume="current"`` (v = 1 + e_n in (E), (H), mu and omega; module docstring), what
+    ``ANICREEP(..., specific_volume="current")`` builds. A class of its own so that the option survives a model
+    rebuilt as ``type(model)(**parameters, **switches)`` (the staged laboratory programmes rebuild a specimen's
+    model with its own e0 and preconsolidation)."""
+
+    specific_volume = "current"
+
+
+#: specific_volume -> the class that carries it
+_VOLUME_CLASSES = {"initial": ANICREEP, "current": CurrentVolumeANICREEP}

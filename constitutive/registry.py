@@ -10,8 +10,9 @@ Model names are the class names (``ModifiedCamClay``, ``ANICREEP``, ``SIMSAND``)
 
 Enrichment families (:func:`enrichment_family`): the model whose switches add the missing physics of
 ``constitutive.physics_catalog`` to a base model. Modified Cam Clay belongs to the ANICREEP family: ANICREEP with
-``anisotropy=False, viscous=False, destructuration=False`` has MCC's yield surface, associated flow and hardening
-(docs/reference.md section 4), and :func:`mcc_as_anicreep` translates the parameters once.
+``anisotropy=False, viscous=False, destructuration=False, specific_volume="current"`` has MCC's elasticity, yield
+surface, associated flow and hardening with MCC's current specific volume 1 + e (docs/reference.md section 4), and
+:func:`mcc_as_anicreep` translates the parameters once.
 """
 from __future__ import annotations
 
@@ -141,7 +142,8 @@ class Family(NamedTuple):
     """The model class that carries a base model's enrichments.
 
     model      the family's model name (a key of MODELS);
-    switches   the family's switches that reproduce the base model (all physics of the catalog off);
+    switches   the family's switches that reproduce the base model (all physics of the catalog off), with the
+               constructor options that do too (ANICREEP's ``specific_volume``);
     translate  ``translate(values, stress0, void_ratio0) -> family values``: the base model's parameter values
                (scalars or (n,) arrays) at a specimen's initial effective stress ``stress0`` ((6,) or (n, 6), kPa,
                Voigt, axis 1 vertical) and void ratio ``void_ratio0``, as the family's constructor values; names
@@ -185,14 +187,10 @@ def mcc_as_anicreep(values: dict, stress0, void_ratio0) -> dict:
       one parameter mapped only approximately).
     Other names (an enrichment's extra parameters: C_alpha_e, tau, chi0, xi, xi_d) pass through.
 
-    What differs by construction (measured in tests/constitutive/test_model_family.py): MCC integrates with the current specific
-    volume 1 + e (dε = -de/(1 + e), a logarithmic volumetric strain), ANICREEP with the initial one 1 + e0
-    (dε = -de/(1 + e0)). The stress-void-ratio path is the same in both; the strain at which a state is reached
-    differs by the factor (1 + e0)/(1 + e) ≈ exp(ε_v): nothing in undrained shear from the initial state (ε_v = 0), a
-    few per cent of the strain in drained shear and oedometers, and after a consolidation stage that changes the void
-    ratio to e_s every later stage's strains scale by (1 + e0)/(1 + e_s) (1.24 after isotropic consolidation from 25
-    to 200 kPa with lambda 0.225: undrained q 8 % apart at the same strain). ``void_ratio0`` is the void ratio at
-    which the two agree: the specimen's initial one (ANICREEP's void ratio at the start is the same parameter).
+    The family's ``specific_volume="current"`` makes ANICREEP integrate with MCC's current specific volume 1 + e_n
+    (frozen over an increment, as MCC does), so the strain at which a state is reached is the same in both, also in
+    stages after a consolidation (tests/constitutive/test_model_family.py, test_family_staged.py). ``void_ratio0``
+    is the specimen's initial void ratio.
     """
     v = dict(values)
     M = np.asarray(v["M"], dtype=float)
@@ -212,8 +210,8 @@ def mcc_as_anicreep(values: dict, stress0, void_ratio0) -> dict:
 
 
 #: base model -> its enrichment family (a model not listed is its own family)
-FAMILIES = {"ModifiedCamClay": Family("ANICREEP", {"anisotropy": False, "viscous": False, "destructuration": False},
-                                      mcc_as_anicreep)}
+FAMILIES = {"ModifiedCamClay": Family("ANICREEP", {"anisotropy": False, "viscous": False, "destructuration": False,
+                                                   "specific_volume": "current"}, mcc_as_anicreep)}
 
 
 def enrichment_family(model: str) -> Family:

@@ -4,8 +4,10 @@ switch on).
 
 The calibrated parameters keep the base model's names (M, lambda_, kappa, nu or G, ocr or pc0) plus the enrichment's
 extra parameters (C_alpha_e, chi0, xi, ...); for every test and particle they are translated once by the family's
-``translate`` at the test's initial effective stress and void ratio (MCC -> ANICREEP: ``mcc_as_anicreep``), so the
-family class with every switch off reproduces the base class and its log-evidence is comparable with the base's. A
+``translate`` at the test's initial effective stress and void ratio (MCC -> ANICREEP: ``mcc_as_anicreep``), and the
+family's own switches and options (MCC -> ANICREEP: every physics off, ``specific_volume="current"``) stand where the
+class's switches do not say otherwise, so the family class with every switch off reproduces the base class and its
+log-evidence is comparable with the base's. A
 test's own ``ocr`` / ``preconsolidation`` is read as the base model reads it (MCC: ocr = preconsolidation /
 sigma'_v0 applied to the surface through the initial stress) before the translation, then removed from the test.
 """
@@ -33,12 +35,14 @@ def initial_stress(spec) -> np.ndarray:
 
 class FamilyForward:
     """Batched forward model (``inference.Likelihood(batch=True)``) of ``study`` (base model ``study.model``) as the
-    class of its enrichment family with ``switches`` (the family's switches). One :class:`StudyForward` per test (the
-    translated values depend on the test's initial state); results merged per particle, a ForwardModelError in place
-    of a particle that fails in any test."""
+    class of its enrichment family with ``switches`` (the family's switches; those not given keep the family's
+    values that reproduce the base model). One :class:`StudyForward` per test (the translated values depend on the
+    test's initial state); results merged per particle, a ForwardModelError in place of a particle that fails in any
+    test."""
 
     def __init__(self, study, observations, switches: dict, preset=None):
         self.family = enrichment_family(study.model)
+        switches = {**self.family.switches, **switches}
         self.base_values = dict(study.fixed)
         self.label = class_name(switches, self.family.model)
         self.tests = []
