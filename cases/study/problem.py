@@ -65,6 +65,12 @@ class LoopProblem:
     weights: dict = {}
     #: where the base class is calibrated, relative to the loop's directory
     base_dir = "base"
+    #: the fraction of a sampler stage's solves that may fail before an enriched class's calibration stops: an
+    #: enrichment's prior holds regions where the added physics cannot follow the programme's controls (structure
+    #: collapsing faster than it hardens under stress-controlled compression has no solution nearby); those particles
+    #: are zero-likelihood with their reason recorded. The base class keeps the sampler's default (0.1): there a
+    #: failure rate that high means a broken set-up.
+    enriched_failure_fraction = 0.5
 
     # ---------------------------------------------------------------------------------------- what a study supplies
     def forward(self, switches):
@@ -120,13 +126,14 @@ class LoopProblem:
 
     # ---------------------------------------------------------------------------------------- one class
     def calibrate_class(self, observations, name, switches, bounds, log_uniform, run, out, seed,
-                        settings: Settings) -> tuple:
-        """Calibrate one model class in ``out``; returns (ModelClass, Posterior, Likelihood)."""
+                        settings: Settings, **sampler) -> tuple:
+        """Calibrate one model class in ``out`` (``sampler``: further inference.tmcmc settings); returns
+        (ModelClass, Posterior, Likelihood)."""
         t0 = time.perf_counter()
         like = self.make_likelihood(observations, switches)
         prior = self.prior(bounds, log_uniform)
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
-                                max_steps=settings.max_steps, progress=False)
+                                max_steps=settings.max_steps, progress=False, **sampler)
         cls, _ = self.finish_class(post, like, name, switches, run, out, seed, settings.predictive_draws,
                                    time.perf_counter() - t0)
         return cls, post, like
@@ -186,8 +193,9 @@ class LoopProblem:
             log_uniform = tuple(self.base_log_uniform) + tuple(extra_log)
             out = self.out / f"enriched_{candidate.replace(' ', '_')}"
         name = class_name(switches, self.model if candidate is None else enrichment_family(self.model).model)
+        sampler = {} if candidate is None else {"max_failure_fraction": self.enriched_failure_fraction}
         cls, _, like = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
-                                            self.seed, self.settings)
+                                            self.seed, self.settings, **sampler)
         if candidate is None:
             self.likelihood, self.description = like, self.describe(self.label, name)
         return cls

@@ -51,6 +51,27 @@ def test_a_valid_study_loads(tmp_path):
     assert cands["viscosity"]["enrichment"]["switches"] == {"viscous": True}
 
 
+def test_enriched_classes_tolerate_failed_solves_the_base_does_not(tmp_path, monkeypatch):
+    """The loop's enriched classes stop only when half a stage's solves fail (an enrichment's prior holds regions
+    the programme cannot follow); the base class keeps the sampler's default."""
+    from cases.study import problem as problem_module
+    s = load_study(_study(tmp_path))
+    obs, times = load_observations(s.tests)
+    problem = StudyProblem(s, obs, times, quick=True)
+    seen = []
+
+    def stop(like, prior, run, out, seed, n_samples, **kw):
+        seen.append(kw.get("max_failure_fraction"))
+        raise RuntimeError("recorded")
+
+    monkeypatch.setattr(problem_module.runner, "calibrate", stop)
+    problem.start(obs, None, tmp_path, 1, s.settings(True), "test")
+    for candidate in (None, "viscosity"):
+        with pytest.raises(RuntimeError, match="recorded"):
+            problem.calibrate(candidate)
+    assert seen == [None, problem.enriched_failure_fraction] and problem.enriched_failure_fraction == 0.5
+
+
 def _replace(old, new):
     assert old in TOML, old
     return TOML.replace(old, new)
