@@ -1,0 +1,269 @@
+"""Delayed (time-dependent) swelling: a volumetric Kelvin element in series with any material-point model.
+
+Natural clays keep expanding under constant stress after an unloading, and with the strain held their effective
+stress rises (creep and relaxation after unloading). :class:`DelayedSwelling` adds that to a base model of
+``constitutive`` (any :class:`~constitutive.base.MaterialModel`) by splitting the total strain increment into the
+part the base model takes and a delayed isotropic swelling strain eps_s.
+
+Compression positive, effective stresses in kPa, strains dimensionless (engineering shear), time in s, Voigt order
+(11, 22, 33, 12, 23, 31); m = (1, 1, 1, 0, 0, 0). Equations (notes/swelling.md, for docs/reference.md):
+
+(S1) strain split   d eps = d eps^b + (d eps_s/3) m: the base model receives d eps^b = d eps - (d eps_s/3) m; eps_s
+                    (compression positive, <= 0 when the point has swollen) is the delayed volumetric strain;
+(S2) equilibrium    eps_s^eq = kappa_s/(1 + e) min(0, ln(p'/p'_max)), p' the mean effective stress of the base model,
+                    p'_max the largest p' the point has carried (initially its p'_0, :meth:`initial_state`): zero
+                    on first loading, a swelling strain of slope kappa_s in e-ln p' below p'_max;
+(S3) Kelvin rate    d eps_s/dt = (eps_s^eq - eps_s)/tau_s  (tau_s in s);
+(S4) void ratio     the swelling strain changes the void ratio as any volumetric strain, de = -(1 + e_n) d eps_s,
+                    on top of the base model's own update for d eps^b (so with Modified Cam Clay's convention
+                    e_{n+1} = e_n - (1 + e_n) d eps_v exactly; with ANICREEP's default v = 1 + e0 the swelling part
+                    uses 1 + e_n instead of 1 + e0, a difference of (e_n - e0) d eps_s).
+
+After an instantaneous unloading from p'_max to p' held constant, (S2)-(S3) give
+eps_s(t) = eps_s^eq (1 - exp(-t/tau_s)) while the void ratio's change with eps_s is neglected (tested with it).
+
+Integration of one increment (backward Euler in time, per point, vectorized):
+    eps_s,n+1 = (eps_s,n + a eps_s^eq(p'_{n+1}))/(1 + a),  a = dt/tau_s,
+with e frozen at its start-of-increment value e_n in (S2) and p'_max,n+1 = max(p'_max,n, p'_{n+1}) (so
+min(0, ln(p'_{n+1}/p'_max,n+1)) = min(0, ln(p'_{n+1}/p'_max,n))). The unknown x = eps_s,n+1 solves the scalar
+    R(x) = x - (eps_s,n + a eps_s^eq(p'(x)))/(1 + a) = 0,
+p'(x) the mean stress returned by the base update with d eps - ((x - eps_s,n)/3) m. For a base whose p' rises
+with volumetric compression, R increases with x and the root lies in [x_hi - R(x_hi), x_hi], x_hi = eps_s,n/(1 + a)
+(eps_s^eq <= 0). Newton from x_hi, R'(x) = 1 + c K_t with c = a/(1 + a) kappa_s/((1 + e_n) p') where p' < p'_max,n
+(else 0) and K_t = m.D^b.m/9 the base's volumetric tangent, safeguarded by the bracket: after an iterate that did
+not halve |R| the bracket is bisected; a Newton step that leaves the bracket is replaced by false position between
+its ends (bisection while one end is not evaluated). A point still at |R| > ``tolerance`` after ``max_iterations``
+base updates raises the base's IntegrationError; so does p' <= 0 where (S2) is active. On first loading
+(eps_s,n = 0, p' >= p'_max,n) x = 0 at once: the base model receives d eps bit for bit, and the result is the base
+model's.
+
+Tangent: differentiating R = 0 with the base tangent D^b = d sigma'/d eps^b,
+    C = D^b - c/(9 (1 + c K_t)) (D^b m) (m^T D^b),
+the consistent tangent of the increment when the base's is (``tangent_kind`` is the base's).
+"""
+from __future__ import annotations
+
+import inspect
+
+import numpy as np
+
+from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points
+from .invariants import IDENTITY, mean_stress
+
+__all__ = ["DelayedSwelling", "SWELLING_SWITCH", "SWELLING_RANGES", "swelling_class"]
+
+#: the physics switch of the missing-physics catalog that adds delayed swelling
+SWELLING_SWITCH = "swelling"
+#: the parameters of delayed swelling: kappa_s the swelling-creep index (slope of the delayed swelling in e-ln p',
+#: >= 0; 0 switches it off), tau_s its time constant (s)
+SWELLING_RANGES = {"kappa_s": ParameterRange(0.0, None, (0.001, 0.05), lower_open=False),
+                   "tau_s": ParameterRange(0.0, None, (1.0e2, 1.0e7), "s")}
+#: the state variables the wrapper adds to the base model's
+OWN_STATE = ("swelling_strain", "p_max")
+
+
+class DelayedSwelling(MaterialModel):
+    """A base material-point model with delayed volumetric swelling in series, equations (S1)-(S4) (module
+    docstring).
+
+    base    : the base model (a MaterialModel; its state must hold ``void_ratio``);
+    kappa_s : swelling-creep index (-), >= 0: the delayed swelling at equilibrium is kappa_s ln(p'_max/p') in void
+              ratio; scalar or (n,);
+    tau_s   : time constant of the delayed swelling (s), > 0; scalar or (n,).
+
+    State: the base model's plus ``swelling_strain`` (n,) eps_s (compression positive, <= 0 after swelling) and
+    ``p_max`` (n,) the largest p' carried (kPa); ``void_ratio`` is the specimen's, swelling included (S4).
+    ``update`` depends on dt (``rate_dependent``), the tangent is consistent when the base's is.
+    """
+
+    rate_dependent = True
+    #: tolerance on the residual R of the swelling strain (a strain)
+    tolerance = 1e-12
+    max_iterations = 60
+
+    def __init__(self, base, kappa_s, tau_s):
+        if not isinstance(base, MaterialModel):
+            raise ParameterError(f"delayed swelling: the base must be a constitutive MaterialModel, got "
+                                 f"{type(base).__name__}")
+        self.base = base
+        self.name = f"{base.name} with delayed swelling"
+        self.tangent_kind = base.tangent_kind
+        self.max_strain_step = base.max_strain_step
+        self.parameter_names = tuple(base.parameter_names) + tuple(SWELLING_RANGES)
+        self.parameter_ranges = {**base.parameter_ranges, **SWELLING_RANGES}
+        self.kappa_s = self._checked("kappa_s", kappa_s)
+        self.tau_s = self._checked("tau_s", tau_s)
+
+    def parameters(self) -> dict:
+        """The base model's parameter record with kappa_s and tau_s."""
+        return {**self.base.parameters(), "kappa_s": self.kappa_s, "tau_s": self.tau_s}
+
+    def initial_state(self, stress0, void_ratio0=None) -> dict:
+        """The base model's initial state with eps_s = 0 and p'_max = p'_0 (> 0), the initial mean effective stress:
+        the specimen has stood at its initial state long enough for the delayed element to be at rest (S2 gives
+        eps_s^eq = 0 there), so nothing swells before the test unloads it."""
+        stress0 = as_points(stress0, "stress0")
+        state = self.base.initial_state(stress0, void_ratio0)
+        p0 = mean_stress(stress0)
+        if np.any(p0 <= 0.0):
+            i = int(np.argmax(p0 <= 0.0))
+            raise ValueError(f"{self.name}: initial mean effective stress p' = {p0[i]:g} kPa at point {i} must be > 0")
+        return {**state, "swelling_strain": np.zeros(p0.shape[0]), "p_max": p0.copy()}
+
+    def update(self, stress, state, dstrain, dt, tangent=True):
+        """One increment of total strain ``dstrain`` (n, 6) over ``dt`` (s, scalar or (n,), >= 0), backward Euler
+        (module docstring). Returns the new effective stress (n, 6), the new state and the tangent (n, 6, 6; also
+        with ``tangent=False``: the Newton on eps_s needs the base's tangent anyway)."""
+        stress = as_points(stress, "stress")
+        dstrain = as_points(dstrain, "dstrain")
+        n = stress.shape[0]
+        e = np.broadcast_to(np.asarray(state["void_ratio"], dtype=float), (n,))
+        eps_n = state["swelling_strain"]
+        a = np.broadcast_to(np.asarray(dt, dtype=float) / self.tau_s, (n,))
+        step = _Increment(self.base, stress, state, dstrain, dt, a, np.broadcast_to(self.kappa_s / (1.0 + e), (n,)))
+        x = eps_n / (1.0 + a)                                      # x_hi: the least swelling possible
+        lo, hi = x.copy(), x.copy()                                # bracket of the root, R(lo) <= 0 <= R(hi)
+        r_lo, r_hi = np.full(n, np.nan), np.zeros(n)               # R at its ends (nan: not evaluated)
+        active = np.ones(n, dtype=bool)
+        residual_before = np.full(n, np.inf)
+        result = None
+        for iteration in range(self.max_iterations):
+            residual, evaluation = step.evaluate(x, active)
+            done = active & (np.abs(residual) <= self.tolerance)
+            result = evaluation if done.all() else _merge(done, evaluation, result) if done.any() else result
+            active &= ~done
+            if not active.any():
+                break
+            if iteration == 0:
+                lo = x - np.maximum(residual, 0.0)
+            up, down = active & (residual > 0.0), active & (residual < 0.0)
+            hi, r_hi = np.where(up, x, hi), np.where(up, residual, r_hi)
+            lo, r_lo = np.where(down, x, lo), np.where(down, residual, r_lo)
+            progress = np.abs(residual) <= 0.5 * residual_before
+            x = np.where(active, _next_iterate(x, residual, evaluation, lo, hi, r_lo, r_hi, progress), x)
+            residual_before = np.abs(residual)
+        else:
+            i = int(np.flatnonzero(active)[0])
+            raise IntegrationError(i, f"delayed swelling: the swelling strain did not converge in "
+                                   f"{self.max_iterations} base updates (|R| = {residual_before[i]:.3g}, bracket "
+                                   f"[{lo[i]:.6g}, {hi[i]:.6g}], strain increment {dstrain[i]}, dt {a[i]:.3g} tau_s)")
+        x, s_b, st_b, D_b, p, c = result
+        new_state = {**st_b, "void_ratio": st_b["void_ratio"] - (1.0 + e) * (x - eps_n), "swelling_strain": x,
+                     "p_max": np.maximum(state["p_max"], p)}
+        Dm = D_b[:, :, :3].sum(axis=2)          # D^b m
+        mD = D_b[:, :3, :].sum(axis=1)          # m^T D^b
+        K_t = Dm[:, :3].sum(axis=1) / 9.0
+        C = D_b - (c / (9.0 * (1.0 + c * K_t)))[:, None, None] * Dm[:, :, None] * mD[:, None, :]
+        return s_b, new_state, C
+
+
+class _Increment:
+    """The residual R(x) of one increment (module docstring) at a trial swelling strain x = eps_s,n+1 (n,)."""
+
+    def __init__(self, base, stress, state, dstrain, dt, a, slope):
+        self.base, self.stress, self.dstrain, self.dt, self.a, self.slope = base, stress, dstrain, dt, a, slope
+        self.base_state = {k: v for k, v in state.items() if k not in OWN_STATE}
+        self.eps_n, self.p_max = state["swelling_strain"], state["p_max"]
+
+    def evaluate(self, x, active):
+        """(R (n,), (x, base stress, base state, base tangent, p', c)) with c = a/(1 + a) kappa_s/((1 + e_n) p')
+        where (S2) acts, else 0; IntegrationError where (S2) acts at p' <= 0 on an ``active`` point."""
+        a, p_max = self.a, self.p_max
+        base_strain = self.dstrain - ((x - self.eps_n) / 3.0)[:, None] * IDENTITY
+        s_b, st_b, D_b = self.base.update(self.stress, self.base_state, base_strain, self.dt, tangent=True)
+        p = mean_stress(s_b)
+        below = p < p_max
+        law = below & (a > 0.0) & (self.slope > 0.0)
+        if np.any(active & law & (p <= 0.0)):
+            i = int(np.flatnonzero(active & law & (p <= 0.0))[0])
+            raise IntegrationError(i, f"delayed swelling: p' = {p[i]:.4g} kPa <= 0 where the swelling law (S2) "
+                                   f"applies (p'_max = {p_max[i]:.4g} kPa)")
+        eq = np.where(below, self.slope * np.log(np.where(law & (p > 0.0), p, p_max) / p_max), 0.0)   # (S2)
+        residual = x - (self.eps_n + a * eq) / (1.0 + a)
+        c = np.where(law, a / (1.0 + a) * self.slope / np.where(law, p, 1.0), 0.0)
+        return residual, (x, s_b, st_b, D_b, p, c)
+
+
+def _next_iterate(x, residual, evaluation, lo, hi, r_lo, r_hi, progress):
+    """The next trial x: Newton (R' = 1 + c K_t) where it stays strictly inside the bracket [lo, hi] and the last
+    iterate ``progress``-ed (halved |R|); else false position between the bracket's ends (both evaluated, progress),
+    else bisection."""
+    D_b, c = evaluation[3], evaluation[5]
+    slope_R = 1.0 + c * D_b[:, :3, :3].sum(axis=(1, 2)) / 9.0
+    newton = x - residual / np.where(slope_R > 0.0, slope_R, 1.0)
+    both = np.isfinite(r_lo)
+    secant = lo - np.where(both, r_lo, 0.0) * (hi - lo) / np.where(both, r_hi - r_lo, 1.0)
+    middle = 0.5 * (lo + hi)
+    fallback = np.where(both & progress & (secant > lo) & (secant < hi), secant, middle)
+    return np.where((slope_R > 0.0) & (newton > lo) & (newton < hi) & progress, newton, fallback)
+
+
+def _merge(mask, new, old):
+    """Per point, the tuple ``new`` where ``mask`` and ``old`` elsewhere (``old`` None: ``new``); state dicts too."""
+    if old is None:
+        return new
+
+    def pick(a, b):
+        if isinstance(a, dict):
+            return {k: pick(a[k], b[k]) for k in a}
+        return np.where(mask.reshape((-1,) + (1,) * (np.ndim(a) - 1)), a, b)
+
+    return tuple(pick(a, b) for a, b in zip(new, old))
+
+
+_CLASSES = {}
+
+
+def swelling_class(base_class: type) -> type:
+    """The model class "``base_class`` with delayed swelling", built once per base class: its constructor takes the
+    base class's arguments plus ``kappa_s``, ``tau_s`` and ``swelling=True`` (keywords), and its class attributes
+    (parameter names and ranges, switches with ``swelling`` on, the parameters the switch needs, ...) are the base
+    class's with those added, so that a model is rebuilt from its class, ``parameters()`` and switches like the
+    others (``type(model)(**parameters, **switches)``) and described by ``constitutive.registry.ModelSpec.of``.
+    Switch values and ``vertical_axis`` of the base model are readable on the wrapped one; a base constructor that
+    returns a subclass (``ANICREEP(..., specific_volume="current")``) gives the swelling class of that subclass."""
+    if base_class not in _CLASSES:
+        _CLASSES[base_class] = _make_swelling_class(base_class)
+    return _CLASSES[base_class]
+
+
+def _make_swelling_class(base_class):
+    own = tuple(SWELLING_RANGES)
+    exposed = tuple(base_class.switches) + (("vertical_axis",) if base_class.oriented else ())
+
+    def __init__(self, *args, kappa_s, tau_s, swelling=True, **kwargs):
+        if swelling is not True:
+            raise ParameterError(f"{base_class.name} with delayed swelling: swelling = {swelling!r}; the class "
+                                 f"without it is {base_class.__name__}")
+        base = base_class(*args, **kwargs)
+        if type(base) is not base_class:   # a constructor option carried by a subclass (ANICREEP specific_volume)
+            self.__class__ = swelling_class(type(base))
+        DelayedSwelling.__init__(self, base, kappa_s, tau_s)
+        self.swelling = True
+        for key in exposed:
+            setattr(self, key, getattr(base, key))
+
+    signature = inspect.signature(base_class.__init__)
+    extra = [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY) for k in own]
+    extra.append(inspect.Parameter(SWELLING_SWITCH, inspect.Parameter.KEYWORD_ONLY, default=True))
+    __init__.__signature__ = signature.replace(parameters=list(signature.parameters.values()) + extra)
+    attributes = {
+        "__init__": __init__,
+        "__doc__": f"{base_class.__name__} with delayed swelling in series (constitutive.swelling, (S1)-(S4)).",
+        "name": f"{base_class.name} with delayed swelling",
+        "tangent_kind": base_class.tangent_kind,
+        "parameter_names": tuple(base_class.parameter_names) + own,
+        "parameter_ranges": {**base_class.parameter_ranges, **SWELLING_RANGES},
+        "required_parameters": tuple(base_class.required_parameters),
+        "switches": {**base_class.switches, SWELLING_SWITCH: True},
+        "switch_parameters": {**base_class.switch_parameters, SWELLING_SWITCH: own},
+        "parameter_defaults": dict(base_class.parameter_defaults),
+        "exactly_one": base_class.exactly_one,
+        "at_most_one": base_class.at_most_one,
+        "catalog_switches": dict(base_class.catalog_switches),
+        "void_ratio_parameter": base_class.void_ratio_parameter,
+        "parameter_constraints": base_class.parameter_constraints,
+        "oriented": base_class.oriented,
+        "max_strain_step": base_class.max_strain_step,
+    }
+    return type(f"{base_class.__name__}WithSwelling", (DelayedSwelling,), attributes)
