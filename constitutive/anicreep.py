@@ -57,8 +57,8 @@ factor v written (1 + e0) above in (E), (H), mu of (V) and omega of (K) is
                         gives d eps_v = lambda ln(p'_{n+1}/p'_n)/v_n, so e = e_0 - lambda ln(p'/p'_0) holds exactly
                         for any step size, and the volumetric strain sum_n (e_n - e_{n+1})/(1 + e_n) tends to the
                         logarithmic ln((1 + e_0)/(1 + e)) as the steps shrink (tested).
-  The option is carried by the class (``ANICREEP(..., specific_volume="current")`` is a
-  :class:`CurrentVolumeANICREEP`), so a model rebuilt from its class, parameters and switches keeps it.
+  The option is a constructor option (``option_names``), so a model rebuilt with other parameters
+  (``MaterialModel.replaced``) keeps it.
 
 Integration of one increment (backward Euler, per point, compiled: :mod:`constitutive._anicreep_kernel`):
   unknowns X = (sigma'_{n+1} (6), alpha_d,{n+1} (6), z), the viscoplastic multiplier d lambda = d lambda_ref exp(z),
@@ -88,7 +88,7 @@ import numpy as np
 from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
 from .invariants import IDENTITY, mean_stress
 
-__all__ = ["ANICREEP", "CurrentVolumeANICREEP", "anisotropy_constants"]
+__all__ = ["ANICREEP", "SPECIFIC_VOLUMES", "anisotropy_constants"]
 
 _NO_TANGENT = np.empty((1, 6, 6))  # tangent_out of a call without the tangent (row 0 only, never written)
 
@@ -106,6 +106,8 @@ def _kernel():
 
 #: default reference time tau of sigma'_p0 (s): 24 h, the duration of a standard oedometer load stage
 REFERENCE_TIME = 86400.0
+#: the values of the ``specific_volume`` option (module docstring)
+SPECIFIC_VOLUMES = ("initial", "current")
 
 
 def anisotropy_constants(M):
@@ -150,8 +152,8 @@ class ANICREEP(MaterialModel):
         vertical_axis : 1, 2 or 3, the Voigt component that is the deposition (vertical, K0-consolidation) axis of
                     the initial fabric alpha_d = alpha_K0 (e_v e_v - I/3). Default 1 (the axial direction of the lab
                     drivers); the axisymmetric FE maps r->1, z->2, theta->3, so the pressuremeter needs 2.
-        specific_volume : "initial" (v = 1 + e0 in (E), (H), mu and omega; default: the class's own, "initial" for
-                    ANICREEP) or "current" (v = 1 + e_n frozen over each increment; module docstring).
+        specific_volume : "initial" (v = 1 + e0 in (E), (H), mu and omega; default) or "current" (v = 1 + e_n frozen
+                    over each increment; module docstring).
 
     State (dict of arrays over n points): ``alpha`` (n, 6) the deviatoric fabric tensor alpha_d (stress-like Voigt),
     ``pm_ref`` (n,) the reference-surface size p'_m^r (kPa), ``void_ratio`` (n,), ``vp_strain`` (n, 6) accumulated
@@ -193,18 +195,16 @@ class ANICREEP(MaterialModel):
     #: 7 or 9 local unknowns instead of 13: _anicreep_kernel docstring); False integrates all 6 (the tests' oracle)
     reduce_components = True
 
-    #: the specific volume v of (E), (H), mu and omega: "initial" (1 + e0) or "current" (1 + e_n, module docstring)
-    specific_volume = "initial"
+    option_names = ("specific_volume",)
 
     def __init__(self, M, lambda_, kappa, nu, e0, sigma_p0, C_alpha_e=None, tau=REFERENCE_TIME, *, anisotropy=True,
                  viscous=True, destructuration=False, chi0=None, xi=None, xi_d=None, vertical_axis=1,
-                 specific_volume=None):
+                 specific_volume="initial"):
         name = self.name
-        if specific_volume is not None:
-            if specific_volume not in _VOLUME_CLASSES:
-                raise ParameterError(f"{name}: specific_volume = {specific_volume!r} must be one of "
-                                     f"{', '.join(map(repr, _VOLUME_CLASSES))}")
-            self.__class__ = _VOLUME_CLASSES[specific_volume]  # the class carries the option (module docstring)
+        if specific_volume not in SPECIFIC_VOLUMES:
+            raise ParameterError(f"{name}: specific_volume = {specific_volume!r} must be one of "
+                                 f"{', '.join(map(repr, SPECIFIC_VOLUMES))}")
+        self.specific_volume = specific_volume
         self.M = self._checked("M", M)
         self.lambda_ = self._checked("lambda_", lambda_)
         self.kappa = self._checked("kappa", kappa)
@@ -403,15 +403,3 @@ class ANICREEP(MaterialModel):
                      "overstress": ratio, "chi": chi}
         return new_stress, new_state, stiffness if tangent else None
 
-
-class CurrentVolumeANICREEP(ANICREEP):
-    """ANICREEP with ``specific_volume="current"`` (v = 1 + e_n in (E), (H), mu and omega; module docstring), what
-    ``ANICREEP(..., specific_volume="current")`` builds. A class of its own so that the option survives a model
-    rebuilt as ``type(model)(**parameters, **switches)`` (the staged laboratory programmes rebuild a specimen's
-    model with its own e0 and preconsolidation)."""
-
-    specific_volume = "current"
-
-
-#: specific_volume -> the class that carries it
-_VOLUME_CLASSES = {"initial": ANICREEP, "current": CurrentVolumeANICREEP}

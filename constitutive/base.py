@@ -141,6 +141,8 @@ class MaterialModel:
     #: laboratory drivers default to strain steps of at most this; None: the model's own triaxial integrator
     #: controls its substeps (one driver step per record)
     max_strain_step: float | None = 0.0025
+    #: constructor options that are neither parameters nor physics switches (kept by :meth:`replaced`)
+    option_names: tuple = ()
 
     def _checked(self, name, value):
         """``value`` of parameter ``name`` checked against ``parameter_ranges[name]`` (ParameterError)."""
@@ -168,6 +170,16 @@ class MaterialModel:
     def parameters(self) -> dict:
         """The parameter record as a dict (names as in docs/reference.md)."""
         return {k: getattr(self, k) for k in self.parameter_names}
+
+    def replaced(self, changes: dict) -> MaterialModel:
+        """The same model (class, physics switches, constructor options, ``vertical_axis``) with the parameters in
+        ``changes`` replaced (scalars or (n,) arrays; a value None removes that parameter)."""
+        args = {k: v for k, v in {**self.parameters(), **changes}.items() if v is not None}
+        args.update({s: getattr(self, s) for s in self.switches})
+        args.update({o: getattr(self, o) for o in self.option_names})
+        if self.oriented:
+            args["vertical_axis"] = self.vertical_axis
+        return type(self)(**args)
 
     def __repr__(self):
         body = ", ".join(f"{k}={np.array2string(np.asarray(v), precision=4)}" for k, v in self.parameters().items())

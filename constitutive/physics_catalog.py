@@ -162,13 +162,14 @@ CATALOG = (
          _item("hold time after unloading", "supporting", +1, "the void ratio keeps rising above the simulation "
                "after unloading", ("void_ratio",)),
          _item("loading phase", "supporting", 0, "holds after unloading misfit unlike holds after loading", None)),
-        {},
-        None,
-        "no model of constitutive/ has time-dependent swelling: ANICREEP's viscoplastic strain rate follows the "
-        "overstress of its yield surface, which is small and compressive inside the surface after unloading; a "
-        "swelling law (e.g. a time-dependent elastic expansion with a swelling index C_s_alpha) would be needed",
+        {"swelling": True},
+        # delayed swelling in series with the base (constitutive.swelling, (S1)-(S4)): kappa_s, the delayed
+        # swelling's slope in e-ln p', log-uniform over 0.001-0.05 (a fraction to about half of the kappa of soft
+        # clays); tau_s, its time constant, log-uniform over 100 s to 4 months (laboratory holds last hours to weeks)
+        Enrichment("ANICREEP", {"swelling": True}, {"kappa_s": (0.001, 0.05), "tau_s": (1.0e2, 1.0e7)},
+                   ("kappa_s", "tau_s")),
         references=("Yin & Graham (1999) elastic visco-plastic swelling; Leroueil, Kabbaj, Tavenas & Bouchard (1985) "
-                    "stress-strain-strain rate relation",)),
+                    "stress-strain-strain rate relation; constitutive/swelling.py (S1)-(S4)",)),
     Candidate(
         "partial drainage",
         "Pore water flows during the test: neither the drained nor the undrained idealization holds. The excess pore "

@@ -27,6 +27,7 @@ from .base import MaterialModel, ParameterError
 from .invariants import deviatoric_stress, mean_stress
 from .mcc import ModifiedCamClay
 from .simsand import SIMSAND
+from .swelling import SWELLING_RANGES, SWELLING_SWITCH, DelayedSwelling
 
 __all__ = ["ModelSpec", "MODELS", "SBP_MODELS", "model_spec", "build_model", "class_name", "Family",
            "enrichment_family", "mcc_as_anicreep", "k0_surface_ratio"]
@@ -109,12 +110,23 @@ def build_model(model: str, values: dict, switches: dict, vertical_axis=1) -> Ma
     """The material-point model ``model`` with parameter ``values`` (scalars or (n,) arrays) and ``switches``.
 
     ``switches`` may also hold constructor arguments that an enrichment of the missing-physics catalog fixes (a
-    parameter such as ANICREEP's xi_d): where a name is in both, ``values`` wins. ``vertical_axis`` (1, 2, 3: the
+    parameter such as ANICREEP's xi_d): where a name is in both, ``values`` wins. The switch ``swelling`` (any
+    model) puts delayed swelling in series with it (``constitutive.swelling.DelayedSwelling``, parameters kappa_s
+    and tau_s in ``values``). ``vertical_axis`` (1, 2, 3: the
     Voigt component of the deposition axis; 2 in the axisymmetric FE) goes to the models that take it (``oriented``).
     Raises ParameterError naming the model and the parameter for an unknown model, an unknown name, a missing
     required parameter or a value outside its physical range.
     """
     spec = model_spec(model)
+    if switches.get(SWELLING_SWITCH):  # delayed swelling in series with the model (constitutive.swelling)
+        own = {k: values[k] for k in SWELLING_RANGES if k in values}
+        missing = [k for k in SWELLING_RANGES if k not in own]
+        if missing:
+            raise ParameterError(f"{model}: missing required parameter{'s' if len(missing) > 1 else ''} "
+                                 f"{', '.join(missing)} for {SWELLING_SWITCH}=True")
+        base = build_model(model, {k: v for k, v in values.items() if k not in own},
+                           {k: v for k, v in switches.items() if k != SWELLING_SWITCH}, vertical_axis)
+        return DelayedSwelling(base, own["kappa_s"], own["tau_s"])
     arguments = {**switches, **values}
     accepted = set(inspect.signature(spec.cls).parameters) - {"vertical_axis"}
     unknown = sorted(k for k in arguments if k not in accepted)

@@ -43,14 +43,12 @@ the consistent tangent of the increment when the base's is (``tangent_kind`` is 
 """
 from __future__ import annotations
 
-import inspect
-
 import numpy as np
 
 from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points
 from .invariants import IDENTITY, mean_stress
 
-__all__ = ["DelayedSwelling", "SWELLING_SWITCH", "SWELLING_RANGES", "swelling_class"]
+__all__ = ["DelayedSwelling", "SWELLING_SWITCH", "SWELLING_RANGES"]
 
 #: the physics switch of the missing-physics catalog that adds delayed swelling
 SWELLING_SWITCH = "swelling"
@@ -91,12 +89,20 @@ class DelayedSwelling(MaterialModel):
         self.max_strain_step = base.max_strain_step
         self.parameter_names = tuple(base.parameter_names) + tuple(SWELLING_RANGES)
         self.parameter_ranges = {**base.parameter_ranges, **SWELLING_RANGES}
+        self.void_ratio_parameter = base.void_ratio_parameter
         self.kappa_s = self._checked("kappa_s", kappa_s)
         self.tau_s = self._checked("tau_s", tau_s)
 
     def parameters(self) -> dict:
         """The base model's parameter record with kappa_s and tau_s."""
         return {**self.base.parameters(), "kappa_s": self.kappa_s, "tau_s": self.tau_s}
+
+    def replaced(self, changes: dict) -> DelayedSwelling:
+        """The same base model and swelling with the parameters in ``changes`` replaced (kappa_s, tau_s here, the
+        others in the base model, ``MaterialModel.replaced``)."""
+        rest = {k: v for k, v in changes.items() if k not in SWELLING_RANGES}
+        return DelayedSwelling(self.base.replaced(rest) if rest else self.base, changes.get("kappa_s", self.kappa_s),
+                               changes.get("tau_s", self.tau_s))
 
     def initial_state(self, stress0, void_ratio0=None) -> dict:
         """The base model's initial state with eps_s = 0 and p'_max = p'_0 (> 0), the initial mean effective stress:
@@ -209,61 +215,3 @@ def _merge(mask, new, old):
         return np.where(mask.reshape((-1,) + (1,) * (np.ndim(a) - 1)), a, b)
 
     return tuple(pick(a, b) for a, b in zip(new, old))
-
-
-_CLASSES = {}
-
-
-def swelling_class(base_class: type) -> type:
-    """The model class "``base_class`` with delayed swelling", built once per base class: its constructor takes the
-    base class's arguments plus ``kappa_s``, ``tau_s`` and ``swelling=True`` (keywords), and its class attributes
-    (parameter names and ranges, switches with ``swelling`` on, the parameters the switch needs, ...) are the base
-    class's with those added, so that a model is rebuilt from its class, ``parameters()`` and switches like the
-    others (``type(model)(**parameters, **switches)``) and described by ``constitutive.registry.ModelSpec.of``.
-    Switch values and ``vertical_axis`` of the base model are readable on the wrapped one; a base constructor that
-    returns a subclass (``ANICREEP(..., specific_volume="current")``) gives the swelling class of that subclass."""
-    if base_class not in _CLASSES:
-        _CLASSES[base_class] = _make_swelling_class(base_class)
-    return _CLASSES[base_class]
-
-
-def _make_swelling_class(base_class):
-    own = tuple(SWELLING_RANGES)
-    exposed = tuple(base_class.switches) + (("vertical_axis",) if base_class.oriented else ())
-
-    def __init__(self, *args, kappa_s, tau_s, swelling=True, **kwargs):
-        if swelling is not True:
-            raise ParameterError(f"{base_class.name} with delayed swelling: swelling = {swelling!r}; the class "
-                                 f"without it is {base_class.__name__}")
-        base = base_class(*args, **kwargs)
-        if type(base) is not base_class:   # a constructor option carried by a subclass (ANICREEP specific_volume)
-            self.__class__ = swelling_class(type(base))
-        DelayedSwelling.__init__(self, base, kappa_s, tau_s)
-        self.swelling = True
-        for key in exposed:
-            setattr(self, key, getattr(base, key))
-
-    signature = inspect.signature(base_class.__init__)
-    extra = [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY) for k in own]
-    extra.append(inspect.Parameter(SWELLING_SWITCH, inspect.Parameter.KEYWORD_ONLY, default=True))
-    __init__.__signature__ = signature.replace(parameters=list(signature.parameters.values()) + extra)
-    attributes = {
-        "__init__": __init__,
-        "__doc__": f"{base_class.__name__} with delayed swelling in series (constitutive.swelling, (S1)-(S4)).",
-        "name": f"{base_class.name} with delayed swelling",
-        "tangent_kind": base_class.tangent_kind,
-        "parameter_names": tuple(base_class.parameter_names) + own,
-        "parameter_ranges": {**base_class.parameter_ranges, **SWELLING_RANGES},
-        "required_parameters": tuple(base_class.required_parameters),
-        "switches": {**base_class.switches, SWELLING_SWITCH: True},
-        "switch_parameters": {**base_class.switch_parameters, SWELLING_SWITCH: own},
-        "parameter_defaults": dict(base_class.parameter_defaults),
-        "exactly_one": base_class.exactly_one,
-        "at_most_one": base_class.at_most_one,
-        "catalog_switches": dict(base_class.catalog_switches),
-        "void_ratio_parameter": base_class.void_ratio_parameter,
-        "parameter_constraints": base_class.parameter_constraints,
-        "oriented": base_class.oriented,
-        "max_strain_step": base_class.max_strain_step,
-    }
-    return type(f"{base_class.__name__}WithSwelling", (DelayedSwelling,), attributes)

@@ -55,35 +55,23 @@ CHUNK_STEPS = 400
 
 
 # ---------------------------------------------------------------------------------------------- the specimen
-def _rebuild(model, changes: dict):
-    """A model of the same class and switches with some parameters replaced (None removes one)."""
-    cls = type(model)
-    args = {k: v for k, v in model.parameters().items() if v is not None}
-    args.update(changes)
-    args = {k: v for k, v in args.items() if v is not None}
-    args.update({s: getattr(model, s) for s in cls.switches})
-    if cls.oriented:
-        args["vertical_axis"] = model.vertical_axis
-    return cls(**args)
-
-
 def specimen_model(model, initial, e0=None):
     """(the model for this specimen, its void ratio at the start) from the test's initial state (module
     docstring, "Initial state"). ``e0``: the void ratio when the test gives none (scalar or (n,))."""
     changes = {}
     start_e = initial.e0 if initial.e0 is not None else e0
-    if type(model).void_ratio_parameter:
+    if model.void_ratio_parameter:
         if start_e is not None:
             changes["e0"] = start_e
         else:
-            start_e = model.e0
+            start_e = model.parameters()["e0"]
     if start_e is None:
         raise ValueError(f"{model.name}: the test gives no initial void ratio e0")
     pre = initial.preconsolidation
     if pre is None and initial.ocr is not None:
         pre = initial.ocr * initial.vertical
     if pre is not None:
-        names = type(model).parameter_names
+        names = model.parameter_names
         if "sigma_p0" in names:
             changes["sigma_p0"] = pre
         elif "ocr" in names:
@@ -91,7 +79,7 @@ def specimen_model(model, initial, e0=None):
         else:
             raise ValueError(f"{model.name} has no preconsolidation state: a test's ocr / preconsolidation does not "
                              f"apply")
-    return (_rebuild(model, changes) if changes else model), start_e
+    return (model.replaced(changes) if changes else model), start_e
 
 
 def _initial_stress(initial, n):
@@ -106,7 +94,7 @@ def _initial_stress(initial, n):
 
 def _particle(model, i):
     """The one-particle model of particle i of a batched model."""
-    return _rebuild(model, {k: (np.asarray(v)[i] if np.ndim(v) else v)
+    return model.replaced({k: (np.asarray(v)[i] if np.ndim(v) else v)
                             for k, v in model.parameters().items() if v is not None})
 
 
@@ -132,7 +120,7 @@ def _start_state(model, stress, e, n):
     good = int(np.flatnonzero(~refused)[0])
     stress[refused] = stress[good]
     e = np.where(refused, e[good], e)
-    trial = _rebuild(model, {k: (np.where(refused, np.asarray(v)[good], v) if np.ndim(v) else v)
+    trial = model.replaced({k: (np.where(refused, np.asarray(v)[good], v) if np.ndim(v) else v)
                              for k, v in model.parameters().items() if v is not None})
     state = trial.initial_state(stress, e)
     return state, why
@@ -363,7 +351,7 @@ def _stack(models, n):
     if len(models) == 1:
         return models[0]
     names = [k for k, v in models[0].parameters().items() if v is not None]
-    return _rebuild(models[0], {k: np.concatenate([np.broadcast_to(np.asarray(m.parameters()[k], dtype=float), (n,))
+    return models[0].replaced({k: np.concatenate([np.broadcast_to(np.asarray(m.parameters()[k], dtype=float), (n,))
                                                    for m in models]) for k in names})
 
 

@@ -14,6 +14,7 @@ import inference
 from cases import concealed_lab as lab
 from cases import concealed_viscosity as cv
 from constitutive import physics_catalog as catalog
+from constitutive.swelling import SWELLING_RANGES, SWELLING_SWITCH
 from inference import diagnosis
 from inference.diagnosis import relative_residuals, screen
 
@@ -36,14 +37,17 @@ def test_catalog_entries_are_complete_and_well_formed():
             assert len(c.unavailable) > 20, f"{c.name}: an unavailable enrichment must say why"
         else:
             cls = getattr(constitutive, c.enrichment.model_class)
-            kwargs = set(inspect.signature(cls).parameters) | set(c.enrichment.forward_arguments)
+            kwargs = (set(inspect.signature(cls).parameters) | set(c.enrichment.forward_arguments)
+                      | {SWELLING_SWITCH, *SWELLING_RANGES})  # any model takes delayed swelling (registry)
             assert set(c.enrichment.switches) <= kwargs, c.name
             for p, (lo, hi) in c.enrichment.parameters.items():
                 assert p in kwargs and 0 < lo < hi, (c.name, p)
             assert set(c.enrichment.log_uniform) <= set(c.enrichment.parameters)
         json.dumps(c.as_data())  # plain data for inference/
-    # the real enrichments now: three ANICREEP switches, the coupled SBP forward model and two SIMSAND switches
-    assert {c.name for c in catalog.CATALOG if c.enrichment} == {"viscosity", "partial drainage", "anisotropy",
+    # the real enrichments now: three ANICREEP switches, delayed swelling, the coupled SBP forward model and two
+    # SIMSAND switches
+    assert {c.name for c in catalog.CATALOG if c.enrichment} == {"viscosity", "time-dependent swelling",
+                                                                  "partial drainage", "anisotropy",
                                                                   "destructuration", "state-dependent dilatancy",
                                                                   "Lode dependence"}
 

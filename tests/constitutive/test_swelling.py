@@ -6,15 +6,13 @@ elastic base), the backward-Euler recurrence of the linear relaxation ODE, first
 model itself (first loading, tau_s -> infinity, kappa_s = 0), point-by-point runs, and central finite differences
 of the tangent.
 """
-import inspect
 
 import numpy as np
 import pytest
 
 from constitutive import ANICREEP, LinearElastic, ModifiedCamClay, ParameterError
 from constitutive import labtests as lt
-from constitutive.registry import ModelSpec
-from constitutive.swelling import DelayedSwelling, swelling_class
+from constitutive.swelling import DelayedSwelling
 
 M, LAM, KAP = 1.2, 0.2, 0.02
 E0 = 1.0
@@ -305,31 +303,21 @@ def test_parameters_are_checked():
         DelayedSwelling(mcc(), 0.01, 0.0)
 
 
-def test_swelling_class_rebuilds_and_describes_itself():
-    """The class of "ANICREEP with delayed swelling": constructor = ANICREEP's arguments + kappa_s, tau_s; rebuilt
-    as type(model)(**parameters, **switches) it is the same model; its ModelSpec lists the added parameters under
-    the switch ``swelling``; it integrates like DelayedSwelling(ANICREEP(...), ...)."""
-    cls = swelling_class(ANICREEP)
-    assert swelling_class(ANICREEP) is cls
-    assert {"kappa_s", "tau_s", "swelling", "M", "vertical_axis"} <= set(inspect.signature(cls).parameters)
-    args = dict(M=M, lambda_=LAM, kappa=KAP, nu=0.25, e0=E0, sigma_p0=60.0, C_alpha_e=0.005, anisotropy=False)
-    model = cls(**args, kappa_s=0.02, tau_s=1e3, vertical_axis=2)
-    rebuilt = cls(**{k: v for k, v in model.parameters().items() if v is not None},
-                  **{s: getattr(model, s) for s in cls.switches}, vertical_axis=model.vertical_axis)
-    assert rebuilt.parameters().keys() == model.parameters().keys() and rebuilt.anisotropy is False
-    assert rebuilt.base.vertical_axis == 2
-    spec = ModelSpec.of(cls)
-    assert spec.needs["swelling"] == ("kappa_s", "tau_s") and spec.e0_parameter
-    assert set(spec.needed({})) >= {"kappa_s", "tau_s", "M"}
+def test_the_registry_builds_it_and_a_rebuild_keeps_it():
+    """The switch ``swelling`` of constitutive.registry.build_model puts DelayedSwelling in series with the model;
+    ``replaced`` (what the staged programmes do to a specimen's model) changes the base's and the swelling's
+    parameters and keeps the base's switches and options; the result integrates like the hand-built wrapper."""
+    from constitutive.registry import build_model
+    args = dict(M=M, lambda_=LAM, kappa=KAP, nu=0.25, e0=E0, sigma_p0=60.0, C_alpha_e=0.005)
+    model = build_model("ANICREEP", {**args, "kappa_s": 0.02, "tau_s": 1e3},
+                        {"anisotropy": False, "swelling": True, "specific_volume": "current"}, vertical_axis=2)
+    assert isinstance(model, DelayedSwelling) and model.base.anisotropy is False
+    assert model.base.vertical_axis == 2 and model.base.specific_volume == "current"
+    again = model.replaced({"sigma_p0": 70.0, "tau_s": 2e3})
+    assert again.base.sigma_p0 == 70.0 and again.tau_s == 2e3 and again.kappa_s == 0.02
+    assert again.base.specific_volume == "current" and again.base.vertical_axis == 2
+    with pytest.raises(ParameterError, match="tau_s"):
+        build_model("ANICREEP", {**args, "kappa_s": 0.02}, {"anisotropy": False, "swelling": True})
     plain = DelayedSwelling(anicreep(), 0.02, 1e3)
-    a = oedometer_programme(plain)
-    b = oedometer_programme(cls(**args, kappa_s=0.02, tau_s=1e3))
-    np.testing.assert_array_equal(a["strain"], b["strain"])
-    with pytest.raises(ParameterError, match="swelling"):
-        cls(**args, kappa_s=0.02, tau_s=1e3, swelling=False)
-    # an option that ANICREEP carries by its class survives the rebuild
-    current = cls(**args, kappa_s=0.02, tau_s=1e3, specific_volume="current")
-    assert type(current) is swelling_class(type(current.base)) and current.base.specific_volume == "current"
-    again = type(current)(**{k: v for k, v in current.parameters().items() if v is not None},
-                          **{s: getattr(current, s) for s in cls.switches})
-    assert again.base.specific_volume == "current"
+    built = build_model("ANICREEP", {**args, "kappa_s": 0.02, "tau_s": 1e3}, {"anisotropy": False, "swelling": True})
+    np.testing.assert_array_equal(oedometer_programme(plain)["strain"], oedometer_programme(built)["strain"])
