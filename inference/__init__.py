@@ -3,6 +3,7 @@
 Generic: knows nothing of soil. A forward model is any callable from a parameter vector to simulated curves.
 """
 from .checkpoint import CheckpointError
+from .evidence import EvidenceEstimate, mode_evidence
 from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
 from .likelihood import ForwardModelError, Likelihood, goodness_of_fit
 from .diagnosis import ScreenReport, screen
@@ -16,5 +17,5 @@ __all__ = [
     "ForwardModelError", "Likelihood", "goodness_of_fit", "Curve", "DataError", "Observations", "Test",
     "Bound", "Constraint", "LogUniformPrior", "Prior", "PriorError", "UniformPrior", "Posterior", "RunProgress", "write_failures",
     "EXIT_CHECKPOINTED", "SamplerError", "RunStopped", "Checkpointed", "TMCMCSettings", "tmcmc", "ScreenReport",
-    "screen",
+    "screen", "EvidenceEstimate", "mode_evidence",
 ]

@@ -11,6 +11,7 @@ DIR/loop.json.
 """
 from __future__ import annotations
 
+import itertools
 import json
 import time
 from pathlib import Path
@@ -134,27 +135,53 @@ class LoopProblem:
         prior = self.prior(bounds, log_uniform)
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
                                 max_steps=settings.max_steps, progress=False, **sampler)
+        evidence = self.refined_evidence(like, prior, post, seed)
         cls, _ = self.finish_class(post, like, name, switches, run, out, seed, settings.predictive_draws,
-                                   time.perf_counter() - t0)
+                                   time.perf_counter() - t0, evidence)
         return cls, post, like
 
-    def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s) -> tuple:
-        """After one class's calibration: summary.json (with the class, its switches and ``wall_s``), the class
-        record (:meth:`class_record`) and the study's outputs. Returns (ModelClass, summary)."""
+    def refined_evidence(self, like, prior, post, seed):
+        """ln Z and MAP from the refined posterior mode (``inference.mode_evidence``: TMCMC's estimate with few
+        particles falls short by an amount growing with its stages, so classes would be compared by the sampler's
+        lag), started from the posterior sample and, for an enriched class, from the base class's mode with the
+        added parameters at their prior's lower end or middle (the enriched class nests the base near the former).
+        None when no mode can be refined (the TMCMC values are then used)."""
+        starts = None
+        base = getattr(self, "base_mode", None)
+        if base is not None and set(base) < set(post.names):
+            extra = [n for n in post.names if n not in base]
+            levels = []
+            for n in extra:
+                b = prior.bounds[post.names.index(n)]
+                middle = np.sqrt(b.lower * b.upper) if b.kind == "log-uniform" else 0.5 * (b.lower + b.upper)
+                levels.append((b.lower + 1e-3 * (b.upper - b.lower), middle))
+            starts = np.array([[base.get(n, dict(zip(extra, combo)).get(n)) for n in post.names]
+                               for combo in itertools.product(*levels)])
+        evaluate = inference.Evaluator(like)
+        return inference.mode_evidence(lambda thetas: evaluate(thetas)[0], prior, post.samples,
+                                       log_values=post.log_like, starts=starts, seed=seed)
+
+    def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s, evidence=None) -> tuple:
+        """After one class's calibration: summary.json (with the class, its switches, ``wall_s`` and the refined
+        evidence, :meth:`refined_evidence`), the class record (:meth:`class_record`) and the study's outputs.
+        Returns (ModelClass, summary)."""
         summary = runner.write_summary(out, self.case, run, seed, post, like, extra={
-            "model_class": name, "switches": switches, **self.summary_extra(switches), "calibration_wall_s": wall_s})
-        cls = self.class_record(post, like, name, switches, seed, draws, summary)
+            "model_class": name, "switches": switches, **self.summary_extra(switches), "calibration_wall_s": wall_s,
+            **({"evidence": evidence.to_dict()} if evidence is not None else {})})
+        cls = self.class_record(post, like, name, switches, seed, draws, summary, evidence)
         self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"])
         return cls, summary
 
-    def class_record(self, post, like, name, switches, seed, draws, summary) -> ModelClass:
+    def class_record(self, post, like, name, switches, seed, draws, summary, evidence=None) -> ModelClass:
         """The class as the diagnosis reads it: MAP curves, ``draws`` posterior-sample curves for the predictive
         band (rows drawn with ``seed``); the MAP's raw curves in ``extra["map_curves"]``; the calibration's warnings
         (:mod:`cases.study.warnings`). With error groups, sigma_eps is each curve's sigma at the MAP (a list in the
-        likelihood's curve order)."""
-        params, sigma = like.split(post.map_theta)
+        likelihood's curve order). With a refined ``evidence`` (``inference.mode_evidence``) its ln Z and mode are
+        the class's log-evidence and MAP (TMCMC's ln Z stays in ``extra["log_evidence_tmcmc"]``)."""
+        map_theta = post.map_theta if evidence is None else np.array(evidence.mode)
+        params, sigma = like.split(map_theta)
         if isinstance(sigma, dict):
-            sigma = [float(s) for s in like.curve_sigmas(post.map_theta)[0]]
+            sigma = [float(s) for s in like.curve_sigmas(map_theta)[0]]
         map_raw = self.map_curves(params, switches)
         rng = np.random.default_rng(seed)
         rows = rng.choice(len(post.samples), size=min(draws, len(post.samples)), replace=False)
@@ -162,13 +189,16 @@ class LoopProblem:
         map_simulated = like.simulated_at_observations(map_raw)
         q = post.quantiles()
         return ModelClass(
-            name=name, role="base", candidate=None, log_evidence=float(post.log_evidence),
+            name=name, role="base", candidate=None,
+            log_evidence=float(post.log_evidence if evidence is None else evidence.log_evidence),
             J_g=summary["J_g_at_map"],
             parameters={n: {"map": post.map[n], "mean": post.mean[n], "std": post.std[n], "q2.5": q[n][0],
                             "q97.5": q[n][2]} for n in post.names},
             sigma_eps=sigma if isinstance(sigma, list) else float(sigma), map_simulated=map_simulated,
             sample_simulated=sample_sims, sample_sigma=sample_sigma, wall_s=summary["calibration_wall_s"],
-            n_forward_solves=summary["n_forward_solves"], extra={"map_curves": map_raw},
+            n_forward_solves=summary["n_forward_solves"] + (0 if evidence is None else evidence.n_solves),
+            extra={"map_curves": map_raw, "map_theta": [float(v) for v in map_theta],
+                   "log_evidence_tmcmc": float(post.log_evidence)},
             warnings=calibration_warnings(post, like, map_simulated))
 
     # ---------------------------------------------------------------------------------------- the loop's protocol
@@ -176,7 +206,7 @@ class LoopProblem:
         """Bind the loop's data and run: the classes are calibrated in ``out`` with ``seed`` and ``settings``."""
         self.observations, self.run, self.out = observations, run, Path(out)
         self.seed, self.settings, self.label = seed, settings, label
-        self.likelihood, self.description = None, ""
+        self.likelihood, self.description, self.base_mode = None, "", None
 
     def candidates(self) -> list:
         return physics_catalog.signatures(self.catalog_switches(self.base_switches), self.model)
@@ -194,10 +224,11 @@ class LoopProblem:
             out = self.out / f"enriched_{candidate.replace(' ', '_')}"
         name = class_name(switches, self.model if candidate is None else enrichment_family(self.model).model)
         sampler = {} if candidate is None else {"max_failure_fraction": self.enriched_failure_fraction}
-        cls, _, like = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
-                                            self.seed, self.settings, **sampler)
+        cls, post, like = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
+                                               self.seed, self.settings, **sampler)
         if candidate is None:
             self.likelihood, self.description = like, self.describe(self.label, name)
+            self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
         return cls
 
     def covariates(self, base: ModelClass) -> dict:

@@ -1,0 +1,221 @@
+"""The log-evidence of a calibrated model class from its refined posterior mode: Laplace, corrected by importance
+sampling.
+
+Why not TMCMC's own estimate alone. ln Z_TMCMC = sum_j ln mean_k w_jk over the tempering stages (docs/reference.md
+section 2) is exact only when each stage's particles follow that stage's tempered posterior. With few particles and
+few MCMC sweeps per stage (the quick settings: 64 particles, at most 4 sweeps) the population lags behind a narrow,
+ridge-shaped posterior, and the estimate falls short by an amount that grows with the number of stages: measured on
+a two-test CK0U programme, 18 units of ln Z for a 5-parameter class of 14 stages and about 170 for a 7-parameter
+class of 23 stages, enough to decide a Bayes factor by the sampler's lag. The estimate here uses the TMCMC posterior
+only as a starting point:
+
+1. every parameter is mapped to the real line, u = logit((theta - lo)/(hi - lo)) (uniform prior) or the same on
+   ln theta (log-uniform), and the target is g(u) = ln L(theta(u)) + ln pi(theta(u)) + sum ln |d theta/d u| (so
+   that Z = integral exp(g) du, exactly);
+2. the mode u* of g is refined from the sample's best point by damped Newton steps with the gradient and Hessian
+   from central differences (one batch of 2d^2 + 1 solves per step, steps h_i = 0.2 x the current posterior
+   standard deviation along u_i), in the saddle-free metric |H| (eigenvalues by absolute value) and a trust region
+   of MAX_STEP per coordinate; a step is kept only when it raises g;
+3. Laplace: ln Z_L = g(u*) + (d/2) ln 2 pi - (1/2) ln det(-H(u*));
+4. importance sampling with the proposal q, an equal mixture of Student-t distributions (``df`` degrees of freedom)
+   centred at u* with scale matrices (-H)^-1 and WIDE^2 (-H)^-1 (a defensive mixture for curved posteriors): ln Z_IS = ln mean_i exp(g(u_i) - ln q(u_i)), u_i ~ q, unbiased in Z whatever the posterior's shape; its
+   spread is given by the effective sample size ESS = (sum w)^2 / sum w^2 and the delta-method standard error
+   sqrt((mean w^2 / (mean w)^2 - 1) / N). The reported ln Z is ln Z_IS when ESS >= ``min_ess`` N, else ln Z_L.
+
+References: Tierney & Kadane (1986) Laplace's method; Geweke (1989) importance sampling with a Student-t proposal
+fitted at the mode; Llorente, Martino, Delgado & Lopez-Santiago (2023, SIAM Review 65) sections 3 and 5.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy import special, stats
+
+__all__ = ["EvidenceEstimate", "mode_evidence"]
+
+#: finite-difference step along u_i, as a fraction of the posterior standard deviation along u_i
+STEP_FRACTION = 0.2
+#: the wide half of the importance proposal has this many times the local standard deviations
+WIDE = 3.0
+#: the largest Newton step along any u_i (u is a logit: 1 moves a parameter in mid-range by about a quarter of its
+#: prior range)
+MAX_STEP = 1.0
+
+
+@dataclass(frozen=True)
+class EvidenceEstimate:
+    """log_evidence: the reported ln Z (``method`` "importance sampling" or "Laplace"); log_laplace, log_is: the two
+    estimates (log_is None when no draw had weight); std_error: standard error of ln Z_IS; ess: effective sample
+    size of the importance weights; n_draws: proposal draws; n_solves: forward solves spent (mode, Hessian, draws);
+    log_posterior_mode: g at the refined mode; mode: the refined mode in the parameters (theta, the prior's order)."""
+
+    log_evidence: float
+    method: str
+    log_laplace: float
+    log_is: float | None
+    std_error: float
+    ess: float
+    n_draws: int
+    n_solves: int
+    log_posterior_mode: float
+    mode: tuple = ()
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+class _Unbounded:
+    """theta <-> u (module docstring, step 1) for an ``inference.Prior``'s bounds, and g(u)."""
+
+    def __init__(self, prior, log_likelihood):
+        self.prior, self.log_likelihood = prior, log_likelihood
+        self.lo = np.array([b.lower for b in prior.bounds], dtype=float)
+        self.hi = np.array([b.upper for b in prior.bounds], dtype=float)
+        self.log = np.array([b.kind == "log-uniform" for b in prior.bounds])
+        # the log only of the log-uniform bounds (> 0)
+        self.a = np.where(self.log, np.log(np.where(self.log, self.lo, 1.0)), self.lo)
+        self.b = np.where(self.log, np.log(np.where(self.log, self.hi, 1.0)), self.hi)
+        self.n_solves = 0
+
+    def to_u(self, theta):
+        x = np.where(self.log, np.log(np.where(self.log, np.maximum(theta, self.lo), 1.0)), theta)
+        f = np.clip((x - self.a) / (self.b - self.a), 1e-12, 1.0 - 1e-12)
+        return np.log(f) - np.log1p(-f)
+
+    def to_theta(self, u):
+        x = self.a + (self.b - self.a) * special.expit(u)
+        return np.where(self.log, np.exp(x), x)
+
+    def g(self, u):
+        """g (m,) at u (m, d); -inf outside the prior's support or where the solve failed."""
+        u = np.atleast_2d(u)
+        theta = self.to_theta(u)
+        log_jac = self.log_jacobian(u)
+        log_prior = np.asarray(self.prior.logpdf(theta), dtype=float)
+        out = np.full(len(u), -np.inf)
+        ok = np.isfinite(log_prior) & np.isfinite(log_jac)
+        if ok.any():
+            self.n_solves += int(ok.sum())
+            out[ok] = np.asarray(self.log_likelihood(theta[ok]), dtype=float) + log_prior[ok] + log_jac[ok]
+        return np.where(np.isfinite(out), out, -np.inf)
+
+    def log_jacobian(self, u):
+        """sum_i ln |d theta_i/d u_i| (m,) at u (m, d); -inf where u is so far out that theta sits on a bound."""
+        f = special.expit(np.atleast_2d(u))
+        x = self.a + (self.b - self.a) * f
+        with np.errstate(divide="ignore"):
+            return (np.log(self.b - self.a) + np.log(f) + np.log1p(-f) + np.where(self.log, x, 0.0)).sum(axis=1)
+
+
+def _derivatives(g, u, h):
+    """(g(u), gradient, Hessian) by central differences with steps h (d,), one batch of 2 d^2 + 1 evaluations."""
+    d = len(u)
+    points = [u]
+    for i in range(d):
+        for s in (1.0, -1.0):
+            points.append(u + s * h[i] * np.eye(d)[i])
+    pairs = [(i, j) for i in range(d) for j in range(i + 1, d)]
+    for i, j in pairs:
+        for si, sj in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+            points.append(u + si * h[i] * np.eye(d)[i] + sj * h[j] * np.eye(d)[j])
+    v = g(np.array(points))
+    f0, plus, minus = v[0], v[1:2 * d + 1:2], v[2:2 * d + 1:2]
+    grad = (plus - minus) / (2.0 * h)
+    H = np.diag((plus - 2.0 * f0 + minus) / h ** 2)
+    for k, (i, j) in enumerate(pairs):
+        pp, pm, mp, mm = v[2 * d + 1 + 4 * k: 2 * d + 5 + 4 * k]
+        H[i, j] = H[j, i] = (pp - pm - mp + mm) / (4.0 * h[i] * h[j])
+    return f0, grad, H, bool(np.all(np.isfinite(v)))
+
+
+class _DefensiveMixture:
+    """The importance proposal: an equal mixture of Student-t distributions at the mode with scale matrices
+    (-H)^-1 and WIDE^2 (-H)^-1, the wide half covering the tails of a curved or skewed posterior that the local
+    curvature underestimates (a defensive mixture, Hesterberg 1995)."""
+
+    def __init__(self, mode, cov, df):
+        self.parts = [stats.multivariate_t(loc=mode, shape=c, df=df) for c in (cov, WIDE ** 2 * cov)]
+
+    def rvs(self, n, rng):
+        d = len(self.parts[0].loc)
+        wide = rng.random(n) < 0.5
+        out = np.empty((n, d))
+        for part, rows in zip(self.parts, (~wide, wide)):
+            if rows.any():
+                out[rows] = np.atleast_2d(part.rvs(size=int(rows.sum()), random_state=rng)).reshape(-1, d)
+        return out
+
+    def logpdf(self, x):
+        return np.logaddexp(*(part.logpdf(x) for part in self.parts)) - np.log(2.0)
+
+
+def _negative_definite(H):
+    """-H made positive definite, its eigenvalues replaced by their absolute values (at least 1e-8 of the largest;
+    the saddle-free Newton metric, Dauphin et al. 2014): (matrix, its inverse)."""
+    w, V = np.linalg.eigh(-0.5 * (H + H.T))
+    w = np.maximum(np.abs(w), 1e-8 * max(np.abs(w).max(), 1e-300))
+    return (V * w) @ V.T, (V / w) @ V.T
+
+
+def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, iterations=10, n_draws=256,
+                  min_ess=0.1, seed=0, df=4.0) -> EvidenceEstimate | None:
+    """ln Z of one model class (module docstring).
+
+    log_likelihood: thetas (m, d) -> (m,) log-likelihoods (-inf for a failed solve); prior: an ``inference.Prior``
+    (``bounds``, ``logpdf``); samples: (n, d) posterior sample (its best point starts the mode search; its spread
+    the first finite-difference steps); log_values: (n,) log-likelihoods of ``samples`` (evaluated when None);
+    starts: (k, d) further points from which the mode search may start (e.g. a nested class's mode with the added
+    parameters at their null values), evaluated with the sample's best; iterations: at most this many Newton steps; n_draws: importance draws; min_ess: the fraction of n_draws the
+    effective sample size must reach for ln Z_IS to be reported; seed: of the draws; df: the proposal's degrees of
+    freedom. Returns None when no finite difference around the mode can be taken inside the support."""
+    t = _Unbounded(prior, log_likelihood)
+    samples = np.atleast_2d(np.asarray(samples, dtype=float))
+    us = t.to_u(samples)
+    start = t.g(us) if log_values is None else (
+        np.asarray(log_values, dtype=float) + np.asarray(prior.logpdf(samples), dtype=float)
+        + t.log_jacobian(us))
+    h = STEP_FRACTION * np.maximum(us.std(axis=0), 1e-3)
+    if starts is not None and len(starts):
+        extra = t.to_u(np.atleast_2d(np.asarray(starts, dtype=float)))
+        us, start = np.vstack([us, extra]), np.concatenate([start, t.g(extra)])
+    u = us[int(np.argmax(np.where(np.isfinite(start), start, -np.inf)))]
+    derivatives = None
+    for _ in range(iterations + 1):
+        for _shrink in range(4):
+            derivatives = _derivatives(t.g, u, h)
+            if derivatives[3]:
+                break
+            h = 0.25 * h
+        else:
+            return None
+        f0, grad, H, _ = derivatives
+        A, cov = _negative_definite(H)
+        h = STEP_FRACTION * np.sqrt(np.diag(cov))
+        step = cov @ grad
+        step *= min(1.0, MAX_STEP / max(np.abs(step).max(), 1e-300))   # trust region in u
+        trial = u + np.outer((1.0, 0.5, 0.25, 0.1, 0.03), step)
+        values = t.g(trial)
+        best = int(np.argmax(values))
+        if not values[best] > f0 + 1e-6:
+            break
+        u = trial[best]
+    f0, _, H, _ = derivatives
+    A, cov = _negative_definite(H)
+    d = len(u)
+    log_laplace = float(f0 + 0.5 * d * np.log(2.0 * np.pi) - 0.5 * np.linalg.slogdet(A)[1])
+    proposal = _DefensiveMixture(u, cov, df)
+    draws = proposal.rvs(n_draws, np.random.default_rng(seed))
+    log_w = t.g(draws) - proposal.logpdf(draws)
+    log_is, error, ess = None, np.inf, 0.0
+    if np.isfinite(log_w).any():
+        w = np.exp(log_w - log_w[np.isfinite(log_w)].max())
+        w = np.where(np.isfinite(w), w, 0.0)
+        log_is = float(special.logsumexp(log_w[np.isfinite(log_w)]) - np.log(n_draws))
+        ess = float(w.sum() ** 2 / (w ** 2).sum())
+        error = float(np.sqrt(max(np.mean(w ** 2) / np.mean(w) ** 2 - 1.0, 0.0) / n_draws))
+    use_is = log_is is not None and ess >= min_ess * n_draws
+    return EvidenceEstimate(log_is if use_is else log_laplace, "importance sampling" if use_is else "Laplace",
+                            log_laplace, log_is, error, ess, n_draws, t.n_solves, float(f0),
+                            tuple(float(v) for v in t.to_theta(u)))
+
