@@ -1,11 +1,13 @@
 """``python -m cases.independent --write [--folder DIR]``: regenerate the independent generator's programmes
-(every programme x hidden effect x noise seed) and their KEY.json under cases/data/independent/."""
+(every programme x hidden effect x noise seed, the pressuremeter's included) and their KEY.json under
+cases/data/independent/."""
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
 from .recording import write_all
+from .sbp import write_sbp
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "independent"
 
@@ -19,6 +21,7 @@ def main(argv=None):
         ap.print_help()
         return 0
     key = write_all(args.folder)
+    key.update(write_sbp(args.folder))
     print(f"{len(key)} cases written to {args.folder}")
     return 0
 
