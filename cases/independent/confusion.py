@@ -14,7 +14,8 @@ headers). The named effects (DIR/<case>/loop.json ``named``, in ranked order) an
 - false alarm: an effect confirmed that is not the hidden one (any confirmed effect on a control).
 
 Anisotropy in the crs, il and relaxation programmes (one-dimensional compression and relaxation from a K0 state)
-gives the same records as the control by construction: those cells are left out. After every case DIR/confusion.md
+gives the same records as the control by construction: those cells are left out; the SBP pairs (two expansion
+rates, each with a hold) carry viscosity or nothing. After every case DIR/confusion.md
 (per programme and hidden effect: named / confirmed / false alarm over the seeds run, run times; then one line per
 case with the reason of a miss: screening verdict, attribution p-values, candidates' ln B) and DIR/confusion.json
 are rewritten, so a stopped sweep leaves its table. Run times are the subprocess wall times on the machine it ran
@@ -38,10 +39,12 @@ __all__ = ["DATA", "EFFECTS", "PROGRAMMES", "LEFT_OUT", "load_key", "case_order"
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "independent"
 DEFAULT_OUT = Path("results") / "independent"
-PROGRAMMES = ("ciu", "ck0u", "crs", "il", "relaxation")
+PROGRAMMES = ("ciu", "ck0u", "crs", "il", "relaxation", "sbp")
 EFFECTS = ("none", "viscosity", "anisotropy", "destructuration")
-#: (programme, effect) cells whose records equal the control's by construction
-LEFT_OUT = {("crs", "anisotropy"), ("il", "anisotropy"), ("relaxation", "anisotropy")}
+#: (programme, effect) cells whose records equal the control's by construction, and the SBP cells the generator
+#: does not write (its pressuremeter pairs carry viscosity or nothing)
+LEFT_OUT = {("crs", "anisotropy"), ("il", "anisotropy"), ("relaxation", "anisotropy"), ("sbp", "anisotropy"),
+            ("sbp", "destructuration")}
 #: run order within a seed: controls and viscosity first, then anisotropy, then destructuration
 ORDER = ("none", "viscosity", "anisotropy", "destructuration")
 RUN_FILE = "confusion_run.json"

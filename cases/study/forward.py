@@ -49,7 +49,7 @@ class StudyForward:
             staged = {"programmes": {t.name: recorded_programme(t, recorded)},
                       "abscissae": {t.name: {k: c.x for k, c in recorded.curves.items()}}}
         return SBPForward(preset, t.site, {} if t.staged else {t.name: t.strain_rate}, self.fixed, self.model,
-                          self.switches, void_ratio0=self.fixed["e0"] if e0_parameter else t.e0,
+                          self.switches, void_ratio0=self.fixed.get("e0", t.e0) if e0_parameter else t.e0,
                           curves=tuple(recorded.curves), **staged)
 
     def __call__(self, batch):

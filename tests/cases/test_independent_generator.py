@@ -159,7 +159,7 @@ def test_records_columns_logging_and_noise():
 
 
 def test_shipped_cases_match_the_key_and_hide_the_effect():
-    key = json.loads((DATA / "KEY.json").read_text())
+    key = {c: v for c, v in json.loads((DATA / "KEY.json").read_text()).items() if v["programme"] in PROGRAMMES}
     assert len(key) == len(PROGRAMMES) * len(EFFECTS) * len(SEEDS)
     words = ("viscos", "anisotrop", "destructur", "alpha", "chi", "c_alpha", "bond")
     for case, truth in key.items():

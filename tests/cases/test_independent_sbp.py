@@ -268,3 +268,20 @@ def test_shipped_records_regenerate():
     assert shipped.shape == (len(rec["stage"]), len(rec))
     for j, column in enumerate(rec):
         np.testing.assert_allclose(shipped[:, j], rec[column], rtol=2e-4, atol=1e-3)
+
+
+def test_an_sbp_study_with_a_modified_cam_clay_base_builds_its_enriched_classes():
+    """The loop enriches an MCC pressuremeter study through the ANICREEP family (its e0 from the test, as the
+    family's translation gives it per particle): every enrichable candidate's forward model is built."""
+    from cases.study.problem import StudyProblem
+    from cases.study.records import load_observations
+    from cases.study.schema import load_study
+    from constitutive import physics_catalog
+    study = load_study(DATA / "sbp_A_s1" / "study.toml")
+    obs, times = load_observations(study.tests)
+    problem = StudyProblem(study, obs, times, quick=True)
+    for c in problem.candidates():
+        if c["enrichment"] is not None and not c["in_base"]:
+            switches = physics_catalog.enriched_settings(c["name"], problem.base_switches, problem.base_bounds,
+                                                         problem.model)[0]
+            assert callable(problem.forward(switches)), c["name"]
