@@ -23,7 +23,8 @@ are ranked named first, then by score.
 Confirmation (`conclude`): by evidence together with the signature. When the screening finds structure, the loop
 calibrates the enriched class of every candidate with an enrichment (`loop`), named or not, so the evidence itself
 can point at physics whose signature the records test weakly (two or three tests). With ln B = ln Z_enriched -
-ln Z_base (TMCMC log-evidences):
+ln Z_base (the classes' log-evidences; the soil studies' loop refines them at the posterior mode,
+``inference.mode_evidence``):
 1. the contenders are the enriched classes within ``margin`` of the best ln B; the chosen one is the only contender,
    or among several the best-ranked one named by its signature (none when no contender is named: the evidence does
    not separate them);
