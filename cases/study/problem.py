@@ -35,9 +35,14 @@ from .records import generating_values
 from .schema import Settings, Study
 from .warnings import calibration_warnings
 
-__all__ = ["LoopProblem", "StudyProblem", "run_loop", "CASE"]
+__all__ = ["LoopProblem", "StudyProblem", "run_loop", "CASE", "LOG_BAYES_THRESHOLD"]
 
 CASE = "calibrate"
+#: ln B that confirms an enrichment in a soil study's loop (and the margin by which it must lead the others),
+#: calibrated on the negative controls of the independent generator's programmes (notes/independent-diagnosis.md:
+#: the largest ln B of any enriched class on a control, +11.4 on a CIU control, comes from the generator's model
+#: differing in form from the calibrated one; the threshold sits above it with room for the seed-to-seed scatter)
+LOG_BAYES_THRESHOLD = 20.0
 
 
 class LoopProblem:
@@ -240,7 +245,7 @@ def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: 
     loop's files into ``out``. Returns the final diagnosis with the loop's ``timing``."""
     out = Path(out)
     problem.start(observations, run, out, seed, settings, label)
-    result = diagnosis.run_loop(problem)
+    result = diagnosis.run_loop(problem, threshold=LOG_BAYES_THRESHOLD)
     like, final = problem.likelihood, result.final
     diagnosis.write_input(out, like, result.classes, result.covariates, problem.candidates(),
                           description=problem.description)
