@@ -32,7 +32,8 @@ ln Z_base (the classes' log-evidences; the soil studies' loop refines them at th
    other way ("opposite direction" on the base class), and its enriched class explains its own predicted pattern:
    every primary item that supports it on the base class no longer supports it on the enriched class's screening,
    or its effect size fell to at most PATTERN_REDUCTION = 0.5 of the base's (`pattern_explained`), and the misfit
-   the base's screening located (its mismatch regions) falls to at most that fraction (`misfit_explained`).
+   the base's screening located (its mismatch regions) falls to at most that fraction in the median region
+   (`misfit_explained`).
 A candidate is *named by its signature* (`rank_candidates`) or *named by the evidence*: a contender with ln B >=
 ``threshold`` whose signature does not point the other way. The omitted physics is the confirmed candidate, or
 "none"; every other candidate's decision gives the reason (below the threshold, its signature contradicted, beaten
@@ -219,21 +220,24 @@ def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, re
 
     regions: the base class's mismatch regions (``structure.Region`` or their dicts: test, curve, i_start, i_stop);
     base_residuals, enriched_residuals: {(test, curve): r} relative residuals of the two classes at the records.
-    Explained when the points-weighted mean |mean residual| over the regions falls to at most ``reduction`` times the
-    base's (no region: explained). reasons: the regions left, in words."""
+    For each region the ratio |mean r_enriched| / |mean r_base| over its points; explained when the median ratio over
+    the regions is at most ``reduction`` (no region: explained). The median, not a weighted mean: a region where the
+    simulated value passes near zero (a deviator stress turning from compression to extension) has relative
+    residuals of any size and must not decide alone. reasons: the regions left, in words."""
     regions = [r if isinstance(r, dict) else r.to_dict() for r in regions]
     if not regions:
         return True, []
-    before = after = 0.0
+    ratios = []
     for g in regions:
         key, sl = (g["test"], g["curve"]), slice(g["i_start"], g["i_stop"])
-        n = g["i_stop"] - g["i_start"]
-        before += n * abs(float(np.nanmean(base_residuals[key][sl])))
-        after += n * abs(float(np.nanmean(enriched_residuals[key][sl])))
-    if after <= reduction * before:
+        before = abs(float(np.nanmean(base_residuals[key][sl])))
+        after = abs(float(np.nanmean(enriched_residuals[key][sl])))
+        ratios.append(after / before if before > 0 else 1.0)
+    median = float(np.median(ratios))
+    if median <= reduction:
         return True, []
-    return False, [f"the located misfit ({len(regions)} region(s)) falls only to {100 * after / before:.0f} % of the "
-                   f"base's (needs <= {100 * reduction:.0f} %)"]
+    return False, [f"the located misfit ({len(regions)} region(s)) falls only to {100 * median:.0f} % of the "
+                   f"base's (median over the regions; needs <= {100 * reduction:.0f} %)"]
 
 
 def conclude(ranked: list, classes: list, threshold=STRONG_LOG_BAYES, margin=None, explained=None) -> dict:

@@ -220,6 +220,12 @@ def test_misfit_explained_by_the_located_regions():
     ok, left = diagnosis.rank.misfit_explained(regions, base, {("T", "y"): np.array([0.0] * 2 + [0.07] * 4 + [0.0])})
     assert not ok and "70 %" in left[0]
     assert diagnosis.rank.misfit_explained([], base, base) == (True, [])
+    # the median over regions: one region where the simulated value passes near zero does not decide alone
+    three = regions + [{"test": "T", "curve": "z", "i_start": 0, "i_stop": 3},
+                       {"test": "T", "curve": "w", "i_start": 0, "i_stop": 3}]
+    base3 = {**base, ("T", "z"): np.full(3, -2.0), ("T", "w"): np.full(3, 0.3)}
+    after = {("T", "y"): np.full(7, 0.02), ("T", "z"): np.full(3, 18.0), ("T", "w"): np.full(3, 0.05)}
+    assert diagnosis.rank.misfit_explained(three, base3, after)[0]
 
 
 def test_pattern_explained_by_effect_size():
