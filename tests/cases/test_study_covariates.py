@@ -141,7 +141,8 @@ def test_viscous_relaxation_signs_after_loading_and_unloading():
     assert [i["direction"] for i in stress] == [-1] and [i["direction"] for i in strain] == [+1]
     assert not any(i["covariate"] == "hold time after unloading" for i in catalog["viscosity"].signature)
     swelling = catalog["time-dependent swelling"]
-    assert swelling.enrichment is None and "no model" in swelling.unavailable
+    assert swelling.enrichment.switches == {"swelling": True} and set(swelling.enrichment.parameters) == {
+        "kappa_s", "tau_s"}
     items = {(i["covariate"], tuple(i["curves"])): i["direction"] for i in swelling.signature if i["curves"]}
     assert items["hold time after unloading", physics_catalog.EFFECTIVE_STRESS_CURVES] == +1
     assert items["hold time after unloading", physics_catalog.STRAIN_CURVES] == -1
