@@ -1,5 +1,6 @@
 """Staged laboratory programmes (triaxial cell, oedometer) driven stage by stage through
-``constitutive.labtests.mixed_control``, batched over particles (a model whose parameters are (n,) arrays) and over
+``constitutive.labtests.mixed_control`` (step tables) or ``adaptive_control`` (the holds of a rate-dependent model,
+:mod:`cases.study.lab_stages`), batched over particles (a model whose parameters are (n,) arrays) and over
 the tests that share a stage structure (:func:`simulate_programmes`).
 
 A test (:class:`cases.study.programme.TestSpec` with ``apparatus``, ``initial`` and ``stages``) starts from its
@@ -8,7 +9,8 @@ from one stage to the next. Units kPa, s, 1/s; strains are fractions, compressio
 radial = 22 and 33. The controls, stepping and abscissae of each stage kind: :mod:`cases.study.lab_stages`; a crs
 stage ended by ``to_sigma_v`` is continued here past its last record until sigma'_v reaches the target
 (:func:`_to_sigma_v`: strain steps in chunks sized from the strain still needed, the crossing located within its step
-by bracketing iterations).
+by bracketing iterations). With a rate-dependent model the Newton iterations of a step-table stage start from the
+previous step's increments (``mixed_control(predictor="previous")``).
 
 Initial state per test (``InitialState``): effective stress ``p0`` (isotropic) or ``sigma_v0`` with ``K0``; void
 ratio ``e0`` (else the ``e0`` argument, else the model's own ``e0`` parameter); for a
@@ -307,12 +309,12 @@ def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
     Tests in the same apparatus (and whose specimen models have the same parameters set) run together over
     (tests x particles) points, in rounds: each round takes the next stage of the tests whose next stage has the most
     common :func:`stage_signature` (tests of the same stage sequence share every round; a test with a stage fewer
-    waits one round), one mixed_control call per round over the points of its tests. Each test keeps the steps it
+    waits one round), one driver call per round over the points of its tests. Each test keeps the steps it
     has alone (:class:`cases.study.lab_stages.StageSteps` of its own rows: its targets, rates, durations, records and
     initial state); the step tables of a round are aligned by step index, a shorter one padded at its end with steps
     its rows do not take (``mixed_control(active=...)``), and the states are stored at the union of the tests'
-    record steps. Every point thus takes the same steps as in a call of its own: the curves
-    equal the one-test results to round-off."""
+    record steps; an adaptive round (:func:`_adaptive`) chooses every point's steps from that point alone. Every
+    point thus takes the same steps as in a call of its own: the curves equal the one-test results to round-off."""
     for spec in specs:
         if spec.apparatus not in ("triaxial", "oedometer"):
             raise ValueError(f"test {spec.name}: apparatus {spec.apparatus!r} is not a laboratory cell (triaxial, "
@@ -372,6 +374,33 @@ def _merge(plans, rows, size):
     return inc, dt, (None if active.all() else active), record, [slot[plan.record_index] for plan in plans]
 
 
+def _adaptive(model, part, plans, rows, strain_step):
+    """(history, column of each plan's records) of one round by ``labtests.adaptive_control``: the plans' paths
+    side by side, plan j over the points ``rows[j]``, every strain increment at most ``strain_step``; a plan with
+    fewer records repeats its end."""
+    size = part["stress"].shape[0]
+    count = max(len(plan.record_index) for plan in plans)
+    records = np.zeros((count, size))
+    segments = [np.zeros((len(plans[0].segments[0]), size)) for _ in range(4)]
+    for plan, rows_j in zip(plans, rows):
+        tau = plan.records()
+        records[:, rows_j] = plan.knots[-1]
+        records[:len(tau), rows_j] = tau
+        for whole, piece in zip(segments, plan.segments):
+            whole[:, rows_j] = piece
+
+    def target(tau):
+        out = np.empty((size, 6))
+        for plan, rows_j in zip(plans, rows):
+            out[rows_j] = plan.target(tau[rows_j])
+        return out
+
+    hist = labtests.adaptive_control(model, part["stress"], part["state"], plans[0].control, target, segments,
+                                     records, undrained=plans[0].undrained, active=~part["failed"],
+                                     strain_step=strain_step)
+    return hist, [1 + np.arange(len(plan.record_index)) for plan in plans]
+
+
 def _take(carried, index):
     """The carried specimen's rows ``index`` (the model state included)."""
     return {k: (_take(v, index) if isinstance(v, dict) else v[index]) for k, v in carried.items()}
@@ -422,13 +451,17 @@ def _simulate_group(prepared, abscissae, n):
             start = {k: part[k][rows_j] for k in ("stress", "strain", "u")}
             plans.append(StageSteps(specs[j].apparatus, stage, start, x_all, step, timed))
             wanted.append((keys, xs, x_all))
-        inc, dt, active, record, columns = _merge(plans, rows, len(index))
         plan = plans[0]  # control and drainage are the round's (stage_signature)
         u_start = part["u"] if plan.undrained else np.zeros(len(index))
-        if part["failed"].any():  # a failed particle takes no further step
-            active = (np.ones(dt.shape, dtype=bool) if active is None else active) & ~part["failed"]
-        hist = labtests.mixed_control(round_model, part["stress"], part["state"], plan.control, inc, dt,
-                                      undrained=plan.undrained, record=record, on_failure="nan", active=active)
+        if plan.adaptive:
+            hist, columns = _adaptive(round_model, part, plans, rows, step)
+        else:
+            inc, dt, active, record, columns = _merge(plans, rows, len(index))
+            if part["failed"].any():  # a failed particle takes no further step
+                active = (np.ones(dt.shape, dtype=bool) if active is None else active) & ~part["failed"]
+            hist = labtests.mixed_control(round_model, part["stress"], part["state"], plan.control, inc, dt,
+                                          undrained=plan.undrained, record=record, on_failure="nan", active=active,
+                                          predictor="previous" if timed else "tangent")
         if any(keys for keys, _, _ in wanted):
             values = _quantities(hist, part, u_start, np.repeat(u0[tests], n)[:, None])
             for j, rows_j, (keys, xs, x_all), cols in zip(tests, rows, wanted, columns):

@@ -25,8 +25,16 @@ its stress-controlled components (their effective stress rises by it; ``excess_p
 Stepping: every stage is stepped through its recorded points (values come out AT the records, no interpolation),
 with sub-steps between them: strain-controlled ramps in steps of at most the model's ``max_strain_step`` (0.25 %
 when the model leaves it to its own triaxial integrator), stress ramps in steps of at most ``STRESS_STEP`` in
-ln(stress), holds of a rate-dependent model at times since the hold start growing geometrically from
-``HOLD_FIRST`` s, ``HOLD_STEPS_PER_DECADE`` per decade (and the recorded times). A rate-independent model
+ln(stress). The holds of a rate-dependent model (the kinds ``ADAPTIVE_KINDS``: creep, relaxation and the hold of a
+load stage, whose ramp keeps its equal ln-stress steps) are stepped adaptively, per particle, by
+``constitutive.labtests.adaptive_control``: from a first step of ``HOLD_FIRST`` s, each step at most the fraction
+``HOLD_RATE_CHANGE`` of the time over which the particle's rates change, changing no strain or stress by more than
+that fraction of its change since the hold start (beyond a floor of 1e-4 strain, 1 % of the stress) and no strain
+by more than the strain step. A hold thus takes few steps where nothing moves yet (the early decades of a hold
+after a slow ramp) and about the steps of the geometric grid below where it moves (about 20 per decade of time
+where it creeps as 1/t; as accurate as that grid, measured at the independent programmes' prior corners); the
+step table (:meth:`StageSteps.steps`) instead places them at times since the hold start growing geometrically
+from ``HOLD_FIRST`` s, ``HOLD_STEPS_PER_DECADE`` per decade (and the recorded times). A rate-independent model
 (``timed=False``) takes a hold at its recorded times only: nothing changes in it but what the first step brings
 (the dissipation of an excess pore pressure), so sub-steps would repeat the same state.
 
@@ -44,8 +52,8 @@ import numpy as np
 from constitutive import labtests
 
 __all__ = ["StageSteps", "STAGE_CONTROLS", "OEDOMETER_STRAIN", "STRESS_STEP", "HOLD_FIRST", "HOLD_STEPS_PER_DECADE",
-           "FALLBACK_STRAIN_STEP", "DEFAULT_DURATION", "DEFAULT_SHEAR_RATE", "DEFAULT_SHEAR_STRAIN",
-           "DEFAULT_RAMP_TIME"]
+           "ADAPTIVE_KINDS", "HOLD_RATE_CHANGE", "FALLBACK_STRAIN_STEP", "DEFAULT_DURATION", "DEFAULT_SHEAR_RATE",
+           "DEFAULT_SHEAR_STRAIN", "DEFAULT_RAMP_TIME"]
 
 STRAIN, STRESS = True, False
 TRIAXIAL_STRESS = np.array([STRESS, STRESS, STRESS, STRAIN, STRAIN, STRAIN])   # every normal stress controlled
@@ -65,6 +73,11 @@ HOLD_FIRST = 0.1
 HOLD_STEPS_PER_DECADE = 20
 #: strain step when the model leaves it to its own triaxial integrator (max_strain_step None)
 FALLBACK_STRAIN_STEP = 0.0025
+#: the stage kinds whose holds a rate-dependent model takes in adaptive steps (module docstring, "Stepping"), and
+#: the largest change of the rates over a step there as a fraction of the rates (``adaptive_control``'s rtol: 0.1 is
+#: as accurate as the geometric grid of HOLD_STEPS_PER_DECADE = 20 where a hold creeps as 1/t)
+ADAPTIVE_KINDS = ("creep", "relaxation", "load")
+HOLD_RATE_CHANGE = 0.1
 DEFAULT_DURATION = 86400.0
 DEFAULT_SHEAR_RATE = 1e-5
 DEFAULT_SHEAR_STRAIN = 0.15
@@ -85,6 +98,11 @@ def _linear_knots(points, bound):
     return np.array(knots), np.array(index)
 
 
+def _hold_first(length):
+    """The first time step of a hold of ``length`` s (s)."""
+    return min(HOLD_FIRST, length / 10.0)
+
+
 def _hold_knots(start, end, records, timed=True):
     """Knots of a hold from stage time ``start`` to ``end`` (s, shared by the particles): geometric in the time
     since the hold start (``timed``; else its end only), plus the recorded times ``records`` (within the hold)."""
@@ -92,7 +110,7 @@ def _hold_knots(start, end, records, timed=True):
     if length <= 0.0 or not timed:
         grid = np.array([end])
     else:
-        first = min(HOLD_FIRST, length / 10.0)
+        first = _hold_first(length)
         count = max(2, int(math.ceil(HOLD_STEPS_PER_DECADE * math.log10(length / first))) + 1)
         grid = start + np.geomspace(first, length, count)
         grid[-1] = end
@@ -146,6 +164,7 @@ class StageSteps:
         self.x = np.asarray(record_x, dtype=float)
         self.outside = np.zeros(n, dtype=bool)
         getattr(self, "_" + kind)()
+        self.adaptive = timed and kind in ADAPTIVE_KINDS
 
     # each kind's builder sets knots (K, n), record_index (len(x),), strain_target (knots -> the controlled strains
     # since the stage start, (K, n, 6)) and stress_target (knots -> the controlled effective stresses, (K, n, 6))
@@ -168,6 +187,12 @@ class StageSteps:
         rec[order] = index[:-1]
         return rec
 
+    def _segments(self, ends, firsts, largest, rtols):
+        """The smooth pieces of a stage stepped adaptively: (ends, first steps, largest steps) (stage times, s) and
+        the step control's rtol (inf: none), each (S, n)."""
+        self.segments = tuple(np.array([np.broadcast_to(np.asarray(v, dtype=float), (self.n,)) for v in x])
+                              for x in (ends, firsts, largest, rtols))
+
     def _zero_stress(self):
         return lambda knots: np.broadcast_to(self.start, knots.shape + (6,))
 
@@ -179,6 +204,7 @@ class StageSteps:
         grid = _hold_knots(0.0, duration, tau[:, 0], self.timed)
         self.knots = np.broadcast_to(grid[:, None], (grid.size, self.n))
         self.record_index = np.searchsorted(grid, tau[:, 0])
+        self._segments([duration], [_hold_first(duration)], [np.inf], [HOLD_RATE_CHANGE])
         self.stress_target = self._zero_stress()
         self.strain_target = lambda knots: np.zeros(knots.shape + (6,))
 
@@ -297,12 +323,29 @@ class StageSteps:
         else:
             ramp_knots = np.zeros(0)
         hold = _hold_knots(ramp, duration, t[~in_ramp], self.timed)
+        # adaptive: the ramp in equal steps (those of a ramp without records), then the hold
+        base = ramp / np.maximum(_ln_parts(start, end)(np.zeros(self.n), np.ones(self.n)), 1.0)
+        self._segments([ramp, duration], [base, _hold_first(duration - ramp)], [base, np.inf],
+                       [np.inf, HOLD_RATE_CHANGE])
         grid = np.unique(np.concatenate([ramp_knots, t[in_ramp], hold]))
         self.knots = np.broadcast_to(grid[:, None], (grid.size, self.n))
         self.record_index = np.searchsorted(grid, t)
         self.stress_target = (lambda k: _ramp_target(start, end, np.minimum(k / ramp, 1.0))) if ramp > 0 else \
             (lambda k: np.broadcast_to(end, k.shape + (6,)))
         self.strain_target = lambda k: np.zeros(k.shape + (6,))
+
+    # ------------------------------------------------------------------ the adaptive path (``adaptive``)
+    def records(self):
+        """Stage times (R, n) of the records (in the order of ``record_x``)."""
+        return self.knots[self.record_index]
+
+    def target(self, tau):
+        """The path of ``constitutive.labtests.adaptive_control`` at stage times tau (n,): the controlled strains
+        since the stage start and the controlled total stresses (n, 6) (effective when drained; undrained the
+        stress at the stage start, held)."""
+        strain = self.strain_target(tau[None])[0]
+        stress = self.carried["stress"] if self.undrained else self.stress_target(tau[None])[0]
+        return np.where(self.control, strain, stress)
 
     # ------------------------------------------------------------------ the step table
     def steps(self):

@@ -128,8 +128,9 @@ def _anicreep_closed_form(p0, sigma_p0, e0, lam, kap, ca, m, tau=86400.0):
 ANI = {"lam": 0.3, "kap": 0.03, "ca": 0.012, "e0": 1.5, "m": 1.2}
 
 
-def _anicreep_holds(steps_per_decade, monkeypatch):
-    monkeypatch.setattr(lab_stages, "HOLD_STEPS_PER_DECADE", steps_per_decade)
+def _anicreep_holds():
+    """(max error of the creep strain over the curve / its largest value, max error of p' in relaxation / the
+    relaxed amount, late creep slope -de/d ln t) of the isotropic holds against ``_anicreep_closed_form``."""
     model = ANICREEP(M=ANI["m"], lambda_=ANI["lam"], kappa=ANI["kap"], nu=0.25, e0=2.0, sigma_p0=100.0,
                      C_alpha_e=ANI["ca"], anisotropy=False)
     creep, relax = _anicreep_closed_form(110.0, 100.0, ANI["e0"], ANI["lam"], ANI["kap"], ANI["ca"], ANI["m"])
@@ -139,8 +140,8 @@ def _anicreep_holds(steps_per_decade, monkeypatch):
     tri = programme("triaxial", InitialState(e0=ANI["e0"], p0=p0), Stage("creep", "creep1", duration=1e7))
     out, failed = simulate_programme(model, tri, {"volumetric_strain": t, "q": t, "e": t}, 1)
     assert not failed[0]
-    assert np.all(out["q"] == 0.0)
-    creep_err = np.max(np.abs(out["volumetric_strain"][0] / 100.0 / creep(t) - 1.0))
+    assert np.all(np.abs(out["q"]) <= 1e-12 * p0)  # the stresses are held to the Newton tolerance
+    creep_err = np.max(np.abs(out["volumetric_strain"][0] / 100.0 - creep(t))) / creep(t[-1])
     e = out["e"][0]
     late = -(e[-1] - e[-4]) / np.log(t[-1] / t[-4])
     oed = programme("oedometer", InitialState(e0=ANI["e0"], sigma_v0=p0, K0=1.0),
@@ -148,17 +149,28 @@ def _anicreep_holds(steps_per_decade, monkeypatch):
     out, failed = simulate_programme(model, oed, {"p": t, "axial_strain": t}, 1)
     assert not failed[0]
     assert np.all(out["axial_strain"] == 0.0)
-    relax_err = np.max(np.abs(out["p"][0] / relax(t) - 1.0))
+    relax_err = np.max(np.abs(out["p"][0] - relax(t))) / (p0 - relax(t[-1]))
     return creep_err, relax_err, late
 
 
-def test_anicreep_creep_and_relaxation_closed_forms(monkeypatch):
-    creep_err, relax_err, late = _anicreep_holds(20, monkeypatch)
-    assert creep_err < 0.025
-    assert relax_err < 0.004
+@pytest.mark.parametrize("knob, coarse, fine, bound", [
+    ("HOLD_RATE_CHANGE", 0.1, 0.05, 5e-3),  # adaptive (the default route of a rate-dependent model)
+    ("HOLD_STEPS_PER_DECADE", 20, 40, 7e-3),  # the geometric step table
+])
+def test_anicreep_creep_and_relaxation_closed_forms(knob, coarse, fine, bound, monkeypatch):
+    """Creep and relaxation holds of the rate-dependent model from t = 0 to 1e7 s against their closed forms
+    (``_anicreep_closed_form``), by both hold steppings. Errors relative to the curve (the creep strain's largest
+    value, the relaxed amount of p'): measured 0.42 % / 0.34 % (adaptive, rate change 0.1) and 0.60 % / 0.47 % (20
+    steps per decade); both first order in their step parameter (backward Euler)."""
+    if knob == "HOLD_STEPS_PER_DECADE":
+        monkeypatch.setattr(lab_stages, "ADAPTIVE_KINDS", ())
+    monkeypatch.setattr(lab_stages, knob, coarse)
+    creep_err, relax_err, late = _anicreep_holds()
+    assert creep_err < bound and relax_err < bound
     assert late == pytest.approx(ANI["ca"], rel=0.01)
-    creep_fine, relax_fine, _ = _anicreep_holds(40, monkeypatch)
-    assert 0.4 < creep_fine / creep_err < 0.6  # first-order backward Euler
+    monkeypatch.setattr(lab_stages, knob, fine)
+    creep_fine, relax_fine, _ = _anicreep_holds()
+    assert 0.4 < creep_fine / creep_err < 0.6
     assert 0.4 < relax_fine / relax_err < 0.6
 
 
