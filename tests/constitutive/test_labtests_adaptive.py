@@ -6,7 +6,7 @@ import pytest
 
 from constitutive import ANICREEP, IntegrationError, LinearElastic, labtests
 from constitutive.anicreep import anisotropy_constants
-from constitutive.labtests import _newton_correction
+from constitutive.mixed_control import newton_correction
 
 TRIAXIAL_STRESS = np.array([False, False, False, True, True, True])
 AXIAL_STRAIN = np.array([True, False, False, True, True, True])
@@ -46,7 +46,7 @@ def test_newton_correction_solves_the_bordered_system(control, undrained):
     if undrained:
         deps[converged, 2] = -deps[converged, 0] - deps[converged, 1]
     got_deps, got_du, ok = deps.copy(), du.copy(), np.zeros(n, dtype=bool)
-    _newton_correction(dsig, np.full((n, 6), 100.0), tangent, got_deps, got_du, target, unknown, undrained,
+    newton_correction(dsig, np.full((n, 6), 100.0), tangent, got_deps, got_du, target, unknown, undrained,
                        np.zeros(n, dtype=bool), 1e-10, ok)
     assert np.array_equal(ok, converged)
     want_deps, want_du = deps.copy(), du.copy()

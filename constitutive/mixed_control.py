@@ -1,0 +1,564 @@
+"""The generic mixed-control driver of the laboratory tests, vectorized over points (a batch of particles).
+
+:func:`mixed_control`: at every step each of the 6 Voigt components has either a prescribed strain increment or a
+prescribed stress increment, and optionally the step is undrained (volume held constant, an excess pore pressure
+increment du added to the unknowns, the prescribed stresses then being *total* stresses: sigma = sigma' + u 1). The
+unknown strain components (and du) are found by Newton iterations using the model's tangent; points iterate
+independently, so a batched run equals the individual runs to round-off. :func:`adaptive_control` drives the same
+controls along a prescribed path in time with step sizes chosen per point (the holds of a rate-dependent model).
+The named tests built on them are in :mod:`constitutive.labtests`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import IntegrationError
+from .jit import jit
+
+__all__ = ["mixed_control", "adaptive_control", "batch_size", "newton_correction", "NORMAL"]
+
+#: the normal Voigt components (11, 22, 33)
+NORMAL = np.array([True, True, True, False, False, False])
+
+
+def batch_size(model, *arrays) -> int:
+    """Number of points implied by the model's parameter arrays and the given arrays (scalars count as 1)."""
+    sizes = {int(np.size(v)) for v in model.parameters().values() if v is not None}
+    sizes |= {int(np.shape(a)[0]) for a in arrays if np.ndim(a) >= 1}
+    sizes.discard(1)
+    if len(sizes) > 1:
+        raise ValueError(f"inconsistent batch sizes {sorted(sizes)} among model parameters and test conditions")
+    return sizes.pop() if sizes else 1
+
+
+def _where_state(mask, a, b):
+    """Per-point selection between two state dicts: a where mask, else b."""
+    return {k: np.where(mask.reshape((-1,) + (1,) * (np.ndim(a[k]) - 1)), a[k], b[k]) for k in a}
+
+
+def mixed_control(model, stress0, state0, strain_control, increments, dt, undrained=False, record=None,
+                  on_failure="raise", tol=1e-10, max_iterations=25, max_cuts=8, active=None, stop=None,
+                  predictor="tangent"):
+    """Drive ``model`` through n_steps mixed strain/stress-controlled increments.
+
+    stress0 (n, 6) effective stress (kPa), state0 the model state at stress0.
+    strain_control: bool (6,) or (n_steps, 6); True where the strain increment is prescribed.
+    increments: (n_steps, 6) or (n_steps, n, 6); prescribed strain increments (dimensionless, compression positive)
+        on strain-controlled components, prescribed stress increments (kPa; total stress when undrained,
+        effective = total otherwise) on the others.
+    dt: (n_steps,) time increments (s), or (n_steps, n) per point (the points' times then differ).
+    undrained: bool or (n_steps,) bool: volume held constant during the step (needs at least one stress-controlled
+        normal component); drained steps keep the excess pore pressure.
+    record: bool (n_steps,), steps at whose end the results are stored (default all); the initial state is always
+        stored first.
+    active: bool (n_steps, n), the points that take each step (default all); a point outside a step keeps its
+        stress, state, strain, pore pressure, time and prescribed stresses unchanged (several tests with different
+        numbers of steps share one call, the shorter ones padded with inactive steps).
+    stop: (component, target (n,), direction (n,) of +1 or -1) or None: a point whose effective stress component
+        would reach or pass ``target`` in the ``direction`` (direction x (sigma'_c - target) >= 0) at the end of a
+        step does not take that step nor any later one (it stays at the start of that step): the caller locates
+        the crossing within that step (``stopped``, ``stop_step`` and ``stop_value`` returned).
+    Newton: converged when the stress residual is below ``tol`` x (1 kPa + max |sigma'|) and the volume residual
+    below 1e-3 ``tol``; the iterations start from the tangent predictor (``predictor="tangent"``) or, with
+    ``"previous"``, from the unknowns' increments of the point's previous step scaled by the ratio of the time steps
+    (where that step had the same controls and a positive dt; the results then differ within the tolerance). A
+    point that does not converge (or whose model update raises IntegrationError) repeats the step as two half
+    steps (recursively, up to ``max_cuts`` times, that point only); then it raises IntegrationError
+    (``on_failure="raise"``) or is frozen with NaN curves from then on (``"nan"``). A step with every strain
+    prescribed has no unknown: a failure there is the model's own (it sub-steps within its update) and is final at
+    once, without cuts. A point outside a step is not integrated over it (its model update takes dt = 0).
+    Returns a dict of arrays over (n, n_records): ``stress`` (..., 6), ``strain`` (..., 6), ``pore_pressure``,
+    ``void_ratio``, ``time``; plus ``state`` and ``final_stress`` (n, 6) at the end (a failed point's at its last
+    converged step, the state's stress), ``failed`` (n,), ``reasons`` {failed point: why, the model's
+    IntegrationError reason where it raised one}, and with ``stop``: ``stopped`` (n,), ``stop_step`` (n,)
+    the step a stopped point did not take (-1 otherwise) and ``stop_value`` (n,) its component at the end of that
+    step (NaN otherwise).
+    """
+    if on_failure not in ("raise", "nan"):
+        raise ValueError(f"on_failure must be 'raise' or 'nan', got {on_failure!r}")
+    if predictor not in ("tangent", "previous"):
+        raise ValueError(f"predictor must be 'tangent' or 'previous', got {predictor!r}")
+    stress = np.array(stress0, dtype=float)
+    n = stress.shape[0]
+    dt = np.atleast_1d(np.asarray(dt, dtype=float))
+    n_steps = dt.shape[0]
+    control = np.broadcast_to(np.asarray(strain_control, dtype=bool), (n_steps, 6))
+    inc = np.asarray(increments, dtype=float)
+    inc = np.broadcast_to(inc[:, None, :] if inc.ndim == 2 else inc, (n_steps, n, 6))
+    und = np.broadcast_to(np.asarray(undrained, dtype=bool), (n_steps,))
+    record = np.ones(n_steps, dtype=bool) if record is None else np.asarray(record, dtype=bool)
+    active = None if active is None else np.broadcast_to(np.asarray(active, dtype=bool), (n_steps, n))
+    if not np.all(np.isfinite(stress)):
+        raise ValueError("mixed_control: the initial stress must be finite at every point")
+    stopped = np.zeros(n, dtype=bool)
+    stop_step, stop_value = np.full(n, -1), np.full(n, np.nan)
+    if stop is not None:
+        stop_component = int(stop[0])
+        stop_target, stop_direction = (np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in stop[1:])
+
+    state = state0
+    strain = np.zeros((n, 6))
+    u = np.zeros(n)
+    t = 0.0
+    alive = np.ones(n, dtype=bool)
+    prescribed = np.zeros((n, 6))  # accumulated prescribed total stress on stress-controlled components
+    reasons = {}
+    _, _, tangent = model.update(stress, state, np.zeros((n, 6)), 0.0)
+    out = {k: [] for k in ("stress", "strain", "pore_pressure", "void_ratio", "time")}
+
+    def store():
+        nan = ~alive
+        out["stress"].append(np.where(nan[:, None], np.nan, stress))
+        out["strain"].append(np.where(nan[:, None], np.nan, strain))
+        out["pore_pressure"].append(np.where(nan, np.nan, u))
+        out["void_ratio"].append(np.where(nan, np.nan, state["void_ratio"]))
+        out["time"].append(np.full(n, t))
+
+    store()
+    steps = {}  # one _Step per (control row, drainage)
+    last_key, last_deps, last_du, last_dt = None, np.zeros((n, 6)), np.zeros(n), np.zeros(n)
+    for k in range(n_steps):
+        key = (control[k].tobytes(), bool(und[k]))
+        if key not in steps:
+            if und[k] and not np.any(~control[k] & NORMAL):
+                raise ValueError(f"step {k}: an undrained step needs a stress-controlled normal component")
+            steps[key] = _Step(model, control[k], bool(und[k]), tol, max_iterations)
+        step = steps[key]
+        # stress-controlled components aim at the accumulated prescribed total stress, so that the Newton
+        # tolerance does not accumulate into a drift; a component that becomes stress-controlled starts from the
+        # actual total stress
+        total = stress + u[:, None] * NORMAL
+        fresh = ~control[k] & (control[k - 1] if k else True)
+        aimed = np.where(fresh, total, prescribed) + np.where(control[k], 0.0, inc[k])
+        taking = ~stopped if active is None else active[k] & ~stopped  # the points that take step k
+        prescribed = np.where(taking[:, None], aimed, prescribed)
+        step_inc = np.where(control[k], inc[k], prescribed - total)
+        moving = alive & taking
+        guess = None
+        if predictor == "previous" and key == last_key:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(last_dt > 0.0, dt[k] / last_dt, 0.0)
+            guess = (last_deps * ratio[:, None], last_du * ratio, last_dt > 0.0)
+        res = step.advance(moving.copy(), stress, state, tangent, step_inc, dt[k], max_cuts if step.n_u else 0,
+                           guess)
+        failed = moving & ~res["ok"]
+        if np.any(failed):
+            for i in np.flatnonzero(failed):
+                reasons[int(i)] = f"step {k}: " + res["reasons"].get(int(i), (
+                    f"mixed-control Newton did not converge after {max_cuts} step cuts"))
+            if on_failure == "raise":
+                first = int(np.flatnonzero(failed)[0])
+                raise IntegrationError(first, reasons[first])
+            alive &= ~failed
+        keep = alive & taking
+        if stop is not None:
+            past = keep & (stop_direction * (res["stress"][:, stop_component] - stop_target) >= 0.0)
+            stop_step[past], stop_value[past] = k, res["stress"][past, stop_component]
+            stopped |= past
+            taking &= ~past
+            keep &= ~past
+        if keep.all():
+            stress, state, tangent = res["stress"], res["state"], res["tangent"]
+            strain, u = strain + res["deps"], u + res["du"]
+        else:
+            stress = np.where(keep[:, None], res["stress"], stress)
+            state = _where_state(keep, res["state"], state)
+            tangent = np.where(keep[:, None, None], res["tangent"], tangent)
+            strain = strain + np.where(keep[:, None], res["deps"], 0.0)
+            u = u + np.where(keep, res["du"], 0.0)
+        t = t + (dt[k] if active is None and stop is None else np.where(taking, dt[k], 0.0))
+        if predictor == "previous":
+            last_key = key
+            last_deps = np.where(keep[:, None], res["deps"], last_deps)
+            last_du = np.where(keep, res["du"], last_du)
+            last_dt = np.where(keep, dt[k], 0.0)
+        if record[k]:
+            store()
+
+    hist = {k: np.stack(v, axis=1) for k, v in out.items()}
+    hist.update(state=state, final_stress=stress, failed=~alive, reasons=reasons)
+    if stop is not None:
+        hist.update(stopped=stopped, stop_step=stop_step, stop_value=stop_value)
+    return hist
+
+
+@jit
+def newton_correction(dsig, s_new, tangent, deps, du, target, unknown, undrained, done, tol, ok):
+    """One Newton correction of the mixed-control unknowns, in place, per point (the points ``done`` and those whose
+    residual is zero are left alone); ``ok`` (n,) set where the residual before it has converged (``s_new`` (n, 6)
+    given; with ``s_new`` of zero rows, as for the predictor, the check is skipped: ``ok`` False).
+
+    Residual (:func:`mixed_control`): r_a = dsig_c - target_a on the unknown stress components c = unknown[a]
+    (+ du on a normal one when undrained) and, undrained, r_v = the sum of the normal strain increments. Converged:
+    max |r_a| <= tol (1 kPa + max |s_new|) and |r_v| <= 1e-3 tol. Jacobian: the tangent's block on the unknowns,
+    bordered by the normal unknowns when undrained; each point's small system by Gaussian elimination with partial
+    pivoting."""
+    k = unknown.size
+    m = k + 1 if undrained else k
+    jac = np.empty((m, m))
+    r = np.empty(m)
+    for i in range(dsig.shape[0]):
+        ok[i] = False
+        if done[i]:
+            continue
+        worst, zero = 0.0, True
+        for a in range(k):
+            v = dsig[i, unknown[a]] - target[i, a]
+            if undrained and unknown[a] < 3:
+                v += du[i]
+            r[a] = v
+            worst = max(worst, abs(v))
+            zero = zero and v == 0.0
+        if undrained:
+            r[k] = deps[i, 0] + deps[i, 1] + deps[i, 2]
+            zero = zero and r[k] == 0.0
+        if s_new.shape[0]:
+            top = 0.0
+            for c in range(6):
+                top = max(top, abs(s_new[i, c]))
+            ok[i] = worst <= tol * (1.0 + top) and (not undrained or abs(r[k]) <= 1e-3 * tol)
+        if zero or ok[i]:
+            continue
+        for a in range(k):
+            for b in range(k):
+                jac[a, b] = tangent[i, unknown[a], unknown[b]]
+            if undrained:
+                jac[a, k] = jac[k, a] = 1.0 if unknown[a] < 3 else 0.0
+        if undrained:
+            jac[k, k] = 0.0
+        for a in range(m):
+            r[a] = -r[a]
+        for a in range(m):  # elimination with partial pivoting
+            p = a
+            for b in range(a + 1, m):
+                if abs(jac[b, a]) > abs(jac[p, a]):
+                    p = b
+            if p != a:
+                for c in range(m):
+                    jac[a, c], jac[p, c] = jac[p, c], jac[a, c]
+                r[a], r[p] = r[p], r[a]
+            for b in range(a + 1, m):
+                f = jac[b, a] / jac[a, a]
+                for c in range(a + 1, m):
+                    jac[b, c] -= f * jac[a, c]
+                r[b] -= f * r[a]
+        for a in range(m - 1, -1, -1):
+            v = r[a]
+            for c in range(a + 1, m):
+                v -= jac[a, c] * r[c]
+            r[a] = v / jac[a, a]
+        for a in range(k):
+            deps[i, unknown[a]] += r[a]
+        if undrained:
+            du[i] += r[k]
+
+
+_NO_STRESS = np.zeros((0, 6))
+
+
+class _Step:
+    """One mixed-control increment: Newton on the unknown strain components (and du when undrained)."""
+
+    def __init__(self, model, control, undrained, tol, max_iterations):
+        self.model, self.control, self.undrained = model, control, undrained
+        self.tol, self.max_iterations = tol, max_iterations
+        self.unknown = np.flatnonzero(~control)
+        self.n_u = self.unknown.size + int(undrained)
+
+    def _correct(self, dsig, s_new, tangent, deps, du, target, done):
+        """Newton correction in place (:func:`newton_correction`); returns the converged points."""
+        ok = np.empty(dsig.shape[0], dtype=bool)
+        newton_correction(np.ascontiguousarray(dsig), s_new, np.ascontiguousarray(tangent), deps, du,
+                           np.ascontiguousarray(target), self.unknown, self.undrained, done, self.tol, ok)
+        return ok
+
+    def solve(self, active, stress, state, tangent, inc, dt, guess=None):
+        """Newton for the ``active`` points (others get a zero strain increment and are ignored); ``guess``: None
+        (predictor with the start-of-step tangent) or (strain increment (n, 6), du (n,), which (n,)): the unknown
+        components of the points ``which`` start from it. Returns the results dict with ``ok`` (converged active
+        points; an active point that failed keeps its start values)."""
+        n = stress.shape[0]
+        target = inc[:, self.unknown]
+        deps = np.where(self.control & active[:, None], inc, 0.0)
+        du = np.zeros(n)
+        guessed = np.zeros(n, dtype=bool) if guess is None or not self.n_u else active & guess[2]
+        if guessed.any():
+            deps = np.where(self.control | ~guessed[:, None], deps, guess[0])
+            du = np.where(guessed, guess[1], 0.0)
+        if self.n_u and (active & ~guessed).any():  # predictor with the start-of-step tangent
+            lin = np.einsum("nij,nj->ni", tangent, deps)
+            self._correct(lin, _NO_STRESS, tangent, deps, du, target, ~active | guessed)
+        done = ~active
+        excluded = np.zeros(n, dtype=bool)
+        reasons = {}
+        # a point's strain increment is frozen once it has converged, so the last update holds every converged
+        # point's converged values (the kernels are per point): no per-iteration merge
+        s_new, st_new, C = stress, state, tangent
+        # the points that do not move (inactive, excluded) take a zero increment over a zero time: whatever their
+        # state, the model's update of them cannot fail
+        dt = np.where(active, dt, 0.0)
+        for _ in range(self.max_iterations):
+            try:
+                s_new, st_new, C = self.model.update(stress, state, deps, dt)
+            except IntegrationError as err:
+                bad = int(err.point)
+                if excluded[bad] or not active[bad]:
+                    raise
+                excluded[bad] = done[bad] = True
+                reasons[bad] = err.reason
+                deps[bad], du[bad], dt[bad] = 0.0, 0.0, 0.0
+                if np.all(done):
+                    break
+                continue
+            if not self.n_u:
+                done[:] = True
+                break
+            done |= self._correct(s_new - stress, s_new, C, deps, du, target, done)
+            if np.all(done):
+                break
+        converged = done & ~excluded & active
+        failed = active & ~converged
+        if failed.any():  # a failed point keeps its start (it may be cut and repeated, and is updated as inactive)
+            s_new = np.where(failed[:, None], stress, s_new)
+            st_new = _where_state(failed, state, st_new)
+            C = np.where(failed[:, None, None], tangent, C)
+        return {"stress": s_new, "state": st_new, "tangent": C, "deps": np.where(converged[:, None], deps, 0.0),
+                "du": np.where(converged, du, 0.0), "ok": converged, "reasons": reasons}
+
+    def advance(self, active, stress, state, tangent, inc, dt, cuts_left, guess=None):
+        """Solve the step (``guess`` as in :meth:`solve`); points that fail repeat it as two half steps (recursively,
+        ``cuts_left`` levels)."""
+        res = self.solve(active, stress, state, tangent, inc, dt, guess)
+        bad = active & ~res["ok"]
+        if not np.any(bad) or cuts_left == 0:
+            return res
+        first = self.advance(bad, stress, state, tangent, 0.5 * inc, 0.5 * dt, cuts_left - 1)
+        again = bad & first["ok"]
+        second = self.advance(again, first["stress"], first["state"], first["tangent"], 0.5 * inc, 0.5 * dt,
+                              cuts_left - 1)
+        fixed = again & second["ok"]
+        res["stress"] = np.where(fixed[:, None], second["stress"], res["stress"])
+        res["state"] = _where_state(fixed, second["state"], res["state"])
+        res["tangent"] = np.where(fixed[:, None, None], second["tangent"], res["tangent"])
+        res["deps"] = np.where(fixed[:, None], first["deps"] + second["deps"], res["deps"])
+        res["du"] = np.where(fixed, first["du"] + second["du"], res["du"])
+        res["ok"] = res["ok"] | fixed
+        res["reasons"] = {**res["reasons"], **first["reasons"], **second["reasons"]}
+        return res
+
+
+@jit
+def _next_steps(tau, h, segment, ends, records, going, size, after, landing):
+    """The next step of each point ``going`` (in place): ``size`` h shortened to land on the next record or segment
+    end (``landing``), ending at stage time ``after``."""
+    for i in range(tau.size):
+        stop = ends[segment[i], i]
+        for r in range(records.shape[0]):
+            if tau[i] < records[r, i] < stop:
+                stop = records[r, i]
+        landing[i] = going[i] and h[i] >= stop - tau[i]
+        size[i] = stop - tau[i] if landing[i] else h[i]
+        after[i] = stop if landing[i] else tau[i] + size[i]
+
+
+@jit
+def _judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments):
+    """The step control of :func:`adaptive_control` after a step, per point, in place: accept or reject, the next
+    step size and segment, the increments and totals of the accepted steps. ``ok`` (n,) converged; ``stress`` (n, 6)
+    at the step start; ``ds``, ``deps`` (n, 6), ``du`` (n,) the step's increments; ``scale`` (n,) the stress scale
+    S; ``sizes`` (size, after, landing); ``control`` (atol, floor, strain_scale, strain_step, growth,
+    max_rejections, max_cuts); ``walk`` the per-point records (tau, h, h_previous, d_stress, d_strain, d_u, strain,
+    u, known, rejections, cuts, accepted, segment, going, take, dead, skip, h_before, d_strain_before, d_u_before,
+    stress_origin, strain_origin, u_origin): ``known`` the previous steps of the segment whose increments are rates
+    of its path (up to 2: the one before in the ``_before`` arrays), ``skip`` the next accepted step is not one (it
+    jumps to the stress target), ``_origin`` the values at the segment start; ``segments`` (ends, firsts, largest,
+    rtols)."""
+    size, after, landing = sizes
+    atol, floor, strain_scale, strain_step, growth, max_rejections, max_cuts = control
+    (tau, h, h_previous, d_stress, d_strain, d_u, strain, u, known, rejections, cuts, accepted, segment, going,
+     take, dead, skip, h_before, d_strain_before, d_u_before, stress_origin, strain_origin, u_origin) = walk
+    ends, firsts, largest, rtols = segments
+    for i in range(tau.size):
+        take[i] = dead[i] = False
+        if not going[i]:
+            continue
+        if not ok[i]:  # Newton failed: a quarter of the step, unless it is negligible (no creeping up to a failure)
+            cuts[i] += 1
+            rejections[i] = 0
+            dead[i] = cuts[i] > max_cuts or size[i] <= 1e-12 * ends[ends.shape[0] - 1, i]
+            going[i] = not dead[i]
+            h[i] = min(0.25 * size[i], largest[segment[i], i])
+            continue
+        cuts[i] = 0
+        rtol = rtols[segment[i], i]
+        ratio = size[i] / h_previous[i]
+        err = 0.0
+        for c in range(6):
+            err = max(err, abs(deps[i, c]) / strain_step)
+        if rtol < np.inf:  # the increments against the change since the segment start
+            err = max(err, abs(du[i]) / (rtol * abs(u[i] + du[i] - u_origin[i]) + floor * scale[i]))
+            for c in range(6):
+                err = max(err, abs(ds[i, c]) / (rtol * abs(stress[i, c] + ds[i, c] - stress_origin[i, c])
+                                                + floor * scale[i]),
+                          abs(deps[i, c]) / (rtol * abs(strain[i, c] + deps[i, c] - strain_origin[i, c])
+                                             + floor * strain_scale))
+        if known[i] and rtol < np.inf:
+            change = abs(du[i] - ratio * d_u[i]) / scale[i]
+            magnitude = abs(du[i]) / scale[i]
+            for c in range(6):
+                change = max(change, abs(ds[i, c] - ratio * d_stress[i, c]) / scale[i],
+                             abs(deps[i, c] - ratio * d_strain[i, c]) / strain_scale)
+                magnitude = max(magnitude, abs(ds[i, c]) / scale[i], abs(deps[i, c]) / strain_scale)
+            err = max(err, change / (rtol * magnitude + atol))
+        factor = min(max(0.9 / max(err, 1e-12), 0.2), growth)
+        if err > 1.0 and rejections[i] < max_rejections:
+            rejections[i] += 1
+            h[i] = min(size[i] * factor, largest[segment[i], i])
+            continue
+        take[i] = True
+        rejections[i] = 0
+        proposal = size[i] * factor
+        if landing[i]:  # a step shortened to land keeps its proposal
+            proposal = max(proposal, h[i])
+        for c in range(6):
+            d_strain_before[i, c] = d_strain[i, c]
+            d_stress[i, c], d_strain[i, c] = ds[i, c], deps[i, c]
+            strain[i, c] += deps[i, c]
+        d_u_before[i], d_u[i] = d_u[i], du[i]
+        u[i] += du[i]
+        tau[i], h_before[i], h_previous[i] = after[i], h_previous[i], size[i]
+        known[i] = known[i] if skip[i] else min(known[i] + 1, 2)
+        skip[i] = False
+        accepted[i] += 1
+        if tau[i] >= ends[segment[i], i]:
+            if segment[i] == ends.shape[0] - 1:
+                going[i] = False
+            else:
+                segment[i] += 1
+                proposal = firsts[segment[i], i]
+                known[i] = 0
+                for c in range(6):
+                    stress_origin[i, c] = stress[i, c] + ds[i, c]
+                    strain_origin[i, c] = strain[i, c]
+                u_origin[i] = u[i]
+        h[i] = min(proposal, largest[segment[i], i])
+
+
+def _per_point(a, n):
+    """(K,) or (K, n) values as a contiguous (K, n) array."""
+    a = np.asarray(a, dtype=float)
+    return np.ascontiguousarray(np.broadcast_to(a[:, None] if a.ndim == 1 else a, (a.shape[0], n)))
+
+
+def adaptive_control(model, stress0, state0, strain_control, target, segments, records, undrained=False,
+                     active=None, atol=1e-6, floor=1e-2, strain_scale=1e-2, strain_step=np.inf, growth=4.0, tol=1e-10,
+                     max_iterations=25, max_cuts=8, max_rejections=12):
+    """Drive ``model`` along a path of stage time tau (s) with step sizes chosen per point from how its response
+    changes (the holds of the laboratory programmes, where a fixed geometric grid wastes its early steps).
+
+    strain_control (6,) as in :func:`mixed_control` (one row for the whole path). target(tau) -> (n, 6): at the
+    stage times tau (n,) the prescribed strain since the start on the strain rows and the prescribed total stress
+    on the stress rows (effective when drained; undrained the pore pressure starts at zero). segments: (ends, firsts,
+    largest, rtols), each (S, n): the path is smooth within a segment, which ends at ``ends`` (increasing; the last
+    is the path's end), starts with a step ``firsts``, takes steps of at most ``largest`` (s) and is controlled with
+    ``rtols`` (inf: steps of ``largest``, within ``strain_step``). records: (R, n) stage times within the path at
+    which the state is stored ((S,) and (R,): the same for every point). active: (n,) the points that move (the
+    others keep their start).
+
+    Step control, on y = (sigma'/S, epsilon/strain_scale, u/S) (S = 1 kPa + max |sigma'| at the step start) with
+    dy_k the increments of a step of h_k, Y_k the change of y since the segment start after it:
+      (a) rate: c = max |dy_k - (h_k/h_{k-1}) dy_{k-1}| (= h_k^2 |y''|, twice backward Euler's local error)
+          <= rtol max |dy_k| + atol: the step is at most the fraction rtol of the time over which the rates change
+          (|y'|/|y''|), so backward Euler's error, first order, is about rtol/2 times the change of y in that time
+          where errors are damped over it (a hold creeping as 1/t: rtol = 0.11 is 20 steps per decade);
+      (b) growth: |dy_k| <= rtol |Y_k| + floor per component: where y grows at a steady rate, which damps no error,
+          the steps are those of a geometric grid of ratio 1 + rtol in the time since the segment start; where
+          nothing moves yet (|dy_k| below ``floor``) the steps grow freely;
+      (c) strain: |d epsilon_k| <= strain_step (the model's own integration, e.g. a specific volume frozen over the
+          increment, is first order in the strain step).
+    (a) needs a previous step of the segment (not one that jumped to a stress target away from the start state).
+    With err the largest of the ratios of (a)-(c), a step with err > 1 is repeated with h x max(0.2, 0.9/err)
+    (taken as it comes after ``max_rejections`` in a row); the next step is h x min(growth, 0.9/err), at most
+    ``largest``, shortened to land on the records and segment ends. A point whose Newton fails (:class:`_Step`)
+    repeats the step at a quarter of h, at most ``max_cuts`` times in a row, then fails (as it does when a step
+    below 1e-12 of the path fails: it would creep up to a state it cannot pass). The Newton iterations
+    start from the rates of the previous step (extrapolated linearly from the two before where the segment has
+    them; the tangent predictor for a first step).
+
+    Returns the history of :func:`mixed_control` over (n, R + 2) columns: the start, the records (in the given
+    order; NaN where a point failed before it) and the end (NaN for a failed point), with ``state``,
+    ``final_stress`` (a failed point's last converged ones), ``failed``, ``reasons`` and ``steps`` (n,) the
+    accepted steps per point.
+    """
+    stress = np.array(stress0, dtype=float)
+    n = stress.shape[0]
+    control = np.asarray(strain_control, dtype=bool)
+    if len(segments) != 4:
+        raise ValueError("segments: (ends, firsts, largest, rtols)")
+    segments = tuple(_per_point(a, n) for a in segments)
+    rec = _per_point(records, n)
+    step = _Step(model, control, bool(undrained), tol, max_iterations)
+    state = state0
+    _, _, tangent = model.update(stress, state, np.zeros((n, 6)), 0.0)
+    columns = rec.shape[0] + 2
+    out = {"stress": np.full((n, columns, 6), np.nan), "strain": np.full((n, columns, 6), np.nan),
+           "pore_pressure": np.full((n, columns), np.nan), "void_ratio": np.full((n, columns), np.nan),
+           "time": np.full((n, columns), np.nan)}
+    tau, strain, u = np.zeros(n), np.zeros((n, 6)), np.zeros(n)
+    going = np.ones(n, dtype=bool) if active is None else np.array(active, dtype=bool)
+
+    def store(rows, cols):
+        for key, value in (("stress", stress), ("strain", strain), ("pore_pressure", u),
+                           ("void_ratio", state["void_ratio"]), ("time", tau)):
+            out[key][rows, cols] = value[rows]
+
+    store(np.arange(n), 0)
+    rows, cols = np.nonzero((rec.T == 0.0) | ~going[:, None])
+    store(rows, cols + 1)
+    scale = 1.0 + np.abs(stress).max(axis=1)
+    jumped = np.any(~control & (np.abs(target(tau) - stress) > tol * scale[:, None]), axis=1)
+    h = np.minimum(segments[1][0], segments[2][0])
+    walk = (tau, h, np.ones(n), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros(n), strain, u,
+            np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64),
+            np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), going, np.zeros(n, dtype=bool),
+            np.zeros(n, dtype=bool), jumped, np.ones(n), np.zeros((n, 6)), np.zeros(n), stress.copy(),
+            np.zeros((n, 6)), np.zeros(n))
+    h_previous, d_strain, d_u, known, accepted, take, dead = (walk[k] for k in (2, 4, 5, 8, 11, 14, 15))
+    h_before, d_strain_before, d_u_before = walk[17:20]
+    sizes = (np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
+    settings = (float(atol), float(floor), float(strain_scale), float(strain_step), float(growth),
+                int(max_rejections), int(max_cuts))
+    alive = np.ones(n, dtype=bool)
+    reasons = {}
+    while going.any():
+        _next_steps(tau, h, walk[12], segments[0], rec, going, *sizes)
+        size, after, landing = sizes
+        goal = target(after)
+        inc = np.where(control, goal - strain, goal - stress - u[:, None] * NORMAL)
+        guess = None
+        if known.any():  # the rates at the end of the step extrapolated from the previous one or two
+            slope = np.where(known > 1, size / h_previous, 0.0)
+            rate_strain, rate_u = d_strain / h_previous[:, None], d_u / h_previous
+            rate_strain = rate_strain + slope[:, None] * (rate_strain - d_strain_before / h_before[:, None])
+            rate_u = rate_u + slope * (rate_u - d_u_before / h_before)
+            guess = (rate_strain * size[:, None], rate_u * size, known > 0)
+        res = step.solve(going.copy(), stress, state, tangent, inc, np.where(going, size, 0.0), guess)
+        ds = res["stress"] - stress
+        _judge_steps(res["ok"], stress, ds, res["deps"], res["du"], 1.0 + np.abs(stress).max(axis=1), sizes,
+                     settings, walk, segments)
+        for i in np.flatnonzero(dead):
+            alive[i] = False
+            reasons[int(i)] = (f"at stage time {tau[i]:g} s: " + res["reasons"].get(int(i), (
+                f"mixed-control Newton did not converge after {max_cuts} step cuts")))
+        if take.all():
+            stress, state, tangent = res["stress"], res["state"], res["tangent"]
+        elif take.any():
+            stress = np.where(take[:, None], res["stress"], stress)
+            state = _where_state(take, res["state"], state)
+            tangent = np.where(take[:, None, None], res["tangent"], tangent)
+        if (take & landing).any():
+            rows, cols = np.nonzero((take & landing)[:, None] & (rec.T == tau[:, None]))
+            store(rows, cols + 1)
+    store(np.flatnonzero(alive), columns - 1)
+    out.update(state=state, final_stress=stress, failed=~alive, reasons=reasons, steps=accepted)
+    return out
