@@ -305,7 +305,7 @@ class StudyProblem(LoopProblem):
         FE's permeability) is unavailable to a study without pressuremeter tests (its laboratory specimens are
         material points, drained or undrained), with the catalog's reason."""
         out = super().candidates()
-        if any(t.type == "sbp" for t in self.study.tests):
+        if any("sbp" in (t.type, t.apparatus) for t in self.study.tests):
             return out
         return [{**c, "enrichment": None, "unavailable": physics_catalog.candidate(c["name"]).unavailable}
                 if c["enrichment"] is not None and c["enrichment"]["forward_arguments"] else c for c in out]

@@ -280,7 +280,9 @@ def test_an_sbp_study_with_a_modified_cam_clay_base_builds_its_enriched_classes(
     study = load_study(DATA / "sbp_A_s1" / "study.toml")
     obs, times = load_observations(study.tests)
     problem = StudyProblem(study, obs, times, quick=True)
-    for c in problem.candidates():
+    candidates = {c["name"]: c for c in problem.candidates()}
+    assert candidates["partial drainage"]["enrichment"] is not None  # the coupled FE's permeability enrichment
+    for c in candidates.values():
         if c["enrichment"] is not None and not c["in_base"]:
             switches = physics_catalog.enriched_settings(c["name"], problem.base_switches, problem.base_bounds,
                                                          problem.model)[0]
