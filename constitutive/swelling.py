@@ -28,11 +28,13 @@ with e frozen at its start-of-increment value e_n in (S2) and p'_max,n+1 = max(p
 min(0, ln(p'_{n+1}/p'_max,n+1)) = min(0, ln(p'_{n+1}/p'_max,n))). The unknown x = eps_s,n+1 solves the scalar
     R(x) = x - (eps_s,n + a eps_s^eq(p'(x)))/(1 + a) = 0,
 p'(x) the mean stress returned by the base update with d eps - ((x - eps_s,n)/3) m. For a base whose p' rises
-with volumetric compression, R increases with x and the root lies in [x_hi - R(x_hi), x_hi], x_hi = eps_s,n/(1 + a)
-(eps_s^eq <= 0). Newton from x_hi, R'(x) = 1 + c K_t with c = a/(1 + a) kappa_s/((1 + e_n) p') where p' < p'_max,n
-(else 0) and K_t = m.D^b.m/9 the base's volumetric tangent, safeguarded by the bracket: after an iterate that did
-not halve |R| the bracket is bisected; a Newton step that leaves the bracket is replaced by false position between
-its ends (bisection while one end is not evaluated). A point still at |R| > ``tolerance`` after ``max_iterations``
+with volumetric compression, R'(x) = 1 + c K_t >= 1 with c = a/(1 + a) kappa_s/((1 + e_n) p') where p' < p'_max,n
+(else 0) and K_t = m.D^b.m/9 the base's volumetric tangent; so one evaluation at any x_0 brackets the root in
+[x_0 - max(R(x_0), 0), x_0 - min(R(x_0), 0)], and the root is <= x_hi = eps_s,n/(1 + a) (eps_s^eq <= 0). The
+iteration starts from the lagged estimate x_0 = (eps_s,n + a eps_s^eq(p'_n))/(1 + a), (S2) at the mean stress p'_n
+at the start of the increment (x_hi on first loading, where it is the root), and goes on by Newton safeguarded by the
+bracket: after an iterate that did not halve |R| the bracket is bisected; a Newton step that leaves the bracket is
+replaced by false position between its ends (bisection while one end is not evaluated). A point still at |R| > ``tolerance`` after ``max_iterations``
 base updates raises the base's IntegrationError; so does p' <= 0 where (S2) is active. On first loading
 (eps_s,n = 0, p' >= p'_max,n) x = 0 at once: the base model receives d eps bit for bit, and the result is the base
 model's.
@@ -126,10 +128,14 @@ class DelayedSwelling(MaterialModel):
         e = np.broadcast_to(np.asarray(state["void_ratio"], dtype=float), (n,))
         eps_n = state["swelling_strain"]
         a = np.broadcast_to(np.asarray(dt, dtype=float) / self.tau_s, (n,))
-        step = _Increment(self.base, stress, state, dstrain, dt, a, np.broadcast_to(self.kappa_s / (1.0 + e), (n,)))
-        x = eps_n / (1.0 + a)                                      # x_hi: the least swelling possible
-        lo, hi = x.copy(), x.copy()                                # bracket of the root, R(lo) <= 0 <= R(hi)
-        r_lo, r_hi = np.full(n, np.nan), np.zeros(n)               # R at its ends (nan: not evaluated)
+        slope = np.broadcast_to(self.kappa_s / (1.0 + e), (n,))
+        step = _Increment(self.base, stress, state, dstrain, dt, a, slope)
+        x_hi = eps_n / (1.0 + a)                                   # the least swelling possible
+        p_n = mean_stress(stress)
+        lagged = np.where(p_n < state["p_max"], slope * np.log(np.clip(p_n, 1e-300, None) / state["p_max"]), 0.0)
+        x = np.minimum(x_hi, (eps_n + a * lagged) / (1.0 + a))    # x_0, the lagged estimate
+        lo, hi = x.copy(), x_hi.copy()                             # bracket of the root, R(lo) <= 0 <= R(hi)
+        r_lo, r_hi = np.full(n, np.nan), np.full(n, np.nan)       # R at its ends (nan: not evaluated)
         active = np.ones(n, dtype=bool)
         residual_before = np.full(n, np.inf)
         result = None
@@ -140,8 +146,8 @@ class DelayedSwelling(MaterialModel):
             active &= ~done
             if not active.any():
                 break
-            if iteration == 0:
-                lo = x - np.maximum(residual, 0.0)
+            if iteration == 0:                                     # R' >= 1: the bracket of one evaluation
+                lo, hi = x - np.maximum(residual, 0.0), np.minimum(hi, x - np.minimum(residual, 0.0))
             up, down = active & (residual > 0.0), active & (residual < 0.0)
             hi, r_hi = np.where(up, x, hi), np.where(up, residual, r_hi)
             lo, r_lo = np.where(down, x, lo), np.where(down, residual, r_lo)
@@ -197,7 +203,7 @@ def _next_iterate(x, residual, evaluation, lo, hi, r_lo, r_hi, progress):
     D_b, c = evaluation[3], evaluation[5]
     slope_R = 1.0 + c * D_b[:, :3, :3].sum(axis=(1, 2)) / 9.0
     newton = x - residual / np.where(slope_R > 0.0, slope_R, 1.0)
-    both = np.isfinite(r_lo)
+    both = np.isfinite(r_lo) & np.isfinite(r_hi)
     secant = lo - np.where(both, r_lo, 0.0) * (hi - lo) / np.where(both, r_hi - r_lo, 1.0)
     middle = 0.5 * (lo + hi)
     fallback = np.where(both & progress & (secant > lo) & (secant < hi), secant, middle)
