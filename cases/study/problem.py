@@ -22,6 +22,7 @@ import inference
 from constitutive import physics_catalog
 from constitutive.registry import class_name, enrichment_family
 from inference import diagnosis
+from inference.executors import mpi_world
 from inference.diagnosis import ModelClass
 from inference.priors import Bound
 
@@ -150,7 +151,8 @@ class LoopProblem:
         particles falls short by an amount growing with its stages, so classes would be compared by the sampler's
         lag), started from the posterior sample and, for an enriched class, from the base class's mode with the
         added parameters at their prior's lower end or middle (the enriched class nests the base near the former).
-        None when no mode can be refined (the TMCMC values are then used)."""
+        The batches of the refinement run on the study's process pool (serially under MPI). None when no mode can
+        be refined (the TMCMC values are then used)."""
         starts = None
         base = getattr(self, "base_mode", None)
         if base is not None and set(base) < set(post.names):
@@ -162,9 +164,12 @@ class LoopProblem:
                 levels.append((b.lower + 1e-3 * (b.upper - b.lower), middle))
             starts = np.array([[base.get(n, dict(zip(extra, combo)).get(n)) for n in post.names]
                                for combo in itertools.product(*levels)])
-        evaluate = inference.Evaluator(like)
-        return inference.mode_evidence(lambda thetas: evaluate(thetas)[0], prior, post.samples,
-                                       log_values=post.log_like, starts=starts, seed=seed)
+        evaluator = inference.Evaluator(like)
+        # under MPI every rank holds the posterior and refines the same mode by itself
+        executor = inference.SerialExecutor() if mpi_world() is not None else self.executor()
+        with executor:
+            return inference.mode_evidence(lambda thetas: executor.evaluate(evaluator, thetas)[0], prior,
+                                           post.samples, log_values=post.log_like, starts=starts, seed=seed)
 
     def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s, evidence=None) -> tuple:
         """After one class's calibration: summary.json (with the class, its switches, ``wall_s`` and the refined
