@@ -13,7 +13,9 @@ as fractions here and % in the files, compression positive):
 - ``ck0u``: K0 consolidation (sigma'_h = 0.55 sigma'_v) to sigma'_v 200 kPa (1 day), 1-day hold, undrained
   compression and extension at 0.5 %/h to 12 %;
 - ``crs``: oedometer CRS at 1e-6 and 1e-5 1/s to 20 % then unloading at the opposite rate to sigma'_v 50 kPa;
-- ``il``: incremental oedometer 25, 50, 100, 200 kPa held 1 h, 1 day, 1 day, 7 days (10 s ramps);
+- ``il``: incremental oedometer 25, 50, 100, 200, 400, 800 kPa held 1 h, 1 day, 1 day, 7 days, 1 day, 1 day, then
+  unloading to 200 kPa held 1 day (10 s ramps): a load-increment ratio of 1 to 8 times the preconsolidation, so
+  that the virgin compression curve is defined over more than one increment, as laboratories load;
 - ``relaxation``: oedometer CRS (1e-6 1/s) to 12 %, relaxation 1 day, unloading to sigma'_v 60 kPa, relaxation
   1 day.
 """
@@ -95,7 +97,7 @@ def _crs(rate, e0):
 
 
 def _il(e0):
-    hours = (("25", 3600.0), ("50", DAY), ("100", DAY), ("200", 7 * DAY))
+    hours = (("25", 3600.0), ("50", DAY), ("100", DAY), ("200", 7 * DAY), ("400", DAY), ("800", DAY), ("200", DAY))
     return Test("IL", "oedometer", {"sigma_v0": 10.0, "K0": 0.55, "e0": e0},
                 tuple(Stage("load", f"load{k}", {"sigma_v": float(s), "ramp_time": 10.0, "duration": d}, "log")
                       for k, (s, d) in enumerate(hours, start=1)))
@@ -117,7 +119,7 @@ PROGRAMMES = {
              (_ck0u("compression", 1.27), _ck0u("extension", 1.29))),
     "crs": ("constant-rate-of-strain oedometer at two rates a decade apart, loading then unloading",
             (_crs(1e-6, 1.26), _crs(1e-5, 1.28))),
-    "il": ("incremental oedometer, stages of 1 h, 1 day, 1 day and 7 days", (_il(1.27),)),
+    "il": ("incremental oedometer to 800 kPa and unloading, stages of 1 h to 7 days", (_il(1.27),)),
     "relaxation": ("oedometer relaxation after loading and after unloading", (_relaxation(1.26),)),
 }
 
