@@ -43,6 +43,13 @@ one compiled body, without calls and without the reference counting (atomic incr
 does for every array view it creates or passes to a function: about 210 such operations per point update when the
 helpers were separate functions. Inlining does not reorder floating-point operations: the same results to the bit;
 the cold compile takes about twice as long (once, then cached).
+
+Specialization: ``update_points`` inlines ``_local_solve`` twice, once with the literal nc = 4 (the axisymmetric
+FE's points) and once for the other points (nc = 3 or 6 at run time). With a constant nc every
+loop over the components and over the 9 local unknowns, the 9 x 9 LU included, has constant bounds and is unrolled
+by the compiler: the same operations in the same order (results bit-identical to the generic copy), about a fifth
+less time per FE point update (measured on a replay of the fem.bench expansion's updates), at the price of a
+longer cold compile (once, then cached).
 """
 from __future__ import annotations
 
@@ -510,10 +517,17 @@ def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_i
             frac = 1.0 / (1 << level)
             for k in range(6):
                 sub_deps[k] = deps[i, k] * frac
-            ok, pm_new, ratio, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt[i] * frac, prm[i],
-                                                      viscous, tol, max_it, max_dz, nc, want_tangent, stress_out[i],
-                                                      alpha_out[i], dvp_c, tangent_out[i if want_tangent else 0], ws,
-                                                      X, Xn, dX, R, J, LU, piv, rhs)
+            tan_i = tangent_out[i if want_tangent else 0]
+            if nc == 4:     # the axisymmetric FE's points: a copy compiled for the constant nc (docstring)
+                ok, pm_new, ratio, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt[i] * frac, prm[i],
+                                                          viscous, tol, max_it, max_dz, 4, want_tangent,
+                                                          stress_out[i], alpha_out[i], dvp_c, tan_i, ws, X, Xn, dX, R,
+                                                          J, LU, piv, rhs)
+            else:
+                ok, pm_new, ratio, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt[i] * frac, prm[i],
+                                                          viscous, tol, max_it, max_dz, nc, want_tangent,
+                                                          stress_out[i], alpha_out[i], dvp_c, tan_i, ws, X, Xn, dX, R,
+                                                          J, LU, piv, rhs)
             if not ok:
                 if level >= max_depth:
                     return i

@@ -397,7 +397,7 @@ class ANICREEP(MaterialModel):
                                    f"sub-stepping (strain increment {dstrain[failed]}, dt {dt[failed]:g} s, "
                                    f"stress {stress[failed]})")
         new_state = {"alpha": alpha, "pm_ref": pm_ref,
-                     "void_ratio": e - v * dstrain[:, :3].sum(axis=1),
+                     "void_ratio": e - v * (dstrain[:, 0] + dstrain[:, 1] + dstrain[:, 2]),
                      "vp_strain": state["vp_strain"] + dvp,
                      "vp_shear": state["vp_shear"] + vp_shear,
                      "overstress": ratio, "chi": chi}
