@@ -203,7 +203,8 @@ def plot_curves(path, like, map_simulated, bands, title):
 
 def plot_loop(path, like, classes, diag, label, synthetic):
     """Per recorded curve: data with the base (dashed) and enriched (solid) MAP, and below it the base class's
-    relative residual with the mismatch regions shaded."""
+    relative residual with the mismatch regions shaded. The enriched class drawn is the confirmed one, else the one
+    of largest ln Z."""
     plt = pyplot()
     panels = _panels(like)
     ncol = min(4, len(panels))
@@ -212,14 +213,17 @@ def plot_loop(path, like, classes, diag, label, synthetic):
     for j in range(len(panels), nrow * ncol):
         axes[2 * (j // ncol), j % ncol].axis("off")
         axes[2 * (j // ncol) + 1, j % ncol].axis("off")
-    base, enriched = classes[0], (classes[1] if len(classes) > 1 else None)
+    base, enriched = classes[0], None
+    if len(classes) > 1:
+        confirmed = [c for c in classes[1:] if c["candidate"] == diag["omitted_physics"]]
+        enriched = confirmed[0] if confirmed else max(classes[1:], key=lambda c: c["log_evidence"])
     for j, (t, c) in enumerate(panels):
         row, col = 2 * (j // ncol), j % ncol
         curve, top, bottom = like.observations[t].curves[c], axes[row, col], axes[row + 1, col]
         top.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
         top.plot(curve.x, base["map_simulated"][t, c], "k--", lw=1, label="base MAP")
         if enriched is not None:
-            top.plot(curve.x, enriched["map_simulated"][t, c], "C0-", lw=1.3, label="enriched MAP")
+            top.plot(curve.x, enriched["map_simulated"][t, c], "C0-", lw=1.3, label=f"{enriched['candidate']} MAP")
         top.set_title(f"{t}: {c}", fontsize=9)
         top.set_ylabel(LABELS.get(c, c))
         top.legend(fontsize=7)
