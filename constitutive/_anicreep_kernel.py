@@ -131,8 +131,10 @@ def _stiffness_entry(gk, c, k, j):
 
 
 @jit(inline="always")
-def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active, want_jac, nc, R, J, ws):
-    """Residuals R (2 nc + 1) at X = (sigma'[:nc], alpha_d[:nc], z) and, when ``want_jac``, the analytic Jacobian
+def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active, want_jac, skip_tol, nc, R, J,
+              ws):
+    """Residuals R (2 nc + 1) at X = (sigma'[:nc], alpha_d[:nc], z) and, when ``want_jac`` and some |R_i| exceeds
+    ``skip_tol`` (a converged point needs no Jacobian unless for its tangent), the analytic Jacobian
     J = dR/dX. ``ws`` is scratch (rows 0-31 used here, 32 x 13 at least); on return ws[2, :nc] holds g and, with
     ``want_jac``, ws[6, :nc] the vector c of the elastic stiffness (``_elastic_stress``). Returns (ln(p'_m^d/p'_m^r),
     d lambda, G_bar, chi at the end of the increment)."""
@@ -167,7 +169,10 @@ def _evaluate(X, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, act
         chi = chi_n * math.exp(-prm[8] * (abs(dv) + prm[9] * dd))
         ln_ratio -= math.log1p(chi) - math.log1p(chi_n)
     R[iz] = ln_ratio - inv_beta * z if active else z
-    if not want_jac:
+    rmax = 0.0
+    for k in range(nx):
+        rmax = max(rmax, abs(R[k]))
+    if not want_jac or rmax <= skip_tol:
         return ln_ratio, dlam, gk, chi
 
     # ---- analytic Jacobian: chain rule through (F), (V), (E), (R), (H). Per column j (nx unknowns) the
@@ -372,10 +377,11 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
         X[nc + k] = alp_n[k]
     X[iz] = z0
 
-    # Newton with backtracking on |R|^2. One evaluation site (keeps the compiled code small): the full Newton step
-    # is evaluated with the Jacobian when the tangent is wanted (usually accepted: it becomes the next iterate),
-    # otherwise, and for shorter line-search trials, without it (an accepted trial that has not converged, or
-    # converged when the tangent is wanted, is then re-evaluated with it).
+    # Newton with backtracking on |R|^2. One evaluation site (keeps the compiled code small): an iterate and a full
+    # Newton step (usually accepted: it becomes the next iterate) are evaluated with the Jacobian, which is skipped
+    # where the residual has converged and no tangent is wanted; shorter line-search trials without it (an accepted
+    # one that has not converged, or converged when the tangent is wanted, is then re-evaluated with it).
+    skip_tol = -1.0 if want_tangent else tol
     converged = False
     at_iterate = True  # Xn is the accepted iterate X
     n_jac = n_ls = 0
@@ -385,9 +391,9 @@ def _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it,
     for i in range(nx):
         Xn[i] = X[i]
     while True:
-        with_jac = at_iterate or (step == 1.0 and want_tangent)
+        with_jac = at_iterate or step == 1.0
         ln_ratio, dlam, gk, chi = _evaluate(Xn, deps, s_n, p_n, alp_n, pm_n, ln_pm_n, chi_n, prm, dlam_ref, active,
-                                            with_jac, nc, R, J, ws)
+                                            with_jac, skip_tol, nc, R, J, ws)
         m = 0.0
         rmax = 0.0
         for i in range(nx):

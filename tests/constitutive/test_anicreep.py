@@ -486,7 +486,7 @@ def test_analytic_jacobian_matches_complex_step_of_independent_residual(viscous,
                                 [np.log(dlam_scale / d["dlam_ref"])]])
             X[dropped] = 0.0
             K._evaluate(X[kept].copy(), deps, d["s_n"], p_n, d["alpha_n"], d["pm_n"], np.log(d["pm_n"]), d["chi_n"],
-                        prm[i], d["dlam_ref"], True, True, components, R, J, ws)
+                        prm[i], d["dlam_ref"], True, True, -1.0, components, R, J, ws)
             R0 = _residual_oracle(X.astype(complex), deps, d).real
             h = 1e-30
             Jcs = np.stack([_residual_oracle(X + 1j * h * e, deps, d).imag / h for e in np.eye(13)], axis=1)
