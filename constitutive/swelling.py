@@ -33,8 +33,9 @@ with volumetric compression, R'(x) = 1 + c K_t >= 1 with c = a/(1 + a) kappa_s/(
 [x_0 - max(R(x_0), 0), x_0 - min(R(x_0), 0)], and the root is <= x_hi = eps_s,n/(1 + a) (eps_s^eq <= 0). The
 iteration starts from the lagged estimate x_0 = (eps_s,n + a eps_s^eq(p'_n))/(1 + a), (S2) at the mean stress p'_n
 at the start of the increment (x_hi on first loading, where it is the root), and goes on by Newton safeguarded by the
-bracket: after an iterate that did not halve |R| the bracket is bisected; a Newton step that leaves the bracket is
-replaced by false position between its ends (bisection while one end is not evaluated). A point still at |R| > ``tolerance`` after ``max_iterations``
+bracket: a Newton step that leaves the bracket, or follows an iterate that did not halve |R| (the kink of (S2) at
+p' = p'_max), is replaced by false position between the bracket's ends with the Illinois modification (the R of an
+end kept twice in a row is halved: superlinear where R has a kink), or by bisection while one end is not evaluated. A point still at |R| > ``tolerance`` after ``max_iterations``
 base updates raises the base's IntegrationError; so does p' <= 0 where (S2) is active. On first loading
 (eps_s,n = 0, p' >= p'_max,n) x = 0 at once: the base model receives d eps bit for bit, and the result is the base
 model's.
@@ -136,6 +137,7 @@ class DelayedSwelling(MaterialModel):
         x = np.minimum(x_hi, (eps_n + a * lagged) / (1.0 + a))    # x_0, the lagged estimate
         lo, hi = x.copy(), x_hi.copy()                             # bracket of the root, R(lo) <= 0 <= R(hi)
         r_lo, r_hi = np.full(n, np.nan), np.full(n, np.nan)       # R at its ends (nan: not evaluated)
+        side = np.zeros(n)                                         # the end the last iterate replaced: +1 hi, -1 lo
         active = np.ones(n, dtype=bool)
         residual_before = np.full(n, np.inf)
         result = None
@@ -149,8 +151,11 @@ class DelayedSwelling(MaterialModel):
             if iteration == 0:                                     # R' >= 1: the bracket of one evaluation
                 lo, hi = x - np.maximum(residual, 0.0), np.minimum(hi, x - np.minimum(residual, 0.0))
             up, down = active & (residual > 0.0), active & (residual < 0.0)
+            r_lo = np.where(up & (side > 0.0), 0.5 * r_lo, r_lo)   # Illinois: an end kept twice
+            r_hi = np.where(down & (side < 0.0), 0.5 * r_hi, r_hi)
             hi, r_hi = np.where(up, x, hi), np.where(up, residual, r_hi)
             lo, r_lo = np.where(down, x, lo), np.where(down, residual, r_lo)
+            side = np.where(up, 1.0, np.where(down, -1.0, side))
             progress = np.abs(residual) <= 0.5 * residual_before
             x = np.where(active, _next_iterate(x, residual, evaluation, lo, hi, r_lo, r_hi, progress), x)
             residual_before = np.abs(residual)
@@ -197,17 +202,18 @@ class _Increment:
 
 
 def _next_iterate(x, residual, evaluation, lo, hi, r_lo, r_hi, progress):
-    """The next trial x: Newton (R' = 1 + c K_t) where it stays strictly inside the bracket [lo, hi] and the last
-    iterate ``progress``-ed (halved |R|); else false position between the bracket's ends (both evaluated, progress),
-    else bisection."""
+    """The next trial x: Newton (R' = 1 + c K_t) where it stays inside the bracket [lo, hi] (its ends included:
+    the root may be x_hi itself, an end never evaluated) and the last iterate ``progress``-ed (halved |R|); else
+    false position between the bracket's ends (both evaluated; their R with the Illinois halving), else
+    bisection."""
     D_b, c = evaluation[3], evaluation[5]
     slope_R = 1.0 + c * D_b[:, :3, :3].sum(axis=(1, 2)) / 9.0
     newton = x - residual / np.where(slope_R > 0.0, slope_R, 1.0)
     both = np.isfinite(r_lo) & np.isfinite(r_hi)
     secant = lo - np.where(both, r_lo, 0.0) * (hi - lo) / np.where(both, r_hi - r_lo, 1.0)
     middle = 0.5 * (lo + hi)
-    fallback = np.where(both & progress & (secant > lo) & (secant < hi), secant, middle)
-    return np.where((slope_R > 0.0) & (newton > lo) & (newton < hi) & progress, newton, fallback)
+    fallback = np.where(both & (secant > lo) & (secant < hi), secant, middle)
+    return np.where((slope_R > 0.0) & (newton >= lo) & (newton <= hi) & progress, newton, fallback)
 
 
 def _merge(mask, new, old):
