@@ -36,9 +36,9 @@ EFFECTS = {"none": {}, "viscosity": {"C_alpha_e": 0.015, "tau": 86400.0}, "aniso
 DAY = 86400.0
 
 
-def material(effect: str):
-    """(model, chi0) of the clay with ``effect``."""
-    c, e = CLAY, EFFECTS[effect]
+def material(effect: str, clay: dict | None = None):
+    """(model, chi0) of the clay with ``effect``; ``clay`` overrides values of :data:`CLAY`."""
+    c, e = {**CLAY, **(clay or {})}, EFFECTS[effect]
     base = (c["M"], c["lambda_"], c["kappa"], c["nu"])
     if effect == "viscosity":
         return ViscousClay(*base, e["C_alpha_e"], e["tau"]), 0.0
@@ -154,17 +154,19 @@ def _control(point, test, stage):
     raise ValueError(f"stage kind {stage.kind!r} of {test.name} is not generated")
 
 
-def simulate(test: Test, effect: str, **steps):
+def simulate(test: Test, effect: str, clay: dict | None = None, **steps):
     """{stage name: (start index, end index)} and the trajectory rows (time s, eps_a, eps_r, sigma'_a, sigma'_r,
-    e) of ``test`` on the clay with ``effect``; ``steps`` go to :func:`run_stage` (sub-step sizes)."""
-    model, chi0 = material(effect)
+    e) of ``test`` on the clay with ``effect`` (``clay`` overrides values of :data:`CLAY`); ``steps`` go to
+    :func:`run_stage` (sub-step sizes)."""
+    model, chi0 = material(effect, clay)
+    c = {**CLAY, **(clay or {})}
     init = test.initial
     if "p0" in init:
         sa = sr = init["p0"]
     else:
         sa, sr = init["sigma_v0"], init["K0"] * init["sigma_v0"]
-    k0 = CLAY["K0_nc"]
-    point_p = (CLAY["sigma_p"] * (1 + 2 * k0) / 3.0, CLAY["sigma_p"] * (1 - k0))
+    k0 = c["K0_nc"]
+    point_p = (c["sigma_p"] * (1 + 2 * k0) / 3.0, c["sigma_p"] * (1 - k0))
     state: ClayState = model.initial_state((sa + 2 * sr) / 3.0, sa - sr, 1.0 + init["e0"], point_p, chi0)
     point = Point(model, state)
     spans = {}

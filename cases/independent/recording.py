@@ -33,7 +33,7 @@ import numpy as np
 
 from .programmes import CLAY, EFFECTS, PROGRAMMES, simulate
 
-__all__ = ["SEEDS", "log_points", "records", "write_all", "case_ids"]
+__all__ = ["SEEDS", "log_points", "logged_times", "records", "write_all", "case_ids"]
 
 SEEDS = (1, 2, 3)
 HEADER = "SYNTHETIC (independent generator): NOT MEASURED DATA"
@@ -88,18 +88,25 @@ def log_points(stage, t, x, rng) -> np.ndarray:
     return t0 + local
 
 
-def records(test, effect, seed, prog_index, test_index, **steps) -> dict:
-    """{column: values} of one test logged and with noise, for a noise seed (NaN: not recorded in that stage)."""
-    spans, rows = simulate(test, effect, **steps)
+def logged_times(test, spans, rows, seed, prog_index, test_index) -> list:
+    """[(stage number, stage, its trajectory rows, the logged times)] of one test for a noise seed."""
     r = np.array(rows)
     rng = np.random.default_rng([seed, prog_index, test_index])
-    noise = np.random.default_rng([seed, prog_index, test_index, 7])
-    out = {c: [] for c in COLUMNS[test.apparatus]}
+    out = []
     for number, stage in enumerate(test.stages, start=1):
         a, b = spans[stage.name]
         seg = r[a:b]
+        out.append((number, stage, seg, log_points(stage, seg[:, 0], seg[:, 1], rng)))
+    return out
+
+
+def records(test, effect, seed, prog_index, test_index, **steps) -> dict:
+    """{column: values} of one test logged and with noise, for a noise seed (NaN: not recorded in that stage)."""
+    spans, rows = simulate(test, effect, **steps)
+    noise = np.random.default_rng([seed, prog_index, test_index, 7])
+    out = {c: [] for c in COLUMNS[test.apparatus]}
+    for number, stage, seg, times in logged_times(test, spans, rows, seed, prog_index, test_index):
         t = seg[:, 0]
-        times = log_points(stage, t, seg[:, 1], rng)
         at = {j: np.interp(times, t, seg[:, j]) for j in range(1, 6)}
         ea, sa, sr, e = at[1], at[3], at[4], at[5]
         n = len(times)
