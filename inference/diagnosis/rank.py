@@ -67,7 +67,8 @@ PATTERN_REDUCTION = 0.5
 #: an enriched class explains the misfit the screening located when it falls to at most this fraction of the base's
 #: (median region). Set between the two groups of the independent generator's programmes: the hidden effects'
 #: classes left 0.00-0.51 of it (ck0u destructuration 0.51, anisotropy 0.35-0.47); classes past the ln B threshold on
-#: the controls left 0.79-0.88 (swelling and destructuration on the CIU control with 0.4 % noise; notes of the study)
+#: the controls left 0.79-0.89 (swelling +26.7 on ciu_D_s3; swelling and destructuration on the CIU control with 0.4 %
+#: noise; notes/independent-diagnosis.md)
 MISFIT_REDUCTION = 0.6
 ROLES = ("primary", "supporting")
 
