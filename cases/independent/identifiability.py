@@ -24,9 +24,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .programmes import CLAY, PROGRAMMES, simulate
-from .recording import SEEDS, logged_times
+from .recording import SEEDS, STRAIN_NOISE, STRESS_NOISE, logged_times
 
-__all__ = ["ONE_DIMENSIONAL", "FREE", "plain_residual", "best_plain_fit", "main"]
+__all__ = ["ONE_DIMENSIONAL", "FREE", "records_with_effect", "plain_residual", "best_plain_fit", "main"]
 
 ONE_DIMENSIONAL = ("crs", "il", "relaxation")
 #: the plain clay's free values and their bounds (the study files' priors)
@@ -38,36 +38,42 @@ def best_plain_fit(programme: str, effect: str, seed: int, start: dict | None = 
     ``start`` (default: the generating values): {"E": sum of squares in noise units, "n": responses compared,
     "values": the fitted clay, "ln_L_gain": E/2}."""
     names = list(FREE)
+    truth = records_with_effect(programme, effect, seed)
     x0 = np.array([(start or CLAY)[n] for n in names], dtype=float)
     lower, upper = (np.array([FREE[n][k] for n in names]) for k in (0, 1))
-    fit = least_squares(lambda x: plain_residual(programme, effect, seed, dict(zip(names, x))), x0,
+    fit = least_squares(lambda x: plain_residual(programme, truth, dict(zip(names, x))), x0,
                         bounds=(lower, upper), x_scale=x0, diff_step=1e-4, max_nfev=200)
     E = float(np.sum(fit.fun ** 2))
     return {"E": E, "n": int(fit.fun.size), "values": dict(zip(names, map(float, fit.x))), "ln_L_gain": 0.5 * E}
 
 
-def plain_residual(programme, effect, seed, clay):
-    """(plain clay with the values ``clay`` - clay with ``effect``) at the points ``seed`` logs, in units of the
-    noise standard deviation at the latter's values (module docstring); a plain-clay stage shorter than the logged
-    time takes its end value."""
+def records_with_effect(programme: str, effect: str, seed: int) -> list:
+    """Per test of ``programme``: [(stage, its trajectory rows, the times ``seed`` logs)] of the clay with ``effect``
+    (noise-free; :func:`cases.independent.recording.logged_times`)."""
     index = list(PROGRAMMES).index(programme)
+    return [[(stage, seg, times) for _, stage, seg, times in logged_times(test, *simulate(test, effect), seed, index, j)]
+            for j, test in enumerate(PROGRAMMES[programme][1])]
+
+
+def plain_residual(programme: str, truth: list, clay: dict) -> np.ndarray:
+    """(plain clay with the values ``clay`` - the records ``truth`` of :func:`records_with_effect`) at the logged
+    times, in units of the noise standard deviation at the latter's values (module docstring); a plain-clay stage
+    shorter than a logged time takes its end value."""
     out = []
-    for j, test in enumerate(PROGRAMMES[programme][1]):
-        spans_t, rows_t = simulate(test, effect)
-        truth = logged_times(test, spans_t, rows_t, seed, index, j)
+    for test, stages in zip(PROGRAMMES[programme][1], truth):
         spans, rows = simulate(test, "none", clay)
         r = np.array(rows)
-        for _, stage, seg_t, times in truth:
+        for stage, seg_t, times in stages:
             a, b = spans[stage.name]
             seg = r[a:b]
             if stage.kind != "load":
                 s_t = np.interp(times, seg_t[:, 0], seg_t[:, 3])
                 s = np.interp(times, seg[:, 0], seg[:, 3])
-                out.append((s - s_t) / np.hypot(0.015 * s_t, 0.3))
+                out.append((s - s_t) / np.hypot(STRESS_NOISE[0] * s_t, STRESS_NOISE[1]))
             if stage.kind in ("load", "creep", "consolidation"):
                 e_t = 100.0 * np.interp(times, seg_t[:, 0], seg_t[:, 1])
                 e = 100.0 * np.interp(times, seg[:, 0], seg[:, 1])
-                out.append((e - e_t) / np.hypot(0.01 * e_t, 0.002))
+                out.append((e - e_t) / np.hypot(STRAIN_NOISE[0] * e_t, STRAIN_NOISE[1]))
     return np.concatenate(out)
 
 

@@ -33,9 +33,13 @@ import numpy as np
 
 from .programmes import CLAY, EFFECTS, PROGRAMMES, simulate
 
-__all__ = ["SEEDS", "log_points", "logged_times", "records", "write_all", "case_ids"]
+__all__ = ["SEEDS", "STRESS_NOISE", "STRAIN_NOISE", "log_points", "logged_times", "records", "write_all", "case_ids"]
 
 SEEDS = (1, 2, 3)
+#: noise of a measured stress: relative and absolute (kPa) standard deviations (module docstring)
+STRESS_NOISE = (0.015, 0.3)
+#: noise of an axial strain where it is a response: relative and absolute (%) standard deviations
+STRAIN_NOISE = (0.01, 0.002)
 HEADER = "SYNTHETIC (independent generator): NOT MEASURED DATA"
 COLUMNS = {"triaxial": ("stage", "time_s", "stage_time_s", "axial_strain_pct", "q_kPa", "p_kPa", "excess_pore_pressure_kPa",
                         "void_ratio"),
@@ -113,13 +117,13 @@ def records(test, effect, seed, prog_index, test_index, **steps) -> dict:
         empty = np.full(n, np.nan)
 
         def measured(v):
-            return v * noise.normal(1.0, 0.015, n) + noise.normal(0.0, 0.3, n)
+            return v * noise.normal(1.0, STRESS_NOISE[0], n) + noise.normal(0.0, STRESS_NOISE[1], n)
 
         def applied(v):
-            return v + noise.normal(0.0, 0.3, n)
+            return v + noise.normal(0.0, STRESS_NOISE[1], n)
         strain = 100.0 * ea
         if stage.kind in ("consolidation", "creep", "load"):
-            strain = strain * noise.normal(1.0, 0.01, n) + noise.normal(0.0, 0.002, n)
+            strain = strain * noise.normal(1.0, STRAIN_NOISE[0], n) + noise.normal(0.0, STRAIN_NOISE[1], n)
         elif stage.kind == "shear":
             strain = 100.0 * (ea - seg[0, 1])
         out["stage"] += [number] * n

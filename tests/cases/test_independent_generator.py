@@ -234,10 +234,10 @@ def test_negative_control_is_reproduced_by_the_calibrated_mcc(programme):
 
 
 def test_identifiability_control_is_its_own_plain_clay_and_a_bonded_clay_is_not():
-    from cases.independent.identifiability import CLAY as PLAIN, plain_residual
+    from cases.independent.identifiability import CLAY as PLAIN, plain_residual, records_with_effect
     clay = {k: PLAIN[k] for k in ("M", "lambda_", "kappa", "sigma_p")}
-    assert np.max(np.abs(plain_residual("relaxation", "none", 1, clay))) == 0.0
-    bonded = plain_residual("relaxation", "destructuration", 1, clay)
+    assert np.max(np.abs(plain_residual("relaxation", records_with_effect("relaxation", "none", 1), clay))) == 0.0
+    bonded = plain_residual("relaxation", records_with_effect("relaxation", "destructuration", 1), clay)
     assert np.sqrt(np.mean(bonded ** 2)) > 1.0          # the bonded clay's records differ from the plain clay's
 
 
