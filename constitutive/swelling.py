@@ -35,8 +35,9 @@ iteration starts from the lagged estimate x_0 = (eps_s,n + a eps_s^eq(p'_n))/(1 
 at the start of the increment (x_hi on first loading, where it is the root), and goes on by Newton safeguarded by the
 bracket: a Newton step that leaves the bracket, or follows an iterate that did not halve |R| (the kink of (S2) at
 p' = p'_max), is replaced by false position between the bracket's ends with the Illinois modification (the R of an
-end kept twice in a row is halved: superlinear where R has a kink), or by bisection while one end is not evaluated. A point still at |R| > ``tolerance`` after ``max_iterations``
-base updates raises the base's IntegrationError; so does p' <= 0 where (S2) is active. On first loading
+end kept twice in a row is halved: superlinear where R has a kink), or by bisection while one end is not
+evaluated. A point still at |R| > ``tolerance`` after ``max_iterations`` base updates raises the base's
+IntegrationError; so does p' <= 0 where (S2) is active. On first loading
 (eps_s,n = 0, p' >= p'_max,n) x = 0 at once: the base model receives d eps bit for bit, and the result is the base
 model's.
 

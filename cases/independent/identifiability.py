@@ -51,8 +51,9 @@ def records_with_effect(programme: str, effect: str, seed: int) -> list:
     """Per test of ``programme``: [(stage, its trajectory rows, the times ``seed`` logs)] of the clay with ``effect``
     (noise-free; :func:`cases.independent.recording.logged_times`)."""
     index = list(PROGRAMMES).index(programme)
-    return [[(stage, seg, times) for _, stage, seg, times in logged_times(test, *simulate(test, effect), seed, index, j)]
-            for j, test in enumerate(PROGRAMMES[programme][1])]
+    tests = PROGRAMMES[programme][1]
+    return [[(stage, seg, times) for _, stage, seg, times in logged_times(t, *simulate(t, effect), seed, index, j)]
+            for j, t in enumerate(tests)]
 
 
 def plain_residual(programme: str, truth: list, clay: dict) -> np.ndarray:

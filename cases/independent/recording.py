@@ -33,7 +33,8 @@ import numpy as np
 
 from .programmes import CLAY, EFFECTS, PROGRAMMES, simulate
 
-__all__ = ["SEEDS", "STRESS_NOISE", "STRAIN_NOISE", "log_points", "logged_times", "records", "write_all", "case_ids"]
+__all__ = ["SEEDS", "STRESS_NOISE", "STRAIN_NOISE", "log_points", "logged_times", "records", "write_all",
+           "case_ids"]
 
 SEEDS = (1, 2, 3)
 #: noise of a measured stress: relative and absolute (kPa) standard deviations (module docstring)

@@ -57,8 +57,8 @@ from scipy import stats
 from . import contrast
 from .attribution import per_curve
 
-__all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "rank_candidates", "pattern_explained", "misfit_explained",
-           "conclude"]
+__all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "rank_candidates", "pattern_explained",
+           "misfit_explained", "conclude"]
 
 #: ln B at and above which the evidence for the enriched class is "strong" (B >= 20, Kass & Raftery 1995)
 STRONG_LOG_BAYES = 3.0
