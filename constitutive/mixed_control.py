@@ -523,15 +523,15 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
             np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), going, np.zeros(n, dtype=bool),
             np.zeros(n, dtype=bool), jumped, np.ones(n), np.zeros((n, 6)), np.zeros(n), stress.copy(),
             np.zeros((n, 6)), np.zeros(n))
-    h_previous, d_strain, d_u, known, accepted, take, dead = (walk[k] for k in (2, 4, 5, 8, 11, 14, 15))
-    h_before, d_strain_before, d_u_before = walk[17:20]
+    (_, _, h_previous, _, d_strain, d_u, _, _, known, _, _, accepted, segment, _, take, dead, _, h_before,
+     d_strain_before, d_u_before, _, _, _) = walk                   # the names of _judge_steps (its docstring)
     sizes = (np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
     settings = (float(atol), float(floor), float(strain_scale), float(strain_step), float(growth),
                 int(max_rejections), int(max_cuts))
     alive = np.ones(n, dtype=bool)
     reasons = {}
     while going.any():
-        _next_steps(tau, h, walk[12], segments[0], rec, going, *sizes)
+        _next_steps(tau, h, segment, segments[0], rec, going, *sizes)
         size, after, landing = sizes
         goal = target(after)
         inc = np.where(control, goal - strain, goal - stress - u[:, None] * NORMAL)
