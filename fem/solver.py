@@ -25,7 +25,8 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from constitutive import IntegrationError
 
-from ._residual_kernel import cell_strain, coupled_residual, relative_residual
+from ._residual_kernel import (band_matrix, coupled_residual, extrapolate, newton_measures, step_rates,
+                               structural_zeros, trial_strain)
 from .element import ElementGeometry
 from .material_point import MaterialPoints
 from .problem import DOFS, Problem, edges_of_set
@@ -40,6 +41,7 @@ IP = np.array([2, 5, 8, 11])
 # round-off (U - U_n of nearly equal displacements): measured 1e-23 against 3.8e-18 with a field maximum of 1.8e-10
 # (120 radial cells, von Mises dissipation), i.e. round-off at ~5e-14 of the maximum. 1e-6 x rtol = 1e-12 clears it.
 SCALE_FLOOR = 1e-6
+_EMPTY = np.zeros(0)   # "no such rate" for the compiled predictor (first order, or the first step of a phase)
 
 
 class ConvergenceError(RuntimeError):
@@ -101,6 +103,8 @@ class Solver:
         self._up_idx = flat.ravel()[self._up_sel]
         self._diag_c = self.cdofs * rows + 2 * kl
         self.band_size = N * rows
+        # two band Jacobians, factorized in place in turn (_factor)
+        self._bands, self._next_band = (np.empty(self.band_size), np.empty(self.band_size)), 0
         # boundary pressure loads per unit amplitude
         self.f_pressure = np.zeros(N)
         for bc in pb.pressures:
@@ -120,6 +124,8 @@ class Solver:
         self.monitor_nodes, self.monitor_r = 3 * self.node_order[row] + 2, mesh.nodes[row, 0]
         self.times, self.amplitudes, self.phase_of = pb.amplitude_table()
         g = self.geom
+        if not structural_zeros(g.B, g.hg):
+            raise RuntimeError("fem.element: B or K_hg has entries where the compiled residual assumes zeros")
         self._VBt = g.volume[:, None, None] * np.transpose(g.B, (0, 2, 1)).copy()
         self._absVBt = np.abs(self._VBt)
         self._abs_vol_row = np.abs(g.vol_row)
@@ -127,6 +133,7 @@ class Solver:
         driven[self.cdofs[self.cscale != 0.0]] = True
         self._cells_c = np.flatnonzero(np.any(driven[self.edofs], axis=1))   # cells moved by driven dofs
         self._has_pressure = bool(np.any(self.f_pressure))
+        self._no_load = np.zeros(N)
         self._norm_pressure = np.linalg.norm(self.f_pressure)
         self._const_cache = {}
 
@@ -146,12 +153,13 @@ class Solver:
         mp = MaterialPoints(model, stress0, pb.void_ratio0)
         self._mp = mp
         self._k = k / pb.gamma_w
+        self._k_dt = (None, None)   # (dt, dt k/gamma_w per cell) of the last residual
         self._const_cache = {}
         self._lu = None
         self.stats = {"residuals": 0, "material_calls": 0, "tangent_calls": 0, "factorizations": 0, "cuts": 0}
         self._sig0_fe = -stress0[:, :4]
         first_dt = self.times[1] - self.times[0]
-        _, _, _, self._D = mp.trial(np.zeros((ne, 4)), first_dt)   # tangent of the committed state (see _residual)
+        self._D = mp.trial(np.zeros((ne, 4)), first_dt)[2]   # tangent of the committed state (see _residual)
         self._rate_dependent = bool(getattr(model, "rate_dependent", True))
         if pb.hourglass_modulus is None:
             G = self._D[:, 3, 3].copy()
@@ -164,10 +172,13 @@ class Solver:
         self._absS = np.abs(self._S)
         self._f_geo = self._assemble_u(g.volume[:, None] * np.einsum("nij,ni->nj", g.B, self._sig0_fe)
                                        - g.vol_row * (g.volume * pb.initial.u0)[:, None])
+        if self.cavity_ur is not None:
+            self._f_geo_wall = self._f_geo[self.cavity_ur].sum()
         x = np.zeros(self.n_dofs)
         self._reaction = np.zeros(self.n_dofs)
-        self._stress_fe = self._sig0_fe.copy()
         self._strain = np.zeros((ne, 4))
+        self._scale = np.empty(self.n_dofs)   # scratch of _residual: the per-dof reference magnitudes
+        self._rhs = np.empty(self.n_dofs)     # scratch of _residual: the right-hand side of the correction
         result = Result(self, pb)
         result.record(0.0, 0.0, x, self)
         if pb.save_fields != "none":
@@ -192,7 +203,7 @@ class Solver:
     def cavity_pressure(self, x):
         """Total radial stress on the cavity wall (kPa, compression positive): the in-situ value plus the converged
         reaction increment (the residual at the constrained dofs), summed over the wall and divided by its area."""
-        return (self._f_geo[self.cavity_ur].sum() + self._reaction[self.cavity_ur].sum()) / self.cavity_area
+        return (self._f_geo_wall + self._reaction[self.cavity_ur].sum()) / self.cavity_area
 
     # ------------------------------------------------------------------ stepping
     def _increment(self, x, t0, t1, a0, a1):
@@ -209,14 +220,21 @@ class Solver:
             dt = (t1 - t0) * h
             guess = None
             if pb.predictor == "extrapolate" and self._velocity is not None:
-                guess = x + dt * self._velocity
-                if self._acceleration is not None:
-                    guess += (0.5 * dt * (self._dt_last + dt)) * self._acceleration
+                guess = np.empty_like(x)
+                if self._acceleration is None:
+                    extrapolate(x, self._velocity, dt, _EMPTY, 0.0, guess)
+                else:
+                    extrapolate(x, self._velocity, dt, self._acceleration, 0.5 * dt * (self._dt_last + dt), guess)
             try:
                 x_new = self._newton(x, dt, a0 + (a1 - a0) * f1, guess)
-                velocity = (x_new - x) / dt
-                self._acceleration = (None if self._velocity is None else
-                                      (velocity - self._velocity) / (0.5 * (dt + self._dt_last)))
+                velocity = np.empty_like(x)
+                if self._velocity is None:
+                    step_rates(x_new, x, dt, _EMPTY, 1.0, velocity, _EMPTY)
+                    self._acceleration = None
+                else:
+                    self._acceleration = np.empty_like(x)
+                    step_rates(x_new, x, dt, self._velocity, 0.5 * (dt + self._dt_last), velocity,
+                               self._acceleration)
                 self._velocity, self._dt_last = velocity, dt
                 x = x_new
                 frac = f1
@@ -251,8 +269,7 @@ class Solver:
         with refresh_ratio 0.1."""
         pb = self.problem
         mp = self._mp
-        x = x_n.copy() if guess is None else guess
-        dc = self.cscale * a1 - x_n[self.cdofs]
+        x = x_n.copy() if guess is None else guess   # owned here: corrected in place
         if guess is not None:
             x[self.cdofs] = self.cscale * a1
         previous = np.inf
@@ -261,22 +278,20 @@ class Solver:
             try:
                 # a rate-dependent material is called at every residual, and its tangent is needed only when a
                 # factorization follows (about 1 call in 10): asked for then (_tangent_at), not at every call
-                R, D, trial, scale = self._residual(x, x_n, dt, a1, material_call=moved or self._rate_dependent,
-                                                    tangent=not (moved and self._rate_dependent))
+                R, D, trial, (finite, ru, rp), rhs = self._residual(
+                    x, x_n, dt, a1, material_call=moved or self._rate_dependent,
+                    tangent=not (moved and self._rate_dependent))
             except IntegrationError as err:
                 self._lu = None
                 raise _StepFailed(f"material: {err}") from None
-            if not np.all(np.isfinite(R)):
+            if not finite:
                 self._lu = None
                 raise _StepFailed("non-finite residual")
             if moved:
-                ru = relative_residual(R, scale, self._ufree, SCALE_FLOOR)
-                rp = relative_residual(R, scale, self._pfree, SCALE_FLOOR)
                 if ru <= pb.rtol and rp <= pb.rtol:
                     mp.commit(trial[0], trial[1])
                     self._D = D
-                    self._stress_fe = trial[2]
-                    self._strain = trial[3]
+                    self._strain = trial[2]
                     self._reaction = R + a1 * self.f_pressure if self._has_pressure else R
                     return x
                 current = max(ru, rp)
@@ -285,55 +300,55 @@ class Solver:
                 previous = current
             if it == pb.max_iterations:
                 break
-            rhs = -R
             if not moved:
+                dc = self.cscale * a1 - x_n[self.cdofs]
                 dx = np.zeros_like(x)
                 dx[self.cdofs] = dc
                 rhs -= self._apply(D, dt, dx)
                 rhs[self.cdofs] = dc
-            else:
-                rhs[self.cdofs] = 0.0
             if self._lu is None or abs(self._lu[2] - dt) > 1e-9 * dt:
                 if D is None:
                     try:
-                        D = self._tangent_at(trial[3], dt)
+                        D = self._tangent_at(trial[2], dt)
                     except IntegrationError as err:
                         raise _StepFailed(f"material: {err}") from None
                 self._factor(self._stiffness(D), dt)
-            x = x + self._back_substitute(rhs)
+            x += self._back_substitute(rhs)
         self._lu = None
         raise _StepFailed(f"Newton did not converge in {pb.max_iterations} iterations (largest nodal residuals "
                           f"relative to the nodal force/flux levels: {ru:.3g} momentum, {rp:.3g} mass)")
 
     # ------------------------------------------------------------------ element work (vectorized over cells)
     def _residual(self, x, x_n, dt, a1, material_call=True, tangent=True):
-        """Residual, tangent, trial material state and per-dof reference magnitudes at x. With material_call False
-        (iteration 0 of a step, x = x_n, rate-independent material: a zero strain increment leaves the stress
-        unchanged whatever dt) the committed stress and the tangent of the last converged iteration are used. With
-        tangent False the tangent may be None (the material's choice; ``_tangent_at`` gives it when needed)."""
-        self.stats["residuals"] += 1
+        """Residual R, tangent, trial material state (soil stress, state, FE strain), the convergence measures
+        (finite, ru, rp) of ``newton_measures`` and the right-hand side -R (zeros at the constrained dofs; a
+        scratch array overwritten by the next call) at x. With material_call False (iteration 0 of a step, x = x_n,
+        rate-independent material: a zero strain increment leaves the stress unchanged whatever dt) the committed
+        stress and the tangent of the last converged iteration are used. With tangent False the tangent may be
+        None (the material's choice; ``_tangent_at`` gives it when needed)."""
+        stats, mp = self.stats, self._mp
+        stats["residuals"] += 1
         if material_call:
-            self.stats["material_calls"] += 1
+            stats["material_calls"] += 1
             strain = np.empty_like(self._strain)
-            cell_strain(self.geom.B, x, self.udofs, strain)
-            stress_soil, state, stress_fe, D = self._mp.trial(strain - self._strain, dt, tangent=tangent)
+            trial_strain(self.geom.B, x, self.udofs, self._strain, strain, mp.dstrain)
+            stress, state, D = mp.evaluate(dt, tangent=tangent)
         else:
-            strain, stress_soil, state, stress_fe, D = (self._strain, self._mp.stress, self._mp.state,
-                                                        self._stress_fe, self._D)
+            strain, stress, state, D = self._strain, mp.stress, mp.state, self._D
         g = self.geom
-        R, scale = np.empty(self.n_dofs), np.empty(self.n_dofs)
-        coupled_residual(x, x_n, stress_fe, self._sig0_fe, self._VBt, self._absVBt, self._hg, g.vol_row,
-                         self._abs_vol_row, g.n_bar, dt * self._k, g.H, self._S, self._absS, self.udofs, self.pdofs,
-                         R, scale)
-        if self._has_pressure:
-            R -= a1 * self.f_pressure
-            scale += np.abs(a1 * self.f_pressure)
-        return R, D, (stress_soil, state, stress_fe, strain), scale
+        if dt != self._k_dt[0]:
+            self._k_dt = (dt, dt * self._k)
+        R, scale, rhs = np.empty(self.n_dofs), self._scale, self._rhs
+        coupled_residual(x, x_n, stress, self._sig0_fe, self._VBt, self._absVBt, self._hg, g.vol_row,
+                         self._abs_vol_row, g.n_bar, self._k_dt[1], g.H, self._S, self._absS, self.udofs, self.pdofs,
+                         a1 * self.f_pressure if self._has_pressure else self._no_load, R, scale)
+        measures = newton_measures(R, scale, self._ufree, self._pfree, self.cdofs, SCALE_FLOOR, rhs)
+        return R, D, (stress, state, strain), measures, rhs
 
     def _tangent_at(self, strain, dt):
         """The material tangent of the trial at total strain ``strain`` (the same update again, with the tangent)."""
         self.stats["tangent_calls"] += 1
-        return self._mp.trial(strain - self._strain, dt)[3]
+        return self._mp.trial(strain - self._strain, dt)[2]
 
     def _assemble_u(self, f_e):
         return np.bincount(self.udofs.ravel(), f_e.ravel(), self.n_dofs)
@@ -374,11 +389,13 @@ class Solver:
     def _factor(self, Kuu, dt):
         self.stats["factorizations"] += 1
         ab_const, _ = self._constant_part(dt)
-        ab = ab_const + np.bincount(self._uu_idx, Kuu.ravel()[self._uu_sel], self.band_size)
+        ab = self._bands[self._next_band]   # not the one of self._lu, which stays valid should this one fail
+        band_matrix(ab_const, self._uu_idx, Kuu, self._uu_sel, ab)
         lu, piv, info = dgbtrf(ab.reshape(self.n_dofs, self.rows).T, self.kl, self.kl, overwrite_ab=1)
         if info != 0:
             raise _StepFailed(f"singular Jacobian (LAPACK dgbtrf info = {info}); check the boundary conditions")
         self._lu = (lu, piv, dt)
+        self._next_band ^= 1
 
     def _back_substitute(self, rhs):
         lu, piv, _ = self._lu
