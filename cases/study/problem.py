@@ -11,7 +11,6 @@ DIR/loop.json.
 """
 from __future__ import annotations
 
-import itertools
 import json
 import time
 from pathlib import Path
@@ -150,21 +149,19 @@ class LoopProblem:
     def refined_evidence(self, like, prior, post, seed):
         """ln Z and MAP from the refined posterior mode (``inference.mode_evidence``: TMCMC's estimate with few
         particles falls short by an amount growing with its stages, so classes would be compared by the sampler's
-        lag), started from the posterior sample and, for an enriched class, from the base class's mode with the
-        added parameters at their prior's lower end or middle (the enriched class nests the base near the former).
-        The batches of the refinement run on the study's process pool (serially under MPI). None when no mode can
-        be refined (the TMCMC values are then used)."""
+        lag), climbed from the posterior sample's best and, for an enriched class, also from the base class's mode
+        with the added parameters all at their prior's lower end (where the enriched class nests the base) and all at
+        its middle (a sample of few particles may sit on a lesser mode of the enriched class). The batches of the
+        refinement run on the study's process pool (serially under MPI). None when no mode can be refined (the TMCMC
+        values are then used)."""
         starts = None
         base = getattr(self, "base_mode", None)
         if base is not None and set(base) < set(post.names):
-            extra = [n for n in post.names if n not in base]
-            levels = []
-            for n in extra:
-                b = prior.bounds[post.names.index(n)]
+            levels = {}
+            for n, b in zip(post.names, prior.bounds):
                 middle = np.sqrt(b.lower * b.upper) if b.kind == "log-uniform" else 0.5 * (b.lower + b.upper)
-                levels.append((b.lower + 1e-3 * (b.upper - b.lower), middle))
-            starts = np.array([[base.get(n, dict(zip(extra, combo)).get(n)) for n in post.names]
-                               for combo in itertools.product(*levels)])
+                levels[n] = (b.lower + 1e-3 * (b.upper - b.lower), middle)
+            starts = np.array([[base[n] if n in base else levels[n][level] for n in post.names] for level in (0, 1)])
         evaluator = inference.Evaluator(like)
         # under MPI every rank holds the posterior and refines the same mode by itself
         executor = inference.SerialExecutor() if mpi_world() is not None else self.executor()
