@@ -279,6 +279,21 @@ class ANICREEP(MaterialModel):
         if self._shape and self._shape[0] not in (1, n):
             raise ValueError(f"{self.name}: parameters are given for {self._shape[0]} points but {what} has {n}")
 
+    def _time_increments(self, dt, n):
+        """``dt`` (s, scalar or broadcastable to (n,)) as a contiguous float (n,) array; ValueError unless every one
+        is finite and >= 0."""
+        if np.ndim(dt) == 0:  # one time increment for every point (the FE): checked once
+            dt = float(dt)
+            if not (dt >= 0.0 and dt < np.inf):
+                raise ValueError(f"{self.name}: time increment dt = {dt} must be >= 0")
+            return np.full(n, dt)
+        dt = np.asarray(dt, dtype=float)
+        if dt.shape != (n,) or not dt.flags.c_contiguous:
+            dt = np.ascontiguousarray(np.broadcast_to(dt, (n,)))
+        if n and not (dt.min() >= 0.0 and dt.max() < np.inf):  # a nan fails the first comparison
+            raise ValueError(f"{self.name}: time increment dt = {dt[~np.isfinite(dt) | (dt < 0.0)][0]} must be >= 0")
+        return dt
+
     def _volume_columns(self, v):
         """The kernel columns that carry the specific volume ``v`` (scalar or (n,)): c_e = v/kappa of (E),
         c_p = v/(lambda - kappa) of (H), omega = c_p ln[(10M^2 + 2 alpha_K0 omega_d)/(M^2 + 2 alpha_K0 omega_d)] of
@@ -367,16 +382,7 @@ class ANICREEP(MaterialModel):
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]
         self._n_points(n, "stress")
-        if np.ndim(dt) == 0:  # one time increment for every point (the FE): checked once
-            dt = float(dt)
-            if not (dt >= 0.0 and dt < np.inf):
-                raise ValueError(f"{self.name}: time increment dt = {dt} must be >= 0")
-            dt = np.full(n, dt)
-        else:
-            dt = np.ascontiguousarray(np.broadcast_to(np.asarray(dt, dtype=float), (n,)))
-            if np.any(~np.isfinite(dt) | (dt < 0.0)):
-                raise ValueError(f"{self.name}: time increment dt = {dt[~np.isfinite(dt) | (dt < 0.0)][0]} must be "
-                                 ">= 0")
+        dt = self._time_increments(dt, n)
         new_stress, alpha, dvp = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6))
         pm_ref, chi, vp_shear, ratio = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
         stiffness = np.empty((n, 6, 6)) if tangent else _NO_TANGENT

@@ -156,8 +156,9 @@ class ModifiedCamClay(MaterialModel):
             raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
                                    f"sub-stepping {at}")
         e_new = e - (1.0 + e) * dstrain[:, :3].sum(axis=1)
-        if np.any(e_new <= 0.0):
-            i = int(np.argmax(e_new <= 0.0))
+        collapsed = e_new <= 0.0
+        if collapsed.any():
+            i = int(np.argmax(collapsed))
             raise IntegrationError(i, f"void ratio {e_new[i]:.3g} <= 0 after the strain increment {dstrain[i]} "
                                    f"(from e = {e[i]:.4g}): compressed beyond the solids")
         new_state = {"pc": pc, "void_ratio": e_new, "plastic_strain": state["plastic_strain"] + deps_p}

@@ -6,14 +6,17 @@ increment du added to the unknowns, the prescribed stresses then being *total* s
 unknown strain components (and du) are found by Newton iterations using the model's tangent; points iterate
 independently, so a batched run equals the individual runs to round-off. :func:`adaptive_control` drives the same
 controls along a prescribed path in time with step sizes chosen per point (the holds of a rate-dependent model).
-The named tests built on them are in :mod:`constitutive.labtests`.
+The named tests built on them are in :mod:`constitutive.labtests`; the per-point arithmetic of a step (its aim, the
+Newton's start, corrections and end, the adaptive step control) is compiled in
+:mod:`constitutive._mixed_control_kernel`.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ._mixed_control_kernel import (aim_step, correct_all, finish_step, judge_steps, newton_correction, next_steps,
+                                    start_step)
 from .base import IntegrationError
-from .jit import jit
 
 __all__ = ["mixed_control", "adaptive_control", "batch_size", "newton_correction", "NORMAL"]
 
@@ -106,16 +109,18 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     _, _, tangent = model.update(stress, state, np.zeros((n, 6)), 0.0)
     out = {k: [] for k in ("stress", "strain", "pore_pressure", "void_ratio", "time")}
 
-    def store():
-        nan = ~alive
-        out["stress"].append(np.where(nan[:, None], np.nan, stress))
-        out["strain"].append(np.where(nan[:, None], np.nan, strain))
-        out["pore_pressure"].append(np.where(nan, np.nan, u))
-        out["void_ratio"].append(np.where(nan, np.nan, state["void_ratio"]))
+    def store():  # the arrays are replaced at every step, never changed in place: stored as they are
+        rows = (stress, strain, u, state["void_ratio"])
+        if not alive.all():
+            nan = ~alive
+            rows = tuple(np.where(nan.reshape((-1,) + (1,) * (np.ndim(r) - 1)), np.nan, r) for r in rows)
+        for key, row in zip(("stress", "strain", "pore_pressure", "void_ratio"), rows):
+            out[key].append(row)
         out["time"].append(np.full(n, t))
 
     store()
     steps = {}  # one _Step per (control row, drainage)
+    fresh = ~control & np.vstack([np.ones((1, 6), dtype=bool), control[:-1]])  # become stress-controlled at step k
     last_key, last_deps, last_du, last_dt = None, np.zeros((n, 6)), np.zeros(n), np.zeros(n)
     for k in range(n_steps):
         key = (control[k].tobytes(), bool(und[k]))
@@ -127,22 +132,19 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
         # stress-controlled components aim at the accumulated prescribed total stress, so that the Newton
         # tolerance does not accumulate into a drift; a component that becomes stress-controlled starts from the
         # actual total stress
-        total = stress + u[:, None] * NORMAL
-        fresh = ~control[k] & (control[k - 1] if k else True)
-        aimed = np.where(fresh, total, prescribed) + np.where(control[k], 0.0, inc[k])
         taking = ~stopped if active is None else active[k] & ~stopped  # the points that take step k
-        prescribed = np.where(taking[:, None], aimed, prescribed)
-        step_inc = np.where(control[k], inc[k], prescribed - total)
+        step_inc = np.empty((n, 6))
+        aim_step(stress, u, inc[k], control[k], fresh[k], taking, prescribed, step_inc)
         moving = alive & taking
         guess = None
         if predictor == "previous" and key == last_key:
             with np.errstate(divide="ignore", invalid="ignore"):
                 ratio = np.where(last_dt > 0.0, dt[k] / last_dt, 0.0)
             guess = (last_deps * ratio[:, None], last_du * ratio, last_dt > 0.0)
-        res = step.advance(moving.copy(), stress, state, tangent, step_inc, dt[k], max_cuts if step.n_u else 0,
+        res = step.advance(moving, stress, state, tangent, step_inc, dt[k], max_cuts if step.n_u else 0,
                            guess)
         failed = moving & ~res["ok"]
-        if np.any(failed):
+        if failed.any():
             for i in np.flatnonzero(failed):
                 reasons[int(i)] = f"step {k}: " + res["reasons"].get(int(i), (
                     f"mixed-control Newton did not converge after {max_cuts} step cuts"))
@@ -182,77 +184,6 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     return hist
 
 
-@jit
-def newton_correction(dsig, s_new, tangent, deps, du, target, unknown, undrained, done, tol, ok):
-    """One Newton correction of the mixed-control unknowns, in place, per point (the points ``done`` and those whose
-    residual is zero are left alone); ``ok`` (n,) set where the residual before it has converged (``s_new`` (n, 6)
-    given; with ``s_new`` of zero rows, as for the predictor, the check is skipped: ``ok`` False).
-
-    Residual (:func:`mixed_control`): r_a = dsig_c - target_a on the unknown stress components c = unknown[a]
-    (+ du on a normal one when undrained) and, undrained, r_v = the sum of the normal strain increments. Converged:
-    max |r_a| <= tol (1 kPa + max |s_new|) and |r_v| <= 1e-3 tol. Jacobian: the tangent's block on the unknowns,
-    bordered by the normal unknowns when undrained; each point's small system by Gaussian elimination with partial
-    pivoting."""
-    k = unknown.size
-    m = k + 1 if undrained else k
-    jac = np.empty((m, m))
-    r = np.empty(m)
-    for i in range(dsig.shape[0]):
-        ok[i] = False
-        if done[i]:
-            continue
-        worst, zero = 0.0, True
-        for a in range(k):
-            v = dsig[i, unknown[a]] - target[i, a]
-            if undrained and unknown[a] < 3:
-                v += du[i]
-            r[a] = v
-            worst = max(worst, abs(v))
-            zero = zero and v == 0.0
-        if undrained:
-            r[k] = deps[i, 0] + deps[i, 1] + deps[i, 2]
-            zero = zero and r[k] == 0.0
-        if s_new.shape[0]:
-            top = 0.0
-            for c in range(6):
-                top = max(top, abs(s_new[i, c]))
-            ok[i] = worst <= tol * (1.0 + top) and (not undrained or abs(r[k]) <= 1e-3 * tol)
-        if zero or ok[i]:
-            continue
-        for a in range(k):
-            for b in range(k):
-                jac[a, b] = tangent[i, unknown[a], unknown[b]]
-            if undrained:
-                jac[a, k] = jac[k, a] = 1.0 if unknown[a] < 3 else 0.0
-        if undrained:
-            jac[k, k] = 0.0
-        for a in range(m):
-            r[a] = -r[a]
-        for a in range(m):  # elimination with partial pivoting
-            p = a
-            for b in range(a + 1, m):
-                if abs(jac[b, a]) > abs(jac[p, a]):
-                    p = b
-            if p != a:
-                for c in range(m):
-                    jac[a, c], jac[p, c] = jac[p, c], jac[a, c]
-                r[a], r[p] = r[p], r[a]
-            for b in range(a + 1, m):
-                f = jac[b, a] / jac[a, a]
-                for c in range(a + 1, m):
-                    jac[b, c] -= f * jac[a, c]
-                r[b] -= f * r[a]
-        for a in range(m - 1, -1, -1):
-            v = r[a]
-            for c in range(a + 1, m):
-                v -= jac[a, c] * r[c]
-            r[a] = v / jac[a, a]
-        for a in range(k):
-            deps[i, unknown[a]] += r[a]
-        if undrained:
-            du[i] += r[k]
-
-
 _NO_STRESS = np.zeros((0, 6))
 
 
@@ -265,29 +196,21 @@ class _Step:
         self.unknown = np.flatnonzero(~control)
         self.n_u = self.unknown.size + int(undrained)
 
-    def _correct(self, dsig, s_new, tangent, deps, du, target, done):
-        """Newton correction in place (:func:`newton_correction`); returns the converged points."""
-        ok = np.empty(dsig.shape[0], dtype=bool)
-        newton_correction(np.ascontiguousarray(dsig), s_new, np.ascontiguousarray(tangent), deps, du,
-                           np.ascontiguousarray(target), self.unknown, self.undrained, done, self.tol, ok)
-        return ok
-
     def solve(self, active, stress, state, tangent, inc, dt, guess=None):
         """Newton for the ``active`` points (others get a zero strain increment and are ignored); ``guess``: None
         (predictor with the start-of-step tangent) or (strain increment (n, 6), du (n,), which (n,)): the unknown
         components of the points ``which`` start from it. Returns the results dict with ``ok`` (converged active
         points; an active point that failed keeps its start values)."""
         n = stress.shape[0]
-        target = inc[:, self.unknown]
-        deps = np.where(self.control & active[:, None], inc, 0.0)
-        du = np.zeros(n)
-        guessed = np.zeros(n, dtype=bool) if guess is None or not self.n_u else active & guess[2]
-        if guessed.any():
-            deps = np.where(self.control | ~guessed[:, None], deps, guess[0])
-            du = np.where(guessed, guess[1], 0.0)
-        if self.n_u and (active & ~guessed).any():  # predictor with the start-of-step tangent
+        deps, du, target, done = np.empty((n, 6)), np.empty(n), np.empty((n, self.unknown.size)), np.empty(n, bool)
+        guessed = guess is not None and self.n_u > 0
+        predict = start_step(inc, active, self.control, self.unknown, guess[0] if guessed else deps,
+                             guess[1] if guessed else du, guess[2] if guessed else active, guessed, deps, du,
+                             target, done)
+        if self.n_u and predict:  # predictor with the start-of-step tangent for the points ``done`` leaves
             lin = np.einsum("nij,nj->ni", tangent, deps)
-            self._correct(lin, _NO_STRESS, tangent, deps, du, target, ~active | guessed)
+            newton_correction(lin, _NO_STRESS, np.ascontiguousarray(tangent), deps, du, target, self.unknown,
+                              self.undrained, done, self.tol, np.empty(n, dtype=bool))
         done = ~active
         excluded = np.zeros(n, dtype=bool)
         reasons = {}
@@ -297,6 +220,7 @@ class _Step:
         # the points that do not move (inactive, excluded) take a zero increment over a zero time: whatever their
         # state, the model's update of them cannot fail
         dt = np.where(active, dt, 0.0)
+        ok = np.empty(n, dtype=bool)
         for _ in range(self.max_iterations):
             try:
                 s_new, st_new, C = self.model.update(stress, state, deps, dt)
@@ -307,30 +231,31 @@ class _Step:
                 excluded[bad] = done[bad] = True
                 reasons[bad] = err.reason
                 deps[bad], du[bad], dt[bad] = 0.0, 0.0, 0.0
-                if np.all(done):
+                if done.all():
                     break
                 continue
             if not self.n_u:
                 done[:] = True
                 break
-            done |= self._correct(s_new - stress, s_new, C, deps, du, target, done)
-            if np.all(done):
+            if correct_all(s_new, stress, np.ascontiguousarray(C), deps, du, target, self.unknown, self.undrained,
+                           done, self.tol, ok):
                 break
-        converged = done & ~excluded & active
-        failed = active & ~converged
-        if failed.any():  # a failed point keeps its start (it may be cut and repeated, and is updated as inactive)
+        converged = np.empty(n, dtype=bool)
+        if finish_step(done, excluded, active, deps, du, converged):
+            # a failed point keeps its start (it may be cut and repeated, and is updated as inactive)
+            failed = active & ~converged
             s_new = np.where(failed[:, None], stress, s_new)
             st_new = _where_state(failed, state, st_new)
             C = np.where(failed[:, None, None], tangent, C)
-        return {"stress": s_new, "state": st_new, "tangent": C, "deps": np.where(converged[:, None], deps, 0.0),
-                "du": np.where(converged, du, 0.0), "ok": converged, "reasons": reasons}
+        return {"stress": s_new, "state": st_new, "tangent": C, "deps": deps, "du": du, "ok": converged,
+                "reasons": reasons}
 
     def advance(self, active, stress, state, tangent, inc, dt, cuts_left, guess=None):
         """Solve the step (``guess`` as in :meth:`solve`); points that fail repeat it as two half steps (recursively,
         ``cuts_left`` levels)."""
         res = self.solve(active, stress, state, tangent, inc, dt, guess)
         bad = active & ~res["ok"]
-        if not np.any(bad) or cuts_left == 0:
+        if cuts_left == 0 or not bad.any():
             return res
         first = self.advance(bad, stress, state, tangent, 0.5 * inc, 0.5 * dt, cuts_left - 1)
         again = bad & first["ok"]
@@ -345,103 +270,6 @@ class _Step:
         res["ok"] = res["ok"] | fixed
         res["reasons"] = {**res["reasons"], **first["reasons"], **second["reasons"]}
         return res
-
-
-@jit
-def _next_steps(tau, h, segment, ends, records, going, size, after, landing):
-    """The next step of each point ``going`` (in place): ``size`` h shortened to land on the next record or segment
-    end (``landing``), ending at stage time ``after``."""
-    for i in range(tau.size):
-        stop = ends[segment[i], i]
-        for r in range(records.shape[0]):
-            if tau[i] < records[r, i] < stop:
-                stop = records[r, i]
-        landing[i] = going[i] and h[i] >= stop - tau[i]
-        size[i] = stop - tau[i] if landing[i] else h[i]
-        after[i] = stop if landing[i] else tau[i] + size[i]
-
-
-@jit
-def _judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments):
-    """The step control of :func:`adaptive_control` after a step, per point, in place: accept or reject, the next
-    step size and segment, the increments and totals of the accepted steps. ``ok`` (n,) converged; ``stress`` (n, 6)
-    at the step start; ``ds``, ``deps`` (n, 6), ``du`` (n,) the step's increments; ``scale`` (n,) the stress scale
-    S; ``sizes`` (size, after, landing); ``control`` (atol, floor, strain_scale, strain_step, growth,
-    max_rejections, max_cuts); ``walk`` the per-point records (tau, h, h_previous, d_stress, d_strain, d_u, strain,
-    u, known, rejections, cuts, accepted, segment, going, take, dead, skip, h_before, d_strain_before, d_u_before,
-    stress_origin, strain_origin, u_origin): ``known`` the previous steps of the segment whose increments are rates
-    of its path (up to 2: the one before in the ``_before`` arrays), ``skip`` the next accepted step is not one (it
-    jumps to the stress target), ``_origin`` the values at the segment start; ``segments`` (ends, firsts, largest,
-    rtols)."""
-    size, after, landing = sizes
-    atol, floor, strain_scale, strain_step, growth, max_rejections, max_cuts = control
-    (tau, h, h_previous, d_stress, d_strain, d_u, strain, u, known, rejections, cuts, accepted, segment, going,
-     take, dead, skip, h_before, d_strain_before, d_u_before, stress_origin, strain_origin, u_origin) = walk
-    ends, firsts, largest, rtols = segments
-    for i in range(tau.size):
-        take[i] = dead[i] = False
-        if not going[i]:
-            continue
-        if not ok[i]:  # Newton failed: a quarter of the step, unless it is negligible (no creeping up to a failure)
-            cuts[i] += 1
-            rejections[i] = 0
-            dead[i] = cuts[i] > max_cuts or size[i] <= 1e-12 * ends[ends.shape[0] - 1, i]
-            going[i] = not dead[i]
-            h[i] = min(0.25 * size[i], largest[segment[i], i])
-            continue
-        cuts[i] = 0
-        rtol = rtols[segment[i], i]
-        ratio = size[i] / h_previous[i]
-        err = 0.0
-        for c in range(6):
-            err = max(err, abs(deps[i, c]) / strain_step)
-        if rtol < np.inf:  # the increments against the change since the segment start
-            err = max(err, abs(du[i]) / (rtol * abs(u[i] + du[i] - u_origin[i]) + floor * scale[i]))
-            for c in range(6):
-                err = max(err, abs(ds[i, c]) / (rtol * abs(stress[i, c] + ds[i, c] - stress_origin[i, c])
-                                                + floor * scale[i]),
-                          abs(deps[i, c]) / (rtol * abs(strain[i, c] + deps[i, c] - strain_origin[i, c])
-                                             + floor * strain_scale))
-        if known[i] and rtol < np.inf:
-            change = abs(du[i] - ratio * d_u[i]) / scale[i]
-            magnitude = abs(du[i]) / scale[i]
-            for c in range(6):
-                change = max(change, abs(ds[i, c] - ratio * d_stress[i, c]) / scale[i],
-                             abs(deps[i, c] - ratio * d_strain[i, c]) / strain_scale)
-                magnitude = max(magnitude, abs(ds[i, c]) / scale[i], abs(deps[i, c]) / strain_scale)
-            err = max(err, change / (rtol * magnitude + atol))
-        factor = min(max(0.9 / max(err, 1e-12), 0.2), growth)
-        if err > 1.0 and rejections[i] < max_rejections:
-            rejections[i] += 1
-            h[i] = min(size[i] * factor, largest[segment[i], i])
-            continue
-        take[i] = True
-        rejections[i] = 0
-        proposal = size[i] * factor
-        if landing[i]:  # a step shortened to land keeps its proposal
-            proposal = max(proposal, h[i])
-        for c in range(6):
-            d_strain_before[i, c] = d_strain[i, c]
-            d_stress[i, c], d_strain[i, c] = ds[i, c], deps[i, c]
-            strain[i, c] += deps[i, c]
-        d_u_before[i], d_u[i] = d_u[i], du[i]
-        u[i] += du[i]
-        tau[i], h_before[i], h_previous[i] = after[i], h_previous[i], size[i]
-        known[i] = known[i] if skip[i] else min(known[i] + 1, 2)
-        skip[i] = False
-        accepted[i] += 1
-        if tau[i] >= ends[segment[i], i]:
-            if segment[i] == ends.shape[0] - 1:
-                going[i] = False
-            else:
-                segment[i] += 1
-                proposal = firsts[segment[i], i]
-                known[i] = 0
-                for c in range(6):
-                    stress_origin[i, c] = stress[i, c] + ds[i, c]
-                    strain_origin[i, c] = strain[i, c]
-                u_origin[i] = u[i]
-        h[i] = min(proposal, largest[segment[i], i])
 
 
 def _per_point(a, n):
@@ -524,14 +352,14 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
             np.zeros(n, dtype=bool), jumped, np.ones(n), np.zeros((n, 6)), np.zeros(n), stress.copy(),
             np.zeros((n, 6)), np.zeros(n))
     (_, _, h_previous, _, d_strain, d_u, _, _, known, _, _, accepted, segment, _, take, dead, _, h_before,
-     d_strain_before, d_u_before, _, _, _) = walk                   # the names of _judge_steps (its docstring)
+     d_strain_before, d_u_before, _, _, _) = walk                   # the names of judge_steps (its docstring)
     sizes = (np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
     settings = (float(atol), float(floor), float(strain_scale), float(strain_step), float(growth),
                 int(max_rejections), int(max_cuts))
     alive = np.ones(n, dtype=bool)
     reasons = {}
     while going.any():
-        _next_steps(tau, h, segment, segments[0], rec, going, *sizes)
+        next_steps(tau, h, segment, segments[0], rec, going, *sizes)
         size, after, landing = sizes
         goal = target(after)
         inc = np.where(control, goal - strain, goal - stress - u[:, None] * NORMAL)
@@ -544,7 +372,7 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
             guess = (rate_strain * size[:, None], rate_u * size, known > 0)
         res = step.solve(going.copy(), stress, state, tangent, inc, np.where(going, size, 0.0), guess)
         ds = res["stress"] - stress
-        _judge_steps(res["ok"], stress, ds, res["deps"], res["du"], 1.0 + np.abs(stress).max(axis=1), sizes,
+        judge_steps(res["ok"], stress, ds, res["deps"], res["du"], 1.0 + np.abs(stress).max(axis=1), sizes,
                      settings, walk, segments)
         for i in np.flatnonzero(dead):
             alive[i] = False

@@ -39,7 +39,8 @@ end kept twice in a row is halved: superlinear where R has a kink), or by bisect
 evaluated. A point still at |R| > ``tolerance`` after ``max_iterations`` base updates raises the base's
 IntegrationError; so does p' <= 0 where (S2) is active. On first loading
 (eps_s,n = 0, p' >= p'_max,n) x = 0 at once: the base model receives d eps bit for bit, and the result is the base
-model's.
+model's. The elementwise arithmetic of each iteration is compiled (:mod:`constitutive._swelling_kernel`); the base
+update, the logarithm of (S2) and the sums over the tangent stay numpy's.
 
 Tangent: differentiating R = 0 with the base tangent D^b = d sigma'/d eps^b,
     C = D^b - c/(9 (1 + c K_t)) (D^b m) (m^T D^b),
@@ -50,7 +51,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points
-from .invariants import IDENTITY, mean_stress
+from .invariants import mean_stress
 
 __all__ = ["DelayedSwelling", "SWELLING_SWITCH", "SWELLING_RANGES"]
 
@@ -129,39 +130,32 @@ class DelayedSwelling(MaterialModel):
         n = stress.shape[0]
         e = np.broadcast_to(np.asarray(state["void_ratio"], dtype=float), (n,))
         eps_n = state["swelling_strain"]
-        a = np.broadcast_to(np.asarray(dt, dtype=float) / self.tau_s, (n,))
-        slope = np.broadcast_to(self.kappa_s / (1.0 + e), (n,))
-        step = _Increment(self.base, stress, state, dstrain, dt, a, slope)
+        a = np.ascontiguousarray(np.broadcast_to(np.asarray(dt, dtype=float) / self.tau_s, (n,)))
+        slope = np.ascontiguousarray(np.broadcast_to(self.kappa_s / (1.0 + e), (n,)))
+        step = _Increment(self.base, stress, state, dstrain, dt, a, slope, self.tolerance)
         x_hi = eps_n / (1.0 + a)                                   # the least swelling possible
         p_n = mean_stress(stress)
         lagged = np.where(p_n < state["p_max"], slope * np.log(np.clip(p_n, 1e-300, None) / state["p_max"]), 0.0)
         x = np.minimum(x_hi, (eps_n + a * lagged) / (1.0 + a))    # x_0, the lagged estimate
-        lo, hi = x.copy(), x_hi.copy()                             # bracket of the root, R(lo) <= 0 <= R(hi)
-        r_lo, r_hi = np.full(n, np.nan), np.full(n, np.nan)       # R at its ends (nan: not evaluated)
-        side = np.zeros(n)                                         # the end the last iterate replaced: +1 hi, -1 lo
         active = np.ones(n, dtype=bool)
-        residual_before = np.full(n, np.inf)
-        result = None
+        result, bracket = None, (x, x_hi, None, None, None, np.full(n, np.inf))
         for iteration in range(self.max_iterations):
-            residual, evaluation = step.evaluate(x, active)
-            done = active & (np.abs(residual) <= self.tolerance)
-            result = evaluation if done.all() else _merge(done, evaluation, result) if done.any() else result
-            active &= ~done
-            if not active.any():
+            done = np.empty(n, dtype=bool)
+            evaluation, n_done, n_active = step.evaluate(x, active, done)
+            result = evaluation if n_done == n else _merge(done, evaluation, result) if n_done else result
+            if not n_active:
                 break
-            if iteration == 0:                                     # R' >= 1: the bracket of one evaluation
-                lo, hi = x - np.maximum(residual, 0.0), np.minimum(hi, x - np.minimum(residual, 0.0))
-            up, down = active & (residual > 0.0), active & (residual < 0.0)
-            r_lo = np.where(up & (side > 0.0), 0.5 * r_lo, r_lo)   # Illinois: an end kept twice
-            r_hi = np.where(down & (side < 0.0), 0.5 * r_hi, r_hi)
-            hi, r_hi = np.where(up, x, hi), np.where(up, residual, r_hi)
-            lo, r_lo = np.where(down, x, lo), np.where(down, residual, r_lo)
-            side = np.where(up, 1.0, np.where(down, -1.0, side))
-            progress = np.abs(residual) <= 0.5 * residual_before
-            x = np.where(active, _next_iterate(x, residual, evaluation, lo, hi, r_lo, r_hi, progress), x)
-            residual_before = np.abs(residual)
+            if iteration == 0:  # the bracket of the root, R(lo) <= 0 <= R(hi), R at its ends (nan: not evaluated),
+                # the end the last iterate replaced (+1 hi, -1 lo) and |R| of the last iterate (next_iterates)
+                bracket = (x.copy(), x_hi.copy(), np.full(n, np.nan), np.full(n, np.nan), np.zeros(n),
+                           np.full(n, np.inf))
+            x_next = np.empty(n)
+            _kernel().next_iterates(iteration == 0, x, step.residual, evaluation[5],
+                                   evaluation[3][:, :3, :3].sum(axis=(1, 2)), active, bracket, x_next)
+            x = x_next
         else:
             i = int(np.flatnonzero(active)[0])
+            lo, hi, residual_before = bracket[0], bracket[1], bracket[5]
             raise IntegrationError(i, f"delayed swelling: the swelling strain did not converge in "
                                    f"{self.max_iterations} base updates (|R| = {residual_before[i]:.3g}, bracket "
                                    f"[{lo[i]:.6g}, {hi[i]:.6g}], strain increment {dstrain[i]}, dt {a[i]:.3g} tau_s)")
@@ -170,51 +164,48 @@ class DelayedSwelling(MaterialModel):
                      "p_max": np.maximum(state["p_max"], p)}
         Dm = D_b[:, :, :3].sum(axis=2)          # D^b m
         mD = D_b[:, :3, :].sum(axis=1)          # m^T D^b
-        K_t = Dm[:, :3].sum(axis=1) / 9.0
-        C = D_b - (c / (9.0 * (1.0 + c * K_t)))[:, None, None] * Dm[:, :, None] * mD[:, None, :]
+        C = np.empty_like(D_b)
+        _kernel().tangent(D_b, Dm, mD, c, Dm[:, :3].sum(axis=1) / 9.0, C)
         return s_b, new_state, C
 
 
 class _Increment:
     """The residual R(x) of one increment (module docstring) at a trial swelling strain x = eps_s,n+1 (n,)."""
 
-    def __init__(self, base, stress, state, dstrain, dt, a, slope):
+    def __init__(self, base, stress, state, dstrain, dt, a, slope, tolerance):
         self.base, self.stress, self.dstrain, self.dt, self.a, self.slope = base, stress, dstrain, dt, a, slope
+        self.tolerance = tolerance
         self.base_state = {k: v for k, v in state.items() if k not in OWN_STATE}
-        self.eps_n, self.p_max = state["swelling_strain"], state["p_max"]
+        self.eps_n = np.ascontiguousarray(state["swelling_strain"], dtype=float)
+        self.p_max = np.ascontiguousarray(state["p_max"], dtype=float)
+        self.residual = None
 
-    def evaluate(self, x, active):
-        """(R (n,), (x, base stress, base state, base tangent, p', c)) with c = a/(1 + a) kappa_s/((1 + e_n) p')
-        where (S2) acts, else 0; IntegrationError where (S2) acts at p' <= 0 on an ``active`` point."""
-        a, p_max = self.a, self.p_max
-        base_strain = self.dstrain - ((x - self.eps_n) / 3.0)[:, None] * IDENTITY
+    def evaluate(self, x, active, done):
+        """The base update at x: (x, base stress, base state, base tangent, p', c) with c = a/(1 + a)
+        kappa_s/((1 + e_n) p') where (S2) acts, else 0; R(x) in ``self.residual``; ``done`` (n,) the ``active``
+        points with |R| <= ``tolerance``, which leave ``active``; returns (that tuple, points done, points still
+        active). IntegrationError where (S2) acts at p' <= 0 on an ``active`` point."""
+        n = x.size
+        base_strain = np.empty((n, 6))
+        _kernel().base_strains(self.dstrain, x, self.eps_n, base_strain)
         s_b, st_b, D_b = self.base.update(self.stress, self.base_state, base_strain, self.dt, tangent=True)
         p = mean_stress(s_b)
-        below = p < p_max
-        law = below & (a > 0.0) & (self.slope > 0.0)
-        if np.any(active & law & (p <= 0.0)):
-            i = int(np.flatnonzero(active & law & (p <= 0.0))[0])
+        ratio = np.empty(n)
+        i = _kernel().law_ratios(p, self.p_max, self.a, self.slope, active, ratio)
+        if i >= 0:
             raise IntegrationError(i, f"delayed swelling: p' = {p[i]:.4g} kPa <= 0 where the swelling law (S2) "
-                                   f"applies (p'_max = {p_max[i]:.4g} kPa)")
-        eq = np.where(below, self.slope * np.log(np.where(law & (p > 0.0), p, p_max) / p_max), 0.0)   # (S2)
-        residual = x - (self.eps_n + a * eq) / (1.0 + a)
-        c = np.where(law, a / (1.0 + a) * self.slope / np.where(law, p, 1.0), 0.0)
-        return residual, (x, s_b, st_b, D_b, p, c)
+                                   f"applies (p'_max = {self.p_max[i]:.4g} kPa)")
+        self.residual, c = np.empty(n), np.empty(n)
+        n_done, n_active = _kernel().residuals(x, p, self.p_max, np.log(ratio), self.a, self.slope, self.eps_n,
+                                              self.tolerance, active, self.residual, c, done)
+        return (x, s_b, st_b, D_b, p, c), n_done, n_active
 
 
-def _next_iterate(x, residual, evaluation, lo, hi, r_lo, r_hi, progress):
-    """The next trial x: Newton (R' = 1 + c K_t) where it stays inside the bracket [lo, hi] (its ends included:
-    the root may be x_hi itself, an end never evaluated) and the last iterate ``progress``-ed (halved |R|); else
-    false position between the bracket's ends (both evaluated; their R with the Illinois halving), else
-    bisection."""
-    D_b, c = evaluation[3], evaluation[5]
-    slope_R = 1.0 + c * D_b[:, :3, :3].sum(axis=(1, 2)) / 9.0
-    newton = x - residual / np.where(slope_R > 0.0, slope_R, 1.0)
-    both = np.isfinite(r_lo) & np.isfinite(r_hi)
-    secant = lo - np.where(both, r_lo, 0.0) * (hi - lo) / np.where(both, r_hi - r_lo, 1.0)
-    middle = 0.5 * (lo + hi)
-    fallback = np.where(both & (secant > lo) & (secant < hi), secant, middle)
-    return np.where((slope_R > 0.0) & (newton >= lo) & (newton <= hi) & progress, newton, fallback)
+def _kernel():
+    """The compiled per-point steps of the iteration (:mod:`constitutive._swelling_kernel`), imported on first use
+    (keeps importing this module free of numba)."""
+    from . import _swelling_kernel
+    return _swelling_kernel
 
 
 def _merge(mask, new, old):

@@ -1,0 +1,249 @@
+"""The compiled per-point steps of the mixed-control driver (:mod:`constitutive.mixed_control`): the increments
+aimed at in a step, the start, Newton corrections and end of a step's Newton on the unknown strain components (and
+the excess pore pressure when undrained), and the step control of ``adaptive_control``. Arrays over n points,
+updated in place; only IEEE arithmetic and comparisons per point, so the results are the bits of the equivalent
+numpy expressions (tests/constitutive/test_compiled_steps.py). Compression positive, kPa, strains dimensionless.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .jit import jit
+
+#: m of sigma = sigma' + u m (the normal Voigt components as weights)
+_NORMAL_WEIGHT = np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])
+
+
+@jit
+def aim_step(stress, u, inc, control, fresh, taking, prescribed, step_inc):
+    """The increments of one step of ``mixed_control``, per point, in place: ``prescribed`` (n, 6), the accumulated
+    prescribed total stress, moves on by ``inc`` (n, 6) on the stress-controlled components of the points
+    ``taking`` the step, from the actual total stress sigma' + u m where the component is ``fresh``-ly
+    stress-controlled; ``step_inc`` (n, 6): ``inc`` on the strain-controlled components, the prescribed minus the
+    actual total stress on the others."""
+    for i in range(stress.shape[0]):
+        for c in range(6):
+            total = stress[i, c] + u[i] * _NORMAL_WEIGHT[c]
+            if control[c]:
+                aimed = prescribed[i, c] + 0.0
+            else:
+                aimed = (total if fresh[c] else prescribed[i, c]) + inc[i, c]
+            if taking[i]:
+                prescribed[i, c] = aimed
+            step_inc[i, c] = inc[i, c] if control[c] else prescribed[i, c] - total
+
+
+@jit
+def newton_correction(dsig, s_new, tangent, deps, du, target, unknown, undrained, done, tol, ok):
+    """One Newton correction of the mixed-control unknowns, in place, per point (the points ``done`` and those whose
+    residual is zero are left alone); ``ok`` (n,) set where the residual before it has converged (``s_new`` (n, 6)
+    given; with ``s_new`` of zero rows, as for the predictor, the check is skipped: ``ok`` False).
+
+    Residual (``mixed_control``): r_a = dsig_c - target_a on the unknown stress components c = unknown[a]
+    (+ du on a normal one when undrained) and, undrained, r_v = the sum of the normal strain increments. Converged:
+    max |r_a| <= tol (1 kPa + max |s_new|) and |r_v| <= 1e-3 tol. Jacobian: the tangent's block on the unknowns,
+    bordered by the normal unknowns when undrained; each point's small system by Gaussian elimination with partial
+    pivoting."""
+    k = unknown.size
+    m = k + 1 if undrained else k
+    jac = np.empty((m, m))
+    r = np.empty(m)
+    for i in range(dsig.shape[0]):
+        ok[i] = False
+        if done[i]:
+            continue
+        worst, zero = 0.0, True
+        for a in range(k):
+            v = dsig[i, unknown[a]] - target[i, a]
+            if undrained and unknown[a] < 3:
+                v += du[i]
+            r[a] = v
+            worst = max(worst, abs(v))
+            zero = zero and v == 0.0
+        if undrained:
+            r[k] = deps[i, 0] + deps[i, 1] + deps[i, 2]
+            zero = zero and r[k] == 0.0
+        if s_new.shape[0]:
+            top = 0.0
+            for c in range(6):
+                top = max(top, abs(s_new[i, c]))
+            ok[i] = worst <= tol * (1.0 + top) and (not undrained or abs(r[k]) <= 1e-3 * tol)
+        if zero or ok[i]:
+            continue
+        for a in range(k):
+            for b in range(k):
+                jac[a, b] = tangent[i, unknown[a], unknown[b]]
+            if undrained:
+                jac[a, k] = jac[k, a] = 1.0 if unknown[a] < 3 else 0.0
+        if undrained:
+            jac[k, k] = 0.0
+        for a in range(m):
+            r[a] = -r[a]
+        for a in range(m):  # elimination with partial pivoting
+            p = a
+            for b in range(a + 1, m):
+                if abs(jac[b, a]) > abs(jac[p, a]):
+                    p = b
+            if p != a:
+                for c in range(m):
+                    jac[a, c], jac[p, c] = jac[p, c], jac[a, c]
+                r[a], r[p] = r[p], r[a]
+            for b in range(a + 1, m):
+                f = jac[b, a] / jac[a, a]
+                for c in range(a + 1, m):
+                    jac[b, c] -= f * jac[a, c]
+                r[b] -= f * r[a]
+        for a in range(m - 1, -1, -1):
+            v = r[a]
+            for c in range(a + 1, m):
+                v -= jac[a, c] * r[c]
+            r[a] = v / jac[a, a]
+        for a in range(k):
+            deps[i, unknown[a]] += r[a]
+        if undrained:
+            du[i] += r[k]
+
+
+@jit
+def start_step(inc, active, control, unknown, guess_deps, guess_du, which, guessed, deps, du, target, done):
+    """The start of a mixed-control step's Newton, per point, in ``deps`` (n, 6), ``du`` (n,), ``target`` (n, k) and
+    ``done`` (n,): ``deps`` the prescribed increments ``inc`` on the strain-controlled components of the ``active``
+    points, zero elsewhere, or where ``guessed`` and ``which`` (an active point) the unknowns from ``guess_deps``
+    and du from ``guess_du`` (else du = 0); ``target`` the prescribed stress increments of the k unknown
+    components; ``done`` the points that take no predictor (inactive or guessed). Returns whether any point takes
+    the predictor."""
+    predict = False
+    for i in range(inc.shape[0]):
+        start = guessed and active[i] and which[i]
+        for c in range(6):
+            deps[i, c] = (inc[i, c] if active[i] else 0.0) if control[c] else (guess_deps[i, c] if start else 0.0)
+        for a in range(unknown.size):
+            target[i, a] = inc[i, unknown[a]]
+        du[i] = guess_du[i] if start else 0.0
+        done[i] = not active[i] or start
+        predict = predict or not done[i]
+    return predict
+
+
+@jit
+def correct_all(s_new, stress, tangent, deps, du, target, unknown, undrained, done, tol, ok):
+    """One Newton correction (:func:`newton_correction`) after an update to ``s_new`` from ``stress``; the points
+    whose residual had converged join ``done`` (in place). Returns whether every point is done."""
+    newton_correction(s_new - stress, s_new, tangent, deps, du, target, unknown, undrained, done, tol, ok)
+    every = True
+    for i in range(done.size):
+        done[i] = done[i] or ok[i]
+        every = every and done[i]
+    return every
+
+
+@jit
+def finish_step(done, excluded, active, deps, du, converged):
+    """The end of a mixed-control step's Newton, per point, in place: ``converged`` the ``active`` points ``done`` and
+    not ``excluded``; ``deps`` (n, 6) and ``du`` (n,) zero elsewhere. Returns whether an active point failed."""
+    failed = False
+    for i in range(done.size):
+        converged[i] = done[i] and not excluded[i] and active[i]
+        failed = failed or (active[i] and not converged[i])
+        if not converged[i]:
+            du[i] = 0.0
+            for c in range(6):
+                deps[i, c] = 0.0
+    return failed
+
+
+@jit
+def next_steps(tau, h, segment, ends, records, going, size, after, landing):
+    """The next step of each point ``going`` (in place): ``size`` h shortened to land on the next record or segment
+    end (``landing``), ending at stage time ``after``."""
+    for i in range(tau.size):
+        stop = ends[segment[i], i]
+        for r in range(records.shape[0]):
+            if tau[i] < records[r, i] < stop:
+                stop = records[r, i]
+        landing[i] = going[i] and h[i] >= stop - tau[i]
+        size[i] = stop - tau[i] if landing[i] else h[i]
+        after[i] = stop if landing[i] else tau[i] + size[i]
+
+
+@jit
+def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments):
+    """The step control of ``adaptive_control`` after a step, per point, in place: accept or reject, the next
+    step size and segment, the increments and totals of the accepted steps. ``ok`` (n,) converged; ``stress`` (n, 6)
+    at the step start; ``ds``, ``deps`` (n, 6), ``du`` (n,) the step's increments; ``scale`` (n,) the stress scale
+    S; ``sizes`` (size, after, landing); ``control`` (atol, floor, strain_scale, strain_step, growth,
+    max_rejections, max_cuts); ``walk`` the per-point records (tau, h, h_previous, d_stress, d_strain, d_u, strain,
+    u, known, rejections, cuts, accepted, segment, going, take, dead, skip, h_before, d_strain_before, d_u_before,
+    stress_origin, strain_origin, u_origin): ``known`` the previous steps of the segment whose increments are rates
+    of its path (up to 2: the one before in the ``_before`` arrays), ``skip`` the next accepted step is not one (it
+    jumps to the stress target), ``_origin`` the values at the segment start; ``segments`` (ends, firsts, largest,
+    rtols)."""
+    size, after, landing = sizes
+    atol, floor, strain_scale, strain_step, growth, max_rejections, max_cuts = control
+    (tau, h, h_previous, d_stress, d_strain, d_u, strain, u, known, rejections, cuts, accepted, segment, going,
+     take, dead, skip, h_before, d_strain_before, d_u_before, stress_origin, strain_origin, u_origin) = walk
+    ends, firsts, largest, rtols = segments
+    for i in range(tau.size):
+        take[i] = dead[i] = False
+        if not going[i]:
+            continue
+        if not ok[i]:  # Newton failed: a quarter of the step, unless it is negligible (no creeping up to a failure)
+            cuts[i] += 1
+            rejections[i] = 0
+            dead[i] = cuts[i] > max_cuts or size[i] <= 1e-12 * ends[ends.shape[0] - 1, i]
+            going[i] = not dead[i]
+            h[i] = min(0.25 * size[i], largest[segment[i], i])
+            continue
+        cuts[i] = 0
+        rtol = rtols[segment[i], i]
+        ratio = size[i] / h_previous[i]
+        err = 0.0
+        for c in range(6):
+            err = max(err, abs(deps[i, c]) / strain_step)
+        if rtol < np.inf:  # the increments against the change since the segment start
+            err = max(err, abs(du[i]) / (rtol * abs(u[i] + du[i] - u_origin[i]) + floor * scale[i]))
+            for c in range(6):
+                err = max(err, abs(ds[i, c]) / (rtol * abs(stress[i, c] + ds[i, c] - stress_origin[i, c])
+                                                + floor * scale[i]),
+                          abs(deps[i, c]) / (rtol * abs(strain[i, c] + deps[i, c] - strain_origin[i, c])
+                                             + floor * strain_scale))
+        if known[i] and rtol < np.inf:
+            change = abs(du[i] - ratio * d_u[i]) / scale[i]
+            magnitude = abs(du[i]) / scale[i]
+            for c in range(6):
+                change = max(change, abs(ds[i, c] - ratio * d_stress[i, c]) / scale[i],
+                             abs(deps[i, c] - ratio * d_strain[i, c]) / strain_scale)
+                magnitude = max(magnitude, abs(ds[i, c]) / scale[i], abs(deps[i, c]) / strain_scale)
+            err = max(err, change / (rtol * magnitude + atol))
+        factor = min(max(0.9 / max(err, 1e-12), 0.2), growth)
+        if err > 1.0 and rejections[i] < max_rejections:
+            rejections[i] += 1
+            h[i] = min(size[i] * factor, largest[segment[i], i])
+            continue
+        take[i] = True
+        rejections[i] = 0
+        proposal = size[i] * factor
+        if landing[i]:  # a step shortened to land keeps its proposal
+            proposal = max(proposal, h[i])
+        for c in range(6):
+            d_strain_before[i, c] = d_strain[i, c]
+            d_stress[i, c], d_strain[i, c] = ds[i, c], deps[i, c]
+            strain[i, c] += deps[i, c]
+        d_u_before[i], d_u[i] = d_u[i], du[i]
+        u[i] += du[i]
+        tau[i], h_before[i], h_previous[i] = after[i], h_previous[i], size[i]
+        known[i] = known[i] if skip[i] else min(known[i] + 1, 2)
+        skip[i] = False
+        accepted[i] += 1
+        if tau[i] >= ends[segment[i], i]:
+            if segment[i] == ends.shape[0] - 1:
+                going[i] = False
+            else:
+                segment[i] += 1
+                proposal = firsts[segment[i], i]
+                known[i] = 0
+                for c in range(6):
+                    stress_origin[i, c] = stress[i, c] + ds[i, c]
+                    strain_origin[i, c] = strain[i, c]
+                u_origin[i] = u[i]
+        h[i] = min(proposal, largest[segment[i], i])
