@@ -27,11 +27,14 @@ def base_strains(dstrain, x, eps_n, out):
 
 
 @jit
-def law_ratios(p, p_max, a, slope, active, ratio):
-    """The argument p'/p'_max of the logarithm of (S2) per point in ``ratio`` (1 where (S2) does not act: p' >=
-    p'_max, a = 0 or kappa_s = 0, or p' <= 0); returns the first ``active`` point where (S2) acts at p' <= 0, or -1."""
+def law_ratios(s_b, p_max, a, slope, active, p, ratio):
+    """The mean stress p' of the base stresses ``s_b`` (n, 6) in ``p`` (the normal components summed in index
+    order) and the argument p'/p'_max of the logarithm of (S2) per point in ``ratio`` (1 where (S2) does not act:
+    p' >= p'_max, a = 0 or kappa_s = 0, or p' <= 0); returns the first ``active`` point where (S2) acts at p' <= 0,
+    or -1."""
     bad = -1
     for i in range(p.size):
+        p[i] = (s_b[i, 0] + s_b[i, 1] + s_b[i, 2]) / 3.0
         law = p[i] < p_max[i] and a[i] > 0.0 and slope[i] > 0.0
         if bad < 0 and active[i] and law and p[i] <= 0.0:
             bad = i
@@ -112,11 +115,16 @@ def next_iterates(first, x, residual, c, volumetric, active, bracket, x_next):
 
 
 @jit
-def tangent(D_b, Dm, mD, c, K_t, out):
-    """The consistent tangent C = D^b - c/(9 (1 + c K_t)) (D^b m)(m^T D^b) in ``out`` (n, 6, 6), from the base
-    tangent D_b (n, 6, 6), its products ``Dm`` = D^b m and ``mD`` = m^T D^b (n, 6), c and K_t (n,)."""
+def tangent(D_b, c, out):
+    """The consistent tangent C = D^b - c/(9 (1 + c K_t)) (D^b m)(m^T D^b), K_t = m.D^b.m/9, in ``out`` (n, 6, 6)
+    from the base tangent D_b (n, 6, 6) and c (n,); the sums over the normal components in index order."""
+    Dm, mD = np.empty(6), np.empty(6)
     for i in range(D_b.shape[0]):
-        f = c[i] / (9.0 * (1.0 + c[i] * K_t[i]))
+        for k in range(6):
+            Dm[k] = D_b[i, k, 0] + D_b[i, k, 1] + D_b[i, k, 2]
+            mD[k] = D_b[i, 0, k] + D_b[i, 1, k] + D_b[i, 2, k]
+        K_t = (Dm[0] + Dm[1] + Dm[2]) / 9.0
+        f = c[i] / (9.0 * (1.0 + c[i] * K_t))
         for r in range(6):
             for k in range(6):
-                out[i, r, k] = D_b[i, r, k] - f * Dm[i, r] * mD[i, k]
+                out[i, r, k] = D_b[i, r, k] - f * Dm[r] * mD[k]

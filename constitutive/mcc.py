@@ -155,7 +155,7 @@ class ModifiedCamClay(MaterialModel):
                                        f"increment")
             raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
                                    f"sub-stepping {at}")
-        e_new = e - (1.0 + e) * dstrain[:, :3].sum(axis=1)
+        e_new = e - (1.0 + e) * (dstrain[:, 0] + dstrain[:, 1] + dstrain[:, 2])
         collapsed = e_new <= 0.0
         if collapsed.any():
             i = int(np.argmax(collapsed))

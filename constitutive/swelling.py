@@ -128,17 +128,17 @@ class DelayedSwelling(MaterialModel):
         stress = as_points(stress, "stress")
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]
-        e = np.broadcast_to(np.asarray(state["void_ratio"], dtype=float), (n,))
+        e = _per_point(state["void_ratio"], n)
         eps_n = state["swelling_strain"]
-        a = np.ascontiguousarray(np.broadcast_to(np.asarray(dt, dtype=float) / self.tau_s, (n,)))
-        slope = np.ascontiguousarray(np.broadcast_to(self.kappa_s / (1.0 + e), (n,)))
+        a = _per_point(np.asarray(dt, dtype=float) / self.tau_s, n)
+        slope = _per_point(self.kappa_s / (1.0 + e), n)
         step = _Increment(self.base, stress, state, dstrain, dt, a, slope, self.tolerance)
         x_hi = eps_n / (1.0 + a)                                   # the least swelling possible
         p_n = mean_stress(stress)
-        lagged = np.where(p_n < state["p_max"], slope * np.log(np.clip(p_n, 1e-300, None) / state["p_max"]), 0.0)
+        lagged = np.where(p_n < state["p_max"], slope * np.log(np.maximum(p_n, 1e-300) / state["p_max"]), 0.0)
         x = np.minimum(x_hi, (eps_n + a * lagged) / (1.0 + a))    # x_0, the lagged estimate
         active = np.ones(n, dtype=bool)
-        result, bracket = None, (x, x_hi, None, None, None, np.full(n, np.inf))
+        result, bracket = None, None
         for iteration in range(self.max_iterations):
             done = np.empty(n, dtype=bool)
             evaluation, n_done, n_active = step.evaluate(x, active, done)
@@ -155,17 +155,15 @@ class DelayedSwelling(MaterialModel):
             x = x_next
         else:
             i = int(np.flatnonzero(active)[0])
-            lo, hi, residual_before = bracket[0], bracket[1], bracket[5]
+            lo, hi, residual_before = (bracket[0], bracket[1], bracket[5]) if bracket else (x, x_hi, np.full(n, np.inf))
             raise IntegrationError(i, f"delayed swelling: the swelling strain did not converge in "
                                    f"{self.max_iterations} base updates (|R| = {residual_before[i]:.3g}, bracket "
                                    f"[{lo[i]:.6g}, {hi[i]:.6g}], strain increment {dstrain[i]}, dt {a[i]:.3g} tau_s)")
         x, s_b, st_b, D_b, p, c = result
         new_state = {**st_b, "void_ratio": st_b["void_ratio"] - (1.0 + e) * (x - eps_n), "swelling_strain": x,
                      "p_max": np.maximum(state["p_max"], p)}
-        Dm = D_b[:, :, :3].sum(axis=2)          # D^b m
-        mD = D_b[:, :3, :].sum(axis=1)          # m^T D^b
         C = np.empty_like(D_b)
-        _kernel().tangent(D_b, Dm, mD, c, Dm[:, :3].sum(axis=1) / 9.0, C)
+        _kernel().tangent(D_b, c, C)
         return s_b, new_state, C
 
 
@@ -189,9 +187,8 @@ class _Increment:
         base_strain = np.empty((n, 6))
         _kernel().base_strains(self.dstrain, x, self.eps_n, base_strain)
         s_b, st_b, D_b = self.base.update(self.stress, self.base_state, base_strain, self.dt, tangent=True)
-        p = mean_stress(s_b)
-        ratio = np.empty(n)
-        i = _kernel().law_ratios(p, self.p_max, self.a, self.slope, active, ratio)
+        p, ratio = np.empty(n), np.empty(n)
+        i = _kernel().law_ratios(s_b, self.p_max, self.a, self.slope, active, p, ratio)
         if i >= 0:
             raise IntegrationError(i, f"delayed swelling: p' = {p[i]:.4g} kPa <= 0 where the swelling law (S2) "
                                    f"applies (p'_max = {self.p_max[i]:.4g} kPa)")
@@ -208,14 +205,25 @@ def _kernel():
     return _swelling_kernel
 
 
+def _per_point(values, n):
+    """``values`` (scalar or broadcastable to (n,)) as a contiguous float (n,) array (the same one where it is)."""
+    values = np.asarray(values, dtype=float)
+    return values if values.shape == (n,) and values.flags.c_contiguous else np.ascontiguousarray(
+        np.broadcast_to(values, (n,)))
+
+
 def _merge(mask, new, old):
     """Per point, the tuple ``new`` where ``mask`` and ``old`` elsewhere (``old`` None: ``new``); state dicts too."""
     if old is None:
         return new
+    shaped = {}                                            # the mask shaped for values of each number of dimensions
 
     def pick(a, b):
         if isinstance(a, dict):
             return {k: pick(a[k], b[k]) for k in a}
-        return np.where(mask.reshape((-1,) + (1,) * (np.ndim(a) - 1)), a, b)
+        nd = np.ndim(a)
+        if nd not in shaped:
+            shaped[nd] = mask.reshape((-1,) + (1,) * (nd - 1))
+        return np.where(shaped[nd], a, b)
 
     return tuple(pick(a, b) for a, b in zip(new, old))

@@ -130,13 +130,16 @@ def test_swelling_base_strains_and_law_ratios():
     sk.base_strains(dstrain, x, eps_n, out)
     assert same(out, dstrain - ((x - eps_n) / 3.0)[:, None] * np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]))
     p, p_max, a, slope = swelling_point_values(rng)
+    s_b = rng.normal(size=(N, 6))
+    s_b[:, 2] = 3.0 * p - s_b[:, 0] - s_b[:, 1]
+    p = (s_b[:, 0] + s_b[:, 1] + s_b[:, 2]) / 3.0
     law = (p < p_max) & (a > 0.0) & (slope > 0.0)
-    ratio = np.empty(N)
+    got_p, ratio = np.empty(N), np.empty(N)
     for active in (np.ones(N, dtype=bool), ~(law & (p <= 0.0)), rng.random(N) < 0.5):
-        bad = sk.law_ratios(p, p_max, a, slope, active, ratio)
+        bad = sk.law_ratios(s_b, p_max, a, slope, active, got_p, ratio)
         hits = np.flatnonzero(active & law & (p <= 0.0))
         assert bad == (hits[0] if hits.size else -1)
-        assert same(ratio, np.where(law & (p > 0.0), p, p_max) / p_max)
+        assert same(got_p, p) and same(ratio, np.where(law & (p > 0.0), p, p_max) / p_max)
 
 
 def test_swelling_residuals_and_next_iterates_are_the_vectorized_iteration():
@@ -156,8 +159,10 @@ def test_swelling_residuals_and_next_iterates_are_the_vectorized_iteration():
     want = [b.copy() for b in bracket]
     active, want_active = np.ones(N, dtype=bool), np.ones(N, dtype=bool)
     for first in (True, False):
-        ratio = np.empty(N)
-        sk.law_ratios(p, p_max, a, slope, active, ratio)
+        s_b = np.repeat(p[:, None], 6, axis=1)
+        s_b[:, 3:] = 0.0
+        p, ratio = np.empty(N), np.empty(N)
+        sk.law_ratios(s_b, p_max, a, slope, active, p, ratio)
         log_ratio = np.log(ratio)
         below = p < p_max
         law = below & (a > 0.0) & (slope > 0.0)
@@ -197,13 +202,14 @@ def test_swelling_residuals_and_next_iterates_are_the_vectorized_iteration():
 
 
 def test_swelling_tangent_is_the_rank_one_update():
-    """C = D^b - c/(9 (1 + c K_t)) (D^b m)(m^T D^b), K_t = m.D^b.m/9, as the numpy expression."""
+    """C = D^b - c/(9 (1 + c K_t)) (D^b m)(m^T D^b), K_t = m.D^b.m/9 (sums in index order), as the numpy
+    expression."""
     rng = np.random.default_rng(4)
     D_b = signed_values(rng, (N, 6, 6))
     c = np.abs(signed_values(rng, N))
     c[::3] = 0.0
-    Dm, mD = D_b[:, :, :3].sum(axis=2), D_b[:, :3, :].sum(axis=1)
-    K_t = Dm[:, :3].sum(axis=1) / 9.0
+    Dm, mD = D_b[:, :, 0] + D_b[:, :, 1] + D_b[:, :, 2], D_b[:, 0, :] + D_b[:, 1, :] + D_b[:, 2, :]
+    K_t = (Dm[:, 0] + Dm[:, 1] + Dm[:, 2]) / 9.0
     out = np.empty_like(D_b)
-    sk.tangent(D_b, Dm, mD, c, K_t, out)
+    sk.tangent(D_b, c, out)
     assert same(out, D_b - (c / (9.0 * (1.0 + c * K_t)))[:, None, None] * Dm[:, :, None] * mD[:, None, :])
