@@ -322,15 +322,17 @@ class ANICREEP(MaterialModel):
     def _current_volume_parameters(self, v, n):
         """The kernel's parameter rows with the specific volume ``v`` = 1 + e_n per point ((n,),
         ``specific_volume="current"``): c_e, c_p and omega are proportional to v, mu to 1/v (``_volume_columns``);
-        their values at v = 1 are built once per n."""
+        their values at v = 1 are built once per n. The rows are one array per n, rewritten at every call (the
+        kernel reads them during the call only)."""
         cache = self.__dict__.setdefault("_unit_volume_cache", {})
         if n not in cache:
             columns = _kernel().PARAMETER_COLUMNS
-            cache[n] = [(columns.index(k), np.broadcast_to(np.asarray(x, dtype=float), (n,)).copy(), k == "mu")
-                        for k, x in self._volume_columns(1.0).items() if k != "mu" or self.viscous]
-        prm = self.kernel_parameters(n).copy()
-        for column, at_unit_volume, inverse in cache[n]:
-            prm[:, column] = at_unit_volume / v if inverse else at_unit_volume * v
+            cache[n] = (self.kernel_parameters(n).copy(),
+                        [(columns.index(k), np.broadcast_to(np.asarray(x, dtype=float), (n,)).copy(), k == "mu")
+                         for k, x in self._volume_columns(1.0).items() if k != "mu" or self.viscous])
+        prm, scaled = cache[n]
+        for column, at_unit_volume, inverse in scaled:
+            (np.divide if inverse else np.multiply)(at_unit_volume, v, out=prm[:, column])
         return prm
 
     def initial_fabric(self, n):
