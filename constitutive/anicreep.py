@@ -323,7 +323,7 @@ class ANICREEP(MaterialModel):
         """The kernel's parameter rows with the specific volume ``v`` = 1 + e_n per point ((n,),
         ``specific_volume="current"``): c_e, c_p and omega are proportional to v, mu to 1/v (``_volume_columns``);
         their values at v = 1 are built once per n. The rows are one array per n, rewritten at every call (the
-        kernel reads them during the call only)."""
+        kernel reads them during the call only; a model is not shared between threads)."""
         cache = self.__dict__.setdefault("_unit_volume_cache", {})
         if n not in cache:
             columns = _kernel().PARAMETER_COLUMNS
