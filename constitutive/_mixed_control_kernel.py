@@ -167,6 +167,40 @@ def next_steps(tau, h, segment, ends, records, going, size, after, landing):
 
 
 @jit
+def adaptive_inputs(control, goal, strain, stress, u, known, size, h_previous, d_strain, d_u, h_before,
+                    d_strain_before, d_u_before, inc, guess_strain, guess_u, scale):
+    """The inputs of a step of ``adaptive_control`` of size ``size`` (n,), per point, in place: ``inc`` (n, 6) the
+    change of the strain (strain-controlled rows) or of the total stress (the others) to the path's ``goal``
+    (n, 6); ``scale`` (n,) the stress scale 1 kPa + max |sigma'|; and where the segment has ``known`` (n,)
+    previous steps, the increments of the unknowns guessed from their rates (``guess_strain`` (n, 6), ``guess_u``
+    (n,)): the previous step's rate d/h_previous, extrapolated linearly with the one before (``_before``, over
+    h_before) where known > 1, times ``size``. Returns whether any point is known."""
+    any_known = False
+    for i in range(size.size):
+        top = abs(stress[i, 0])
+        for c in range(6):
+            stress_change = goal[i, c] - stress[i, c] - u[i] * _NORMAL_WEIGHT[c]
+            inc[i, c] = goal[i, c] - strain[i, c] if control[c] else stress_change
+            v = abs(stress[i, c])
+            if v > top or v != v:
+                top = v
+        scale[i] = 1.0 + top
+        any_known = any_known or known[i] > 0
+    if not any_known:
+        return False
+    for i in range(size.size):
+        slope = size[i] / h_previous[i] if known[i] > 1 else 0.0
+        for c in range(6):
+            rate = d_strain[i, c] / h_previous[i]
+            rate = rate + slope * (rate - d_strain_before[i, c] / h_before[i])
+            guess_strain[i, c] = rate * size[i]
+        rate = d_u[i] / h_previous[i]
+        rate = rate + slope * (rate - d_u_before[i] / h_before[i])
+        guess_u[i] = rate * size[i]
+    return True
+
+
+@jit
 def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments):
     """The step control of ``adaptive_control`` after a step, per point, in place: accept or reject, the next
     step size and segment, the increments and totals of the accepted steps. ``ok`` (n,) converged; ``stress`` (n, 6)

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._mixed_control_kernel import (aim_step, correct_all, finish_step, judge_steps, newton_correction, next_steps,
-                                    start_step)
+from ._mixed_control_kernel import (adaptive_inputs, aim_step, correct_all, finish_step, judge_steps, newton_correction,
+                                    next_steps, start_step)
 from .base import IntegrationError
 
 __all__ = ["mixed_control", "adaptive_control", "batch_size", "newton_correction", "NORMAL"]
@@ -361,19 +361,14 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
     while going.any():
         next_steps(tau, h, segment, segments[0], rec, going, *sizes)
         size, after, landing = sizes
-        goal = target(after)
-        inc = np.where(control, goal - strain, goal - stress - u[:, None] * NORMAL)
-        guess = None
-        if known.any():  # the rates at the end of the step extrapolated from the previous one or two
-            slope = np.where(known > 1, size / h_previous, 0.0)
-            rate_strain, rate_u = d_strain / h_previous[:, None], d_u / h_previous
-            rate_strain = rate_strain + slope[:, None] * (rate_strain - d_strain_before / h_before[:, None])
-            rate_u = rate_u + slope * (rate_u - d_u_before / h_before)
-            guess = (rate_strain * size[:, None], rate_u * size, known > 0)
+        inc, guess_strain, guess_u, scale = np.empty((n, 6)), np.empty((n, 6)), np.empty(n), np.empty(n)
+        # the rates at the end of the step extrapolated from the previous one or two: the guess of the points known
+        guessed = adaptive_inputs(control, target(after), strain, stress, u, known, size, h_previous, d_strain, d_u,
+                                  h_before, d_strain_before, d_u_before, inc, guess_strain, guess_u, scale)
+        guess = (guess_strain, guess_u, known > 0) if guessed else None
         res = step.solve(going.copy(), stress, state, tangent, inc, np.where(going, size, 0.0), guess)
         ds = res["stress"] - stress
-        judge_steps(res["ok"], stress, ds, res["deps"], res["du"], 1.0 + np.abs(stress).max(axis=1), sizes,
-                     settings, walk, segments)
+        judge_steps(res["ok"], stress, ds, res["deps"], res["du"], scale, sizes, settings, walk, segments)
         for i in np.flatnonzero(dead):
             alive[i] = False
             reasons[int(i)] = (f"at stage time {tau[i]:g} s: " + res["reasons"].get(int(i), (

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from constitutive import _swelling_kernel as sk
-from constitutive.mixed_control import NORMAL, aim_step, correct_all, finish_step, newton_correction, start_step
+from constitutive.mixed_control import (NORMAL, adaptive_inputs, aim_step, correct_all, finish_step, newton_correction,
+                                         start_step)
 
 N = 64
 
@@ -108,6 +109,31 @@ def test_finish_step_keeps_the_converged_increments():
     assert np.array_equal(converged, want) and same(deps, want_deps) and same(du, want_du)
     assert failed == bool((active & ~want).any())
     assert not finish_step(np.ones(N, dtype=bool), np.zeros(N, dtype=bool), active, deps, du, converged)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_adaptive_inputs_are_the_vectorized_inputs(seed):
+    """inc = where(control, goal - strain, goal - sigma' - u m); S = 1 + max |sigma'| (nan propagates); the guess
+    (rate d/h_previous extrapolated with slope size/h_previous where known > 1, times size) where any is known."""
+    rng = np.random.default_rng(seed)
+    control = rng.random(6) < 0.5
+    goal, strain, stress, d_strain, d_before = (signed_values(rng, (N, 6)) for _ in range(5))
+    u, d_u, d_u_before = (signed_values(rng, N) for _ in range(3))
+    size, h_previous, h_before = (rng.uniform(0.0, 2.0, N) for _ in range(3))
+    h_previous[::17] = 0.0
+    known = rng.integers(0, 3, N) * (seed > 0)
+    inc, guess_strain, guess_u, scale = np.empty((N, 6)), np.empty((N, 6)), np.empty(N), np.empty(N)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        guessed = adaptive_inputs(control, goal, strain, stress, u, known, size, h_previous, d_strain, d_u, h_before,
+                                  d_before, d_u_before, inc, guess_strain, guess_u, scale)
+        assert same(inc, np.where(control, goal - strain, goal - stress - u[:, None] * NORMAL))
+        assert same(scale, 1.0 + np.abs(stress).max(axis=1)) and guessed == bool(known.any())
+        if guessed:
+            slope = np.where(known > 1, size / h_previous, 0.0)
+            rate_strain, rate_u = d_strain / h_previous[:, None], d_u / h_previous
+            rate_strain = rate_strain + slope[:, None] * (rate_strain - d_before / h_before[:, None])
+            rate_u = rate_u + slope * (rate_u - d_u_before / h_before)
+            assert same(guess_strain, rate_strain * size[:, None]) and same(guess_u, rate_u * size)
 
 
 def swelling_point_values(rng):
