@@ -57,7 +57,8 @@ def same_bits(a, b):
 def test_coupled_residual_skips_only_structural_zeros():
     """The compiled residual skips the zero entries of B and K_hg: R and the reference magnitudes are those of the
     full sums, bit for bit, on random states (with zero displacements and stresses equal to the in-situ ones in a
-    few cells: sums of zeros, where the sign of a zero could differ), with and without a boundary load."""
+    few cells: sums of zeros, where the sign of a zero could differ), with and without a boundary load and the
+    pressure projection."""
     mesh, g = strip()
     rng = np.random.default_rng(1)
     ne, n = mesh.n_cells, 3 * mesh.n_nodes
@@ -75,7 +76,7 @@ def test_coupled_residual_skips_only_structural_zeros():
     x_n[edofs[:2]] = 0.0
     stress[:2, :4] = -sig0_fe[:2]
     k_dt = np.full(ne, 3e-10)
-    for load in (np.zeros(n), rng.normal(size=n)):
+    for load, S in ((np.zeros(n), S), (rng.normal(size=n), S), (np.zeros(n), np.zeros_like(S))):
         args = (x, x_n, stress, sig0_fe, VBt, np.abs(VBt), hg, g.vol_row, np.abs(g.vol_row), g.n_bar, k_dt, g.H,
                 S, np.abs(S), udofs, pdofs, load)
         R, scale = np.empty(n), np.empty(n)
