@@ -675,3 +675,19 @@ def test_structured_clay_softens_after_peak_in_undrained_compression(anisotropy)
     assert loss[True] > 0.15
     assert np.argmax(q[True]) < 0.3 * strains.size                           # the peak comes early
     assert q[True].max() == pytest.approx(q[False].max(), rel=0.15)          # at about the same apparent strength
+
+
+@pytest.mark.parametrize("dt, bad", [(-1.0, "-1.0"), (np.nan, "nan"), (np.inf, "inf"),
+                                     (np.array([1.0, -2.0, np.nan]), "-2.0"), (np.array([1.0, np.inf, -3.0]), "inf"),
+                                     (np.array([[0.0, 1.0, np.nan]])[0, ::-1], "nan"), ([np.nan], "nan")])
+def test_update_rejects_a_negative_or_non_finite_time_increment(dt, bad):
+    """dt (scalar, (n,), a strided view, or broadcast from (1,)) must be finite and >= 0: ValueError naming the first
+    offending value; valid ones of every form give the same result as the (n,) array."""
+    model = ANICREEP(M=1.2, lambda_=0.2, kappa=0.02, nu=0.25, e0=1.0, sigma_p0=60.0, C_alpha_e=0.004)
+    stress = np.tile([50.0, 40.0, 40.0, 0.0, 0.0, 0.0], (3, 1))
+    state, dstrain = model.initial_state(stress), np.tile([1e-3, 0.0, 0.0, 0.0, 0.0, 0.0], (3, 1))
+    with pytest.raises(ValueError, match=rf"time increment dt = {bad} must be >= 0"):
+        model.update(stress, state, dstrain, dt)
+    want = model.update(stress, state, dstrain, np.full(3, 10.0))[0]
+    for good in (10.0, [10.0], np.full(6, 10.0)[::2], np.array([10.0])):
+        assert np.array_equal(model.update(stress, state, dstrain, good)[0], want)

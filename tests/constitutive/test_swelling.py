@@ -10,7 +10,7 @@ of the tangent.
 import numpy as np
 import pytest
 
-from constitutive import ANICREEP, LinearElastic, ModifiedCamClay, ParameterError
+from constitutive import ANICREEP, IntegrationError, LinearElastic, ModifiedCamClay, ParameterError
 from constitutive import labtests as lt
 from constitutive.swelling import DelayedSwelling
 
@@ -346,3 +346,22 @@ def test_reloading_past_p_max_converges_at_the_no_swelling_end():
     a = 10.0 / 1e4
     assert new["swelling_strain"][0] == pytest.approx(-4e-8 / (1.0 + a), rel=1e-9, abs=1e-18)
     assert len(calls) <= 2
+
+
+def test_an_iteration_cut_short_raises_with_the_bracket_and_the_point():
+    """A point still at |R| > tolerance after max_iterations base updates raises IntegrationError naming it (the
+    first such point of the batch: points 1 and 2 unload, point 0 loads and converges at once), with |R| and the
+    bracket; with no base update allowed it is the first point, |R| = inf and the bracket [x_0, x_hi]."""
+    model = DelayedSwelling(mcc(), 0.05, 1.0e3)
+    stress = np.vstack([isotropic(P_MAX)] * 3)
+    state = model.initial_state(stress, E0)
+    dstrain = np.zeros((3, 6))
+    dstrain[:, :3] = np.array([[1e-3], [-5e-3], [-5e-3]])
+    model.max_iterations = 1
+    with pytest.raises(IntegrationError, match=r"did not converge in 1 base updates \(\|R\| = \S+, bracket") as info:
+        model.update(stress, state, dstrain, 1.0e4)
+    assert info.value.point == 1
+    model.max_iterations = 0
+    with pytest.raises(IntegrationError, match=r"\(\|R\| = inf, bracket \[0, 0\]") as info:
+        model.update(stress, state, dstrain, 1.0e4)
+    assert info.value.point == 0
