@@ -166,8 +166,11 @@ class Solver:
         self.stats = {"residuals": 0, "material_calls": 0, "tangent_calls": 0, "factorizations": 0, "cuts": 0}
         self._sig0_fe = -stress0[:, :4]
         first_dt = self.times[1] - self.times[0]
-        self._D = mp.trial(np.zeros((ne, 4)), first_dt)[2]   # tangent of the committed state (see _residual)
+        first = mp.trial(np.zeros((ne, 4)), first_dt)
+        self._D = first[2]   # tangent of the committed state (see _residual)
         self._rate_dependent = bool(getattr(model, "rate_dependent", True))
+        # a rate-dependent material's first residual (x = 0, dt the first step) repeats this update: reused there
+        self._first_trial = (first_dt, first) if self._rate_dependent else None
         if pb.hourglass_modulus is None:
             G = self._D[:, 3, 3].copy()
         else:
@@ -343,10 +346,15 @@ class Solver:
         stats, mp = self.stats, self._mp
         stats["residuals"] += 1
         if material_call:
-            stats["material_calls"] += 1
             strain = np.empty_like(self._strain)
             trial_strain(self.geom.B, x, self.udofs, self._strain, strain, mp.dstrain)
-            stress, state, D = mp.evaluate(dt, tangent=tangent)
+            if self._first_trial is not None and dt == self._first_trial[0]:
+                # the first residual: zero strain increment over the first step, the update made in solve()
+                stress, state, D = self._first_trial[1]
+            else:
+                stats["material_calls"] += 1
+                stress, state, D = mp.evaluate(dt, tangent=tangent)
+            self._first_trial = None
         else:
             strain, stress, state, D = self._strain, mp.stress, mp.state, self._D
         g = self.geom
