@@ -12,17 +12,18 @@ only as a starting point:
 1. every parameter is mapped to the real line, u = logit((theta - lo)/(hi - lo)) (uniform prior) or the same on
    ln theta (log-uniform), and the target is g(u) = ln L(theta(u)) + ln pi(theta(u)) + sum ln |d theta/d u| (so
    that Z = integral exp(g) du, exactly);
-2. the mode u* of g is refined from the sample's best point by damped Newton steps with the gradient and Hessian
-   from central differences (one batch of 2d^2 + 1 solves per step, steps h_i = 0.2 x the current posterior
-   standard deviation along u_i), in the saddle-free metric |H| (eigenvalues by absolute value) and a trust region
-   of MAX_STEP per coordinate; a step is kept only when it raises g. The climb is repeated from each further start
-   given (e.g. a nested class's mode with the added parameters set to a few levels) and the highest mode kept: a
-   posterior sample of few particles may sit on a lesser mode of a multimodal target (measured: an enriched class
-   of a two-test CRS programme, ln g 265.5 climbed from the sample against 294.8 from a start at mid-prior of the
-   added parameters);
+2. the mode u* of g is refined from the best of the sample's points and the further starts given by damped Newton steps
+   with the gradient and Hessian from central differences (one batch of 2d^2 + 1 solves per step, steps h_i = 0.2 x
+   the current posterior standard deviation along u_i), in the saddle-free metric |H| (eigenvalues by absolute value)
+   and a trust region of MAX_STEP per coordinate; a step is kept only when it raises g. The climb is repeated from
+   each point asked for whatever its value (e.g. a nested class's mode with the added parameters at mid-prior), the
+   highest mode kept: a posterior sample of few particles may sit on a lesser mode of a multimodal target (measured:
+   an enriched class of a two-test CRS programme, ln g 265.5 climbed from the sample against 294.8 from a start at
+   mid-prior of the added parameters);
 3. Laplace: ln Z_L = g(u*) + (d/2) ln 2 pi - (1/2) ln det(-H(u*));
 4. importance sampling with the proposal q, an equal mixture of Student-t distributions (``df`` degrees of freedom)
-   centred at u* with scale matrices (-H)^-1 and WIDE^2 (-H)^-1 (a defensive mixture for curved posteriors): ln Z_IS = ln mean_i exp(g(u_i) - ln q(u_i)), u_i ~ q, unbiased in Z whatever the posterior's shape; its
+   centred at u* with scale matrices (-H)^-1 and WIDE^2 (-H)^-1 (a defensive mixture for curved posteriors):
+   ln Z_IS = ln mean_i exp(g(u_i) - ln q(u_i)), u_i ~ q, unbiased in Z whatever the posterior's shape; its
    spread is given by the effective sample size ESS = (sum w)^2 / sum w^2 and the delta-method standard error
    sqrt((mean w^2 / (mean w)^2 - 1) / N). The reported ln Z is ln Z_IS when ESS >= ``min_ess`` N, else ln Z_L.
 
@@ -188,19 +189,20 @@ def _climb(t, u, h, iterations):
     return u, derivatives
 
 
-def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, iterations=10, n_draws=256,
-                  min_ess=0.1, seed=0, df=4.0) -> EvidenceEstimate | None:
+def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, climbs=None, iterations=10,
+                  n_draws=256, min_ess=0.1, seed=0, df=4.0) -> EvidenceEstimate | None:
     """ln Z of one model class (module docstring).
 
     log_likelihood: thetas (m, d) -> (m,) log-likelihoods (-inf for a failed solve); prior: an ``inference.Prior``
-    (``bounds``, ``logpdf``); samples: (n, d) posterior sample (its best point starts the mode search; its spread
-    the first finite-difference steps); log_values: (n,) log-likelihoods of ``samples`` (evaluated when None);
-    starts: (k, d) further points from each of which the mode is climbed too (e.g. a nested class's mode with the
-    added parameters at a few levels; the highest mode found is kept; each climb costs up to ``iterations`` batches of
-    2 d^2 + 6 solves); iterations: at most this many Newton steps per climb; n_draws: importance draws; min_ess: the
-    fraction of n_draws the effective sample size must reach for ln Z_IS to be reported; seed: of the draws; df: the
-    proposal's degrees of freedom. Returns None when no finite difference around any climb's end can be taken inside
-    the support."""
+    (``bounds``, ``logpdf``); samples: (n, d) posterior sample (its spread sets the first finite-difference steps);
+    log_values: (n,) log-likelihoods of ``samples`` (evaluated when None); starts: (k, d) further candidate starting
+    points (e.g. a nested class's mode with the added parameters at their null values): the mode is climbed from
+    the best of the sample and these; climbs: (m, d) points from each of which the mode is climbed as well, whatever
+    their starting value (e.g. the added parameters at mid-prior); the highest mode found is kept, each climb
+    costing up to ``iterations`` batches of 2 d^2 + 6 solves; iterations: at most this many Newton steps per climb;
+    n_draws: importance draws; min_ess: the fraction of n_draws the effective sample size must reach for ln Z_IS to
+    be reported; seed: of the draws; df: the proposal's degrees of freedom. Returns None when no finite difference
+    around any climb's end can be taken inside the support."""
     t = _Unbounded(prior, log_likelihood)
     samples = np.atleast_2d(np.asarray(samples, dtype=float))
     us = t.to_u(samples)
@@ -211,15 +213,13 @@ def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, 
     if starts is not None and len(starts):
         extra = t.to_u(np.atleast_2d(np.asarray(starts, dtype=float)))
         us, start = np.vstack([us, extra]), np.concatenate([start, t.g(extra)])
-    best = int(np.argmax(np.where(np.isfinite(start), start, -np.inf)))
-    climbs = [_climb(t, us[best], h, iterations)]
-    for k in range(len(us) - (0 if starts is None else len(starts)), len(us)):
-        if k != best and np.isfinite(start[k]):
-            climbs.append(_climb(t, us[k], h, iterations))
-    climbs = [c for c in climbs if c is not None]
-    if not climbs:
+    ends = [_climb(t, us[int(np.argmax(np.where(np.isfinite(start), start, -np.inf)))], h, iterations)]
+    for u in ([] if climbs is None else t.to_u(np.atleast_2d(np.asarray(climbs, dtype=float)))):
+        ends.append(_climb(t, u, h, iterations))
+    ends = [e for e in ends if e is not None]
+    if not ends:
         return None
-    u, derivatives = max(climbs, key=lambda c: c[1][0])
+    u, derivatives = max(ends, key=lambda e: e[1][0])
     f0, _, H, _ = derivatives
     A, cov = _negative_definite(H)
     d = len(u)

@@ -149,25 +149,26 @@ class LoopProblem:
     def refined_evidence(self, like, prior, post, seed):
         """ln Z and MAP from the refined posterior mode (``inference.mode_evidence``: TMCMC's estimate with few
         particles falls short by an amount growing with its stages, so classes would be compared by the sampler's
-        lag), climbed from the posterior sample's best and, for an enriched class, also from the base class's mode
-        with the added parameters all at their prior's lower end (where the enriched class nests the base) and all at
-        its middle (a sample of few particles may sit on a lesser mode of the enriched class). The batches of the
-        refinement run on the study's process pool (serially under MPI). None when no mode can be refined (the TMCMC
-        values are then used)."""
-        starts = None
+        lag), climbed from the best of the posterior sample and, for an enriched class, the base class's mode with the
+        added parameters at their prior's lower end (where the enriched class nests the base), and climbed again
+        from the base mode with the added parameters at mid-prior (a sample of few particles may sit on a lesser mode
+        of the enriched class), the higher mode kept. The batches of the refinement run on the study's process pool
+        (serially under MPI). None when no mode can be refined (the TMCMC values are then used)."""
+        starts = climbs = None
         base = getattr(self, "base_mode", None)
         if base is not None and set(base) < set(post.names):
             levels = {}
             for n, b in zip(post.names, prior.bounds):
                 middle = np.sqrt(b.lower * b.upper) if b.kind == "log-uniform" else 0.5 * (b.lower + b.upper)
                 levels[n] = (b.lower + 1e-3 * (b.upper - b.lower), middle)
-            starts = np.array([[base[n] if n in base else levels[n][level] for n in post.names] for level in (0, 1)])
+            starts, climbs = ([[base[n] if n in base else levels[n][level] for n in post.names]] for level in (0, 1))
         evaluator = inference.Evaluator(like)
         # under MPI every rank holds the posterior and refines the same mode by itself
         executor = inference.SerialExecutor() if mpi_world() is not None else self.executor()
         with executor:
             return inference.mode_evidence(lambda thetas: executor.evaluate(evaluator, thetas)[0], prior,
-                                           post.samples, log_values=post.log_like, starts=starts, seed=seed)
+                                           post.samples, log_values=post.log_like, starts=starts, climbs=climbs,
+                                           seed=seed)
 
     def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s, evidence=None) -> tuple:
         """After one class's calibration: summary.json (with the class, its switches, ``wall_s`` and the refined

@@ -81,10 +81,10 @@ def test_nested_start_finds_the_mode_a_lagging_sample_misses():
     assert abs(e.log_evidence - problem.log_evidence) < 4 * e.std_error + 0.01
 
 
-def test_every_start_is_climbed_and_the_highest_mode_kept():
+def test_a_climb_asked_for_is_made_and_the_highest_mode_kept():
     """Two well-separated Gaussian bumps on the unit square, the sample piled on the lesser one (weight e^-3) and
-    the start on the far slope of the greater one, where g is lower than at the sample's best: climbing only from
-    the best starting value would end on the lesser mode. The estimate is the greater bump's mass (the lesser one
+    the point to climb from on the far slope of the greater one, where g is lower than at the sample's best:
+    climbing only from the best starting value would end on the lesser mode. The estimate is the greater bump's mass (the lesser one
     lies 20 standard deviations outside the proposal): ln Z = ln(1/(1 + e^-3)) of a mixture normalized to 1."""
     prior = Prior([Bound("x", 0.0, 1.0), Bound("y", 0.0, 1.0)])
     s, lesser, greater, w = 0.02, np.array([0.3, 0.3]), np.array([0.7, 0.7]), math.exp(-3.0)
@@ -97,6 +97,6 @@ def test_every_start_is_climbed_and_the_highest_mode_kept():
     sample = _poor_sample(lesser, 0.2 * s, 2, seed=7)
     start = greater + np.array([3.5 * s, 0.0])
     assert log_like(start[None])[0] < log_like(sample).max()
-    e = mode_evidence(log_like, prior, sample, starts=start[None, :], seed=8)
+    e = mode_evidence(log_like, prior, sample, climbs=start[None, :], seed=8)
     np.testing.assert_allclose(e.mode, greater, atol=0.05 * s)
     assert abs(e.log_evidence - math.log(1.0 / (1.0 + w))) < 4 * e.std_error + 0.01
