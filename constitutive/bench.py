@@ -82,6 +82,34 @@ def anicreep_update_points(n=240, n_increments=50, dt=0.6):
     return _timed_updates("anicreep_update_points", model, stress, state, dstrain, dt, n_increments)
 
 
+def lab_small_batches(n=32, repeats=2):
+    """The laboratory drivers on a batch of n particles, as a study's forward model calls them (where the per-step
+    Python glue counts as much as the kernels): ANICREEP (viscous, anisotropic, current specific volume) undrained
+    triaxial to 15 % in 300 steps at 1e-6 1/s, and the same clay with delayed swelling in an oedometer programme
+    (load to 200 kPa, unload to 50 kPa, reload to 100 kPa, 2 h stages); ``repeats`` times each, after one run that
+    compiles or loads the numba cache."""
+    from .swelling import DelayedSwelling
+    rng = np.random.default_rng(3)
+    clay = ANICREEP(M=rng.uniform(1.0, 1.4, n), lambda_=rng.uniform(0.15, 0.35, n), kappa=0.03, nu=0.25, e0=1.2,
+                    sigma_p0=rng.uniform(60.0, 120.0, n), C_alpha_e=rng.uniform(0.004, 0.012, n),
+                    specific_volume="current")
+    swelling = DelayedSwelling(clay, rng.uniform(0.005, 0.02, n), rng.uniform(1e3, 1e4, n))
+    axial = np.linspace(0.0, 0.15, 301)[1:]
+    runs = {"anicreep_undrained_triaxial": lambda: labtests.undrained_triaxial(clay, 1.2, 100.0, axial,
+                                                                               strain_rate=1e-6, on_failure="nan"),
+            "swelling_oedometer_stages": lambda: labtests.oedometer_loading(
+                swelling, 1.2, 40.0, [200.0, 50.0, 100.0], 7200.0, n_times=6, on_failure="nan")}
+    out = {"benchmark": "lab_small_batches", "n_particles": n, "repeats": repeats}
+    for name, run in runs.items():
+        run()
+        t0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(repeats):
+            run()
+        out[f"{name}_seconds"] = round((time.perf_counter() - t0) / repeats, 4)
+        out[f"{name}_cpu_seconds"] = round((time.process_time() - c0) / repeats, 4)
+    return out
+
+
 def _simsand_batch(n, seed=0, **options):
     """SIMSAND parameter sets drawn from the synthetic-study prior box (docs/reference.md section 5), nu, K_0, n fixed."""
     rng = np.random.default_rng(seed)
@@ -127,7 +155,7 @@ def simsand_drained_triaxial_generic(n=20, n_points=100, e0=0.7, p0=200.0):
 
 #: benchmarks run in order by ``python -m constitutive.bench``; each returns one JSON-able dict
 BENCHMARKS = [mcc_update_points, anicreep_update_points, mcc_drained_triaxial_batch, mcc_undrained_triaxial_batch,
-              simsand_drained_triaxial_batch, simsand_drained_triaxial_numpy_reference,
+              lab_small_batches, simsand_drained_triaxial_batch, simsand_drained_triaxial_numpy_reference,
               simsand_drained_triaxial_generic]
 
 
