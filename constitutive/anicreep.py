@@ -85,7 +85,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
+from .base import (IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter,
+                   point_rows)
 from .invariants import IDENTITY, mean_stress
 
 __all__ = ["ANICREEP", "SPECIFIC_VOLUMES", "anisotropy_constants"]
@@ -319,20 +320,25 @@ class ANICREEP(MaterialModel):
         }
         return [prm[k] for k in _kernel().PARAMETER_COLUMNS]
 
-    def _current_volume_parameters(self, v, n):
+    def _current_volume_parameters(self, v, n, points=None):
         """The kernel's parameter rows with the specific volume ``v`` = 1 + e_n per point ((n,),
-        ``specific_volume="current"``): c_e, c_p and omega are proportional to v, mu to 1/v (``_volume_columns``);
-        their values at v = 1 are built once per n. The rows are one array per n, rewritten at every call (the
-        kernel reads them during the call only; a model is not shared between threads)."""
+        ``specific_volume="current"``; of the points ``points`` of the parameter arrays where given): c_e, c_p and
+        omega are proportional to v, mu to 1/v (``_volume_columns``); their values at v = 1 are built once per n.
+        The rows of all points are one array per n, rewritten at every call (the kernel reads them during the call
+        only; a model is not shared between threads)."""
+        size = n if points is None or self.parameter_points() == 1 else self.parameter_points()
         cache = self.__dict__.setdefault("_unit_volume_cache", {})
-        if n not in cache:
+        if size not in cache:
             columns = _kernel().PARAMETER_COLUMNS
-            cache[n] = (self.kernel_parameters(n).copy(),
-                        [(columns.index(k), np.broadcast_to(np.asarray(x, dtype=float), (n,)).copy(), k == "mu")
-                         for k, x in self._volume_columns(1.0).items() if k != "mu" or self.viscous])
-        prm, scaled = cache[n]
+            cache[size] = (self.kernel_parameters(size).copy(),
+                           [(columns.index(k), np.broadcast_to(np.asarray(x, dtype=float), (size,)).copy(), k == "mu")
+                            for k, x in self._volume_columns(1.0).items() if k != "mu" or self.viscous])
+        prm, scaled = cache[size]
+        if size != n:
+            prm = prm[points]
         for column, at_unit_volume, inverse in scaled:
-            (np.divide if inverse else np.multiply)(at_unit_volume, v, out=prm[:, column])
+            (np.divide if inverse else np.multiply)(at_unit_volume if size == n else at_unit_volume[points], v,
+                                                    out=prm[:, column])
         return prm
 
     def initial_fabric(self, n):
@@ -375,15 +381,19 @@ class ANICREEP(MaterialModel):
                 "vp_shear": np.zeros(n), "overstress": pmd / pm_ref, "chi": chi}
 
     # ------------------------------------------------------------------ update
-    def update(self, stress, state, dstrain, dt, tangent=True):
-        """One increment of strain ``dstrain`` (n, 6) over time ``dt`` (s, scalar or (n,), >= 0).
+    point_subsets = True
+
+    def update(self, stress, state, dstrain, dt, tangent=True, points=None):
+        """One increment of strain ``dstrain`` (n, 6) over time ``dt`` (s, scalar or (n,), >= 0); ``points`` (n,):
+        the rows are those points of the parameter arrays (``MaterialModel.point_subsets``).
 
         Returns the new effective stress (n, 6), the new state and the consistent tangent (n, 6, 6), or None in its
         place with ``tangent=False`` (the same stress and state; about a third less work)."""
         stress = as_points(stress, "stress")
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]
-        self._n_points(n, "stress")
+        if points is None:
+            self._n_points(n, "stress")
         dt = self._time_increments(dt, n)
         new_stress, alpha, dvp = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6))
         pm_ref, chi, vp_shear, ratio = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
@@ -391,9 +401,9 @@ class ANICREEP(MaterialModel):
         e = state["void_ratio"]
         if self.specific_volume == "current":
             v = 1.0 + e
-            prm = self._current_volume_parameters(v, n)
+            prm = self._current_volume_parameters(v, n, points)
         else:
-            v, prm = 1.0 + self.e0, self.kernel_parameters(n)
+            v, prm = 1.0 + point_rows(self.e0, points), self.kernel_rows(n, points)
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
             np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(state["chi"], dtype=float),

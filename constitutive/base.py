@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ParameterError", "IntegrationError", "MaterialModel", "ParameterRange", "as_points", "check_parameter"]
+__all__ = ["ParameterError", "IntegrationError", "MaterialModel", "ParameterRange", "as_points", "check_parameter",
+           "point_rows"]
 
 
 class ParameterError(ValueError):
@@ -101,6 +102,11 @@ def as_points(stress_or_strain, name="array") -> np.ndarray:
     return arr
 
 
+def point_rows(value, points):
+    """A parameter (scalar or (n,)) at the points ``points`` (None: all of them; a scalar stays one)."""
+    return value if points is None or np.ndim(value) == 0 else np.asarray(value)[points]
+
+
 class MaterialModel:
     """Base class of material-point models. Subclasses set ``name`` and ``tangent_kind`` and implement
     ``initial_state`` and ``update``. Parameters are stored as attributes (float arrays broadcastable to (n,)).
@@ -143,6 +149,10 @@ class MaterialModel:
     max_strain_step: float | None = 0.0025
     #: constructor options that are neither parameters nor physics switches (kept by :meth:`replaced`)
     option_names: tuple = ()
+    #: ``update`` takes ``points=`` (k,): the rows given are those points of the model's parameter arrays, and the
+    #: results are their rows of the update of every point, bit for bit (the points are integrated independently);
+    #: the laboratory drivers then integrate only the points still iterating
+    point_subsets = False
 
     def _checked(self, name, value):
         """``value`` of parameter ``name`` checked against ``parameter_ranges[name]`` (ParameterError)."""
@@ -163,6 +173,20 @@ class MaterialModel:
             cache[n] = np.ascontiguousarray(np.column_stack(
                 [np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in self._kernel_columns(n)]))
         return cache[n]
+
+    def kernel_rows(self, n, points=None):
+        """``kernel_parameters(n)``, or with ``points`` (n,) the rows of those points of the model's parameter table
+        (``point_subsets``)."""
+        if points is None:
+            return self.kernel_parameters(n)
+        size = self.parameter_points()
+        return self.kernel_parameters(n) if size == 1 else self.kernel_parameters(size)[points]
+
+    def parameter_points(self) -> int:
+        """The number of points the parameters are given for (1 when all are scalars)."""
+        if "_parameter_points" not in self.__dict__:
+            self._parameter_points = max([int(np.size(v)) for v in self.parameters().values() if v is not None] + [1])
+        return self._parameter_points
 
     def _kernel_columns(self, n):
         raise NotImplementedError(f"{self.name} has no compiled kernel")

@@ -131,9 +131,12 @@ class ModifiedCamClay(MaterialModel):
         """Columns of ``_mcc_kernel.PARAMETER_COLUMNS`` (``kernel_parameters``): M^2, lambda, kappa, G or nu."""
         return [self.M**2, self.lambda_, self.kappa, self.G if self.G is not None else self.nu]
 
-    def update(self, stress, state, dstrain, dt, tangent=True):
-        """One increment of strain ``dstrain`` (n, 6); ``dt`` is not used (rate independent). Returns the new
-        effective stress (n, 6), the new state and the consistent tangent (n, 6, 6)."""
+    point_subsets = True
+
+    def update(self, stress, state, dstrain, dt, tangent=True, points=None):
+        """One increment of strain ``dstrain`` (n, 6); ``dt`` is not used (rate independent); ``points`` (n,): the
+        rows are those points of the parameter arrays (``MaterialModel.point_subsets``). Returns the new effective
+        stress (n, 6), the new state and the consistent tangent (n, 6, 6)."""
         stress = as_points(stress, "stress")
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]
@@ -142,7 +145,7 @@ class ModifiedCamClay(MaterialModel):
         where = np.empty(5)
         failed = _kernel().update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["pc"], dtype=float), e,
-            np.ascontiguousarray(dstrain), self.kernel_parameters(n), self.G is not None, self.tolerance,
+            np.ascontiguousarray(dstrain), self.kernel_rows(n, points), self.G is not None, self.tolerance,
             self.max_iterations, self.max_substep_depth, new_stress, pc, deps_p, tangent, where)
         if failed >= 0:
             p, q, pc_f, done, margin = where

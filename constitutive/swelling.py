@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points
+from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, point_rows
 from .invariants import mean_stress
 
 __all__ = ["DelayedSwelling", "SWELLING_SWITCH", "SWELLING_RANGES"]
@@ -121,18 +121,24 @@ class DelayedSwelling(MaterialModel):
             raise ValueError(f"{self.name}: initial mean effective stress p' = {p0[i]:g} kPa at point {i} must be > 0")
         return {**state, "swelling_strain": np.zeros(p0.shape[0]), "p_max": p0.copy()}
 
-    def update(self, stress, state, dstrain, dt, tangent=True):
+    @property
+    def point_subsets(self):
+        """``update`` takes ``points=`` where the base model does (``MaterialModel.point_subsets``)."""
+        return self.base.point_subsets
+
+    def update(self, stress, state, dstrain, dt, tangent=True, points=None):
         """One increment of total strain ``dstrain`` (n, 6) over ``dt`` (s, scalar or (n,), >= 0), backward Euler
-        (module docstring). Returns the new effective stress (n, 6), the new state and the tangent (n, 6, 6; also
+        (module docstring); ``points`` (n,): the rows are those points of the parameter arrays
+        (``point_subsets``). Returns the new effective stress (n, 6), the new state and the tangent (n, 6, 6; also
         with ``tangent=False``: the Newton on eps_s needs the base's tangent anyway)."""
         stress = as_points(stress, "stress")
         dstrain = as_points(dstrain, "dstrain")
         n = stress.shape[0]
         e = _per_point(state["void_ratio"], n)
         eps_n = state["swelling_strain"]
-        a = _per_point(np.asarray(dt, dtype=float) / self.tau_s, n)
-        slope = _per_point(self.kappa_s / (1.0 + e), n)
-        step = _Increment(self.base, stress, state, dstrain, dt, a, slope, self.tolerance)
+        a = _per_point(np.asarray(dt, dtype=float) / point_rows(self.tau_s, points), n)
+        slope = _per_point(point_rows(self.kappa_s, points) / (1.0 + e), n)
+        step = _Increment(self.base, stress, state, dstrain, dt, a, slope, self.tolerance, points)
         x_hi = eps_n / (1.0 + a)                                   # the least swelling possible
         p_n = mean_stress(stress)
         lagged = np.where(p_n < state["p_max"], slope * np.log(np.maximum(p_n, 1e-300) / state["p_max"]), 0.0)
@@ -170,9 +176,9 @@ class DelayedSwelling(MaterialModel):
 class _Increment:
     """The residual R(x) of one increment (module docstring) at a trial swelling strain x = eps_s,n+1 (n,)."""
 
-    def __init__(self, base, stress, state, dstrain, dt, a, slope, tolerance):
+    def __init__(self, base, stress, state, dstrain, dt, a, slope, tolerance, points):
         self.base, self.stress, self.dstrain, self.dt, self.a, self.slope = base, stress, dstrain, dt, a, slope
-        self.tolerance = tolerance
+        self.tolerance, self.points = tolerance, points
         self.base_state = {k: v for k, v in state.items() if k not in OWN_STATE}
         self.eps_n = np.ascontiguousarray(state["swelling_strain"], dtype=float)
         self.p_max = np.ascontiguousarray(state["p_max"], dtype=float)
@@ -186,7 +192,9 @@ class _Increment:
         n = x.size
         base_strain = np.empty((n, 6))
         _kernel().base_strains(self.dstrain, x, self.eps_n, base_strain)
-        s_b, st_b, D_b = self.base.update(self.stress, self.base_state, base_strain, self.dt, tangent=True)
+        s_b, st_b, D_b = (self.base.update(self.stress, self.base_state, base_strain, self.dt, tangent=True)
+                          if self.points is None else
+                          self.base.update(self.stress, self.base_state, base_strain, self.dt, points=self.points))
         p, ratio = np.empty(n), np.empty(n)
         i = _kernel().law_ratios(s_b, self.p_max, self.a, self.slope, active, p, ratio)
         if i >= 0:
