@@ -326,7 +326,8 @@ class ANICREEP(MaterialModel):
         omega are proportional to v, mu to 1/v (``_volume_columns``); their values at v = 1 are built once per n.
         The rows of all points are one array per n, rewritten at every call (the kernel reads them during the call
         only; a model is not shared between threads)."""
-        size = n if points is None or self.parameter_points() == 1 else self.parameter_points()
+        every = points is None or self.parameter_points() == 1   # the rows are those of n points of the same table
+        size = n if every else self.parameter_points()
         cache = self.__dict__.setdefault("_unit_volume_cache", {})
         if size not in cache:
             columns = _kernel().PARAMETER_COLUMNS
@@ -334,10 +335,10 @@ class ANICREEP(MaterialModel):
                            [(columns.index(k), np.broadcast_to(np.asarray(x, dtype=float), (size,)).copy(), k == "mu")
                             for k, x in self._volume_columns(1.0).items() if k != "mu" or self.viscous])
         prm, scaled = cache[size]
-        if size != n:
+        if not every:
             prm = prm[points]
         for column, at_unit_volume, inverse in scaled:
-            (np.divide if inverse else np.multiply)(at_unit_volume if size == n else at_unit_volume[points], v,
+            (np.divide if inverse else np.multiply)(at_unit_volume if every else at_unit_volume[points], v,
                                                     out=prm[:, column])
         return prm
 

@@ -37,7 +37,7 @@ def test_the_rows_of_a_subset_are_those_of_the_whole_update(which):
     dstrain = rng.normal(scale=2e-3, size=(N, 6))
     dt = rng.uniform(0.0, 100.0, N)
     whole = model.update(stress, state, dstrain, dt)
-    for rows in (np.array([3]), np.array([0, 5, 11]), np.arange(1, N, 2)):
+    for rows in (np.array([3]), np.array([0, 5, 11]), np.arange(1, N, 2), np.arange(N)[::-1]):
         part = model.update(stress[rows], {k: v[rows] for k, v in state.items()}, dstrain[rows], dt[rows], points=rows)
         assert np.array_equal(part[0], whole[0][rows]) and np.array_equal(part[2], whole[2][rows])
         assert part[1].keys() == whole[1].keys()
