@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["ParameterError", "IntegrationError", "MaterialModel", "ParameterRange", "as_points", "check_parameter",
-           "point_rows"]
+           "point_rows", "updated_rows"]
 
 
 class ParameterError(ValueError):
@@ -105,6 +105,25 @@ def as_points(stress_or_strain, name="array") -> np.ndarray:
 def point_rows(value, points):
     """A parameter (scalar or (n,)) at the points ``points`` (None: all of them; a scalar stays one)."""
     return value if points is None or np.ndim(value) == 0 else np.asarray(value)[points]
+
+
+def updated_rows(model, rows, points, stress, state, dstrain, dt, previous):
+    """The update of the rows ``rows`` of the arrays given (``stress``, ``state``, ``dstrain``, ``dt`` over n points),
+    which are the points ``points`` of the model's parameter arrays (``MaterialModel.point_subsets``), written into
+    copies of ``previous`` (stress, state, tangent of the n points). An IntegrationError names the row."""
+    try:
+        s_rows, st_rows, C_rows = model.update(stress[rows], {k: v[rows] for k, v in state.items()}, dstrain[rows],
+                                               point_rows(dt, rows), points=points)
+    except IntegrationError as err:
+        raise IntegrationError(int(rows[err.point]), err.reason) from None
+    s_new, st_new, C = previous
+    s_new, C = s_new.copy(), C.copy()
+    s_new[rows], C[rows] = s_rows, C_rows
+    merged = {}
+    for key, value in st_rows.items():  # the keys of the model's update
+        merged[key] = np.array(st_new[key], dtype=value.dtype)
+        merged[key][rows] = value
+    return s_new, merged, C
 
 
 class MaterialModel:

@@ -16,7 +16,7 @@ import numpy as np
 
 from ._mixed_control_kernel import (adaptive_inputs, aim_step, correct_all, finish_step, judge_steps, newton_correction,
                                     next_steps, start_step)
-from .base import IntegrationError
+from .base import IntegrationError, updated_rows
 
 __all__ = ["mixed_control", "adaptive_control", "batch_size", "newton_correction", "NORMAL"]
 
@@ -187,20 +187,6 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
 _NO_STRESS = np.zeros((0, 6))
 
 
-def _updated_rows(model, rows, stress, state, deps, dt, s_new, st_new, C):
-    """The update of the points ``rows`` (``MaterialModel.point_subsets``) written into copies of the results of the
-    last update ``s_new``, ``st_new``, ``C`` (the start values before the first)."""
-    s_rows, st_rows, C_rows = model.update(stress[rows], {k: v[rows] for k, v in state.items()}, deps[rows], dt[rows],
-                                           points=rows)
-    s_new, C = s_new.copy(), C.copy()
-    s_new[rows], C[rows] = s_rows, C_rows
-    merged = {}
-    for key, value in st_rows.items():  # the keys of the model's update
-        merged[key] = np.array(st_new[key], dtype=value.dtype)
-        merged[key][rows] = value
-    return s_new, merged, C
-
-
 class _Step:
     """One mixed-control increment: Newton on the unknown strain components (and du when undrained)."""
 
@@ -244,9 +230,9 @@ class _Step:
                 if rows is None:
                     s_new, st_new, C = self.model.update(stress, state, deps, dt)
                 else:
-                    s_new, st_new, C = _updated_rows(self.model, rows, stress, state, deps, dt, s_new, st_new, C)
+                    s_new, st_new, C = updated_rows(self.model, rows, rows, stress, state, deps, dt, (s_new, st_new, C))
             except IntegrationError as err:
-                bad = int(err.point) if rows is None else int(rows[err.point])
+                bad = int(err.point)
                 if excluded[bad] or not active[bad]:  # (never a point of ``rows``: those are iterating)
                     raise
                 excluded[bad] = done[bad] = True

@@ -50,7 +50,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, point_rows
+from .base import (IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, point_rows,
+                   updated_rows)
 from .invariants import mean_stress
 
 __all__ = ["DelayedSwelling", "SWELLING_SWITCH", "SWELLING_RANGES"]
@@ -147,7 +148,10 @@ class DelayedSwelling(MaterialModel):
         result, bracket = None, None
         for iteration in range(self.max_iterations):
             done = np.empty(n, dtype=bool)
-            evaluation, n_done, n_active = step.evaluate(x, active, done)
+            # after the first evaluation, where few points still iterate, the base updates only those
+            rows = np.flatnonzero(active) if iteration and self.base.point_subsets else None
+            rows = None if rows is None or 4 * rows.size > 3 * n else rows
+            evaluation, n_done, n_active = step.evaluate(x, active, done, rows, None if rows is None else evaluation)
             result = evaluation if n_done == n else _merge(done, evaluation, result) if n_done else result
             if not n_active:
                 break
@@ -184,17 +188,23 @@ class _Increment:
         self.p_max = np.ascontiguousarray(state["p_max"], dtype=float)
         self.residual = None
 
-    def evaluate(self, x, active, done):
+    def evaluate(self, x, active, done, rows=None, last=None):
         """The base update at x: (x, base stress, base state, base tangent, p', c) with c = a/(1 + a)
         kappa_s/((1 + e_n) p') where (S2) acts, else 0; R(x) in ``self.residual``; ``done`` (n,) the ``active``
         points with |R| <= ``tolerance``, which leave ``active``; returns (that tuple, points done, points still
-        active). IntegrationError where (S2) acts at p' <= 0 on an ``active`` point."""
+        active). With ``rows`` (the active points), only those are updated, the others keep the base results of the
+        ``last`` evaluation (the same bits: their x has not changed). IntegrationError where (S2) acts at p' <= 0 on
+        an ``active`` point."""
         n = x.size
         base_strain = np.empty((n, 6))
         _kernel().base_strains(self.dstrain, x, self.eps_n, base_strain)
-        s_b, st_b, D_b = (self.base.update(self.stress, self.base_state, base_strain, self.dt, tangent=True)
-                          if self.points is None else
-                          self.base.update(self.stress, self.base_state, base_strain, self.dt, points=self.points))
+        if rows is not None:
+            s_b, st_b, D_b = updated_rows(self.base, rows, rows if self.points is None else self.points[rows],
+                                          self.stress, self.base_state, base_strain, self.dt, last[1:4])
+        elif self.points is None:
+            s_b, st_b, D_b = self.base.update(self.stress, self.base_state, base_strain, self.dt, tangent=True)
+        else:
+            s_b, st_b, D_b = self.base.update(self.stress, self.base_state, base_strain, self.dt, points=self.points)
         p, ratio = np.empty(n), np.empty(n)
         i = _kernel().law_ratios(s_b, self.p_max, self.a, self.slope, active, p, ratio)
         if i >= 0:
