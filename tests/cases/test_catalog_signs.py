@@ -59,7 +59,7 @@ def test_relaxation_after_loading_carries_the_viscosity_sign(curves):
 
 
 def test_relaxation_after_unloading_carries_the_swelling_sign(curves):
-    rho, size = _trend(curves, "swelling", "relaxation4")
+    rho, size = _trend(curves, "swelling", "relaxation10")
     assert _item("time-dependent swelling", "hold time after unloading")["direction"] == +1
     assert rho > 0.9 and size > 0.02    # delayed swelling against the held strain raises the stress
     # after loading (first loading, p' at its maximum) the swelling element does nothing
@@ -71,5 +71,5 @@ def test_a_viscous_soil_relaxes_little_after_unloading(curves):
     """Inside its yield surface after unloading an overstress model relaxes far less than after loading (the
     catalog's "loading phase" item: holds after unloading carry little of the viscosity signature)."""
     after_loading = _trend(curves, "viscosity", "relaxation2")[1]
-    after_unloading = _trend(curves, "viscosity", "relaxation4")[1]
+    after_unloading = _trend(curves, "viscosity", "relaxation10")[1]
     assert after_unloading < 0.2 * after_loading
