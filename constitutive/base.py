@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["ParameterError", "IntegrationError", "MaterialModel", "ParameterRange", "as_points", "check_parameter",
-           "point_rows", "updated_rows"]
+           "point_rows", "iterating_rows", "updated_rows"]
 
 
 class ParameterError(ValueError):
@@ -105,6 +105,20 @@ def as_points(stress_or_strain, name="array") -> np.ndarray:
 def point_rows(value, points):
     """A parameter (scalar or (n,)) at the points ``points`` (None: all of them; a scalar stays one)."""
     return value if points is None or np.ndim(value) == 0 else np.asarray(value)[points]
+
+
+#: a Newton iteration updates only the points still iterating when they are at most this fraction of all (below it
+#: the subset's gather and scatter cost less than the updates of the points done)
+SUBSET_FRACTION = 0.75
+
+
+def iterating_rows(model, iterating):
+    """The rows (k,) of the points still ``iterating`` (bool (n,)) for :func:`updated_rows`, or None where the model
+    updates every point (no ``point_subsets``, or more than SUBSET_FRACTION of the points still iterating)."""
+    if not getattr(model, "point_subsets", False):
+        return None
+    rows = np.flatnonzero(iterating)
+    return None if rows.size > SUBSET_FRACTION * iterating.size else rows
 
 
 def updated_rows(model, rows, points, stress, state, dstrain, dt, previous):

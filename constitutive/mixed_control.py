@@ -16,7 +16,7 @@ import numpy as np
 
 from ._mixed_control_kernel import (adaptive_inputs, aim_step, correct_all, finish_step, judge_steps, newton_correction,
                                     next_steps, start_step)
-from .base import IntegrationError, updated_rows
+from .base import IntegrationError, iterating_rows, updated_rows
 
 __all__ = ["mixed_control", "adaptive_control", "batch_size", "newton_correction", "NORMAL"]
 
@@ -221,11 +221,9 @@ class _Step:
         # state, the model's update of them cannot fail
         dt = np.where(active, dt, 0.0)
         ok = np.empty(n, dtype=bool)
-        subsets = getattr(self.model, "point_subsets", False)
         for _ in range(self.max_iterations):
             # the points done keep their last update (the same bits again): where they are many, only the others
-            rows = np.flatnonzero(~done) if subsets else None
-            rows = None if rows is None or 4 * rows.size > 3 * n else rows
+            rows = iterating_rows(self.model, ~done)
             try:
                 if rows is None:
                     s_new, st_new, C = self.model.update(stress, state, deps, dt)

@@ -50,8 +50,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import (IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, point_rows,
-                   updated_rows)
+from .base import (IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, iterating_rows,
+                   point_rows, updated_rows)
 from .invariants import mean_stress
 
 __all__ = ["DelayedSwelling", "SWELLING_SWITCH", "SWELLING_RANGES"]
@@ -149,8 +149,7 @@ class DelayedSwelling(MaterialModel):
         for iteration in range(self.max_iterations):
             done = np.empty(n, dtype=bool)
             # after the first evaluation, where few points still iterate, the base updates only those
-            rows = np.flatnonzero(active) if iteration and self.base.point_subsets else None
-            rows = None if rows is None or 4 * rows.size > 3 * n else rows
+            rows = iterating_rows(self.base, active) if iteration else None
             evaluation, n_done, n_active = step.evaluate(x, active, done, rows, None if rows is None else evaluation)
             result = evaluation if n_done == n else _merge(done, evaluation, result) if n_done else result
             if not n_active:
