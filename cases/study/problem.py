@@ -157,10 +157,11 @@ class LoopProblem:
         starts = climbs = None
         base = getattr(self, "base_mode", None)
         if base is not None and set(base) < set(post.names):
-            levels = {}
+            levels = {}   # the added parameters' (lower end, mid-prior)
             for n, b in zip(post.names, prior.bounds):
-                middle = np.sqrt(b.lower * b.upper) if b.kind == "log-uniform" else 0.5 * (b.lower + b.upper)
-                levels[n] = (b.lower + 1e-3 * (b.upper - b.lower), middle)
+                if n not in base:
+                    middle = np.sqrt(b.lower * b.upper) if b.kind == "log-uniform" else 0.5 * (b.lower + b.upper)
+                    levels[n] = (b.lower + 1e-3 * (b.upper - b.lower), middle)
             starts, climbs = ([[base[n] if n in base else levels[n][level] for n in post.names]] for level in (0, 1))
         evaluator = inference.Evaluator(like)
         # under MPI every rank holds the posterior and refines the same mode by itself
