@@ -8,7 +8,7 @@ Two SBP expansions at 5.25 m depth (Lee & Fahey), 0.167 %/s and 0.0185 %/s to 10
 sigma'_v0 = 31 kPa, K0 = 0.9, u0 = 38.8 kPa, k = 3.3e-9 m/s; ANICREEP with nu = 0.3, lambda = 0.40, kappa = 0.026,
 e0 = 2.0 fixed (docs/reference.md section 5: the printed Table 5 is garbled; these are the documented defaults,
 ``--fixed`` overrides) and M, sigma'_p0 (kPa), C_alpha_e and the error sigma_eps identified (Table 4 bounds). One
-particle's forward model is both coupled FE solves (``cases.study.sbp_forward``); each runs whole on one process or
+particle's forward model is both coupled FE solves (``cases.study.forward.sbp``); each runs whole on one process or
 MPI rank.
 
 Recordings. The measured Burswood curves are not public. The shipped recordings (cases/data/burswood_sbp/) are
@@ -16,7 +16,7 @@ SYNTHETIC: our FE at the paper's DE-TMCMC MAP (M 1.71, sigma'_p0 58.4 kPa, C_alp
 mesh and increments, times independent multiplicative noise c ~ N(1, 0.02^2) per point (Eq. 1), made by
 :func:`generate_recordings` (``--generate``). Real recordings load from CSV files with columns
 ``cavity_strain_pct, cavity_pressure_kPa`` and optionally ``pore_pressure_kPa`` (total pore pressure at the wall) and
-``time_s``, read and checked as a study's ``sbp`` tests (``cases.study.records``). The wall pore pressure is used
+``time_s``, read and checked as a study's ``sbp`` tests (``cases.study.reading.records``). The wall pore pressure is used
 whenever every record has it (``--pressure-only`` drops it): the cavity pressure alone leaves a ridge in (M, sigma'_p0)
 (a weaker critical-state ratio and a larger preconsolidation pressure give nearly the same pressure curves), which
 the pore pressure, set by the effective stress path, breaks.
@@ -35,15 +35,15 @@ import inference
 from constitutive import ANICREEP, ParameterError
 from inference import DataError
 
-from .study.cli import (UsageError, arguments, command, non_negative_int, pairs, positive_float, positive_int,
+from cases.study.cli import (UsageError, arguments, command, non_negative_int, pairs, positive_float, positive_int,
                         run_settings)
-from .study.generate import generate_sbp
-from .study.outputs import runs_table
-from .study.presets import FE_FIELDS, PRESETS, Preset
-from .study.records import generating_values, has_pore_pressure, load_sbp_recordings
-from .study.runner import announce_compilation, is_root, kernel_files, run_all, throughput
-from .study.sbp_forward import SBPForward
-from .study.sbp_outputs import SBPCase, write_sbp_outputs
+from cases.study.synthetic.generate import generate_sbp
+from cases.study.outputs.report import runs_table
+from cases.study.reading.presets import FE_FIELDS, PRESETS, Preset
+from cases.study.reading.records import generating_values, has_pore_pressure, load_sbp_recordings
+from cases.study.runner import announce_compilation, is_root, kernel_files, run_all, throughput
+from cases.study.forward.sbp import SBPForward
+from cases.study.outputs.sbp import SBPCase, write_sbp_outputs
 
 __all__ = ["SITE", "FIXED", "RATES", "BOUNDS", "GENERATING", "PAPER", "Preset", "PRESETS", "FE_FIELDS",
            "burswood_forward", "check_fixed", "generate_recordings", "main"]

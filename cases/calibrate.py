@@ -6,7 +6,7 @@
 
 The study file (TOML) names the data files (paths relative to the TOML), the type and conditions of every test, the
 base model with its fixed parameters and the priors of the free ones, the bounds of the error parameter sigma_eps and
-the sampler settings (schema: README "Your own recordings"; reader: ``cases.study.schema``). Everything is checked
+the sampler settings (schema: README "Your own recordings"; reader: ``cases.study.reading.schema``). Everything is checked
 before any solve starts (errors name the TOML file, the table and field, and the bad value; CSV errors name the file,
 the column and the line; one line on stderr, exit status 2, a traceback only with ``--debug``), and nothing is
 written in ``--out`` when something is wrong. A second run on the same ``--out`` is refused while the first runs.
@@ -16,7 +16,7 @@ Test types (``cases.study.programme``): ``triaxial``, ``oedometer_crs``, ``oedom
 ``constitutive.labtests``) and ``sbp`` (the coupled pressuremeter FE). Base models: ``ModifiedCamClay``, ``ANICREEP``
 (switches ``viscous``, ``anisotropy``, ``destructuration``) and ``SIMSAND`` (laboratory tests only; switches
 ``lode_dependence``, ``state_dependent_dilatancy``, the latter needing n_p and n_d). ``--diagnose`` runs the
-missing-physics loop (``cases.study.problem.run_loop`` over ``inference.diagnosis.run_loop``): calibrate the base
+missing-physics loop (``cases.study.loop.problem.run_loop`` over ``inference.diagnosis.run_loop``): calibrate the base
 class, locate the mismatch, explain it with per-point covariates and ``constitutive.physics_catalog``, recalibrate the
 enriched class of the best-ranked named candidate whose enrichment exists for the base model, compare
 log-evidences.
@@ -35,12 +35,12 @@ from pathlib import Path
 from constitutive.registry import class_name
 from inference.executors import mpi_world
 
-from .study.cli import UsageError, arguments, command, non_negative_float, run_settings
-from .study.generate import generate
-from .study.problem import CASE, StudyProblem, run_loop
-from .study.records import load_observations
-from .study.runner import announce_compilation, kernel_files, out_lock, run_all, run_directories
-from .study.schema import load_study
+from cases.study.cli import UsageError, arguments, command, non_negative_float, run_settings
+from cases.study.synthetic.generate import generate
+from cases.study.loop.problem import CASE, StudyProblem, run_loop
+from cases.study.reading.records import load_observations
+from cases.study.runner import announce_compilation, kernel_files, out_lock, run_all, run_directories
+from cases.study.reading.schema import load_study
 
 __all__ = ["main"]
 

@@ -36,11 +36,13 @@ from pathlib import Path
 import numpy as np
 
 import inference
-from cases import study
+from cases.study.cli import arguments
+from cases.study.outputs.report import parameter_table
+from cases.study.runner import is_root, method_name, run_all, write_summary
 from cases.study.cli import command
-from cases.study.lab_forward import LabForward
+from cases.study.forward.lab import LabForward
 from cases.study.programme import TestSpec
-from cases.study.records import write_records
+from cases.study.reading.records import write_records
 from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, add_options, free_subset, run_line, sampler_settings, \
     sand_forward, write_figures, write_runs
 
@@ -136,7 +138,7 @@ def references(noise):
 def report_run(out, args, post, obs, forward, summary, truth):
     """report.md and figures of one run; ``truth``: the curves at the true values (forward result)."""
     label = f"SYNTHETIC data ({'noise-free' if not args.noise else f'noise c ~ N(1, {args.noise:g}^2)'})"
-    method = study.method_name(args.method)
+    method = method_name(args.method)
     write_figures(out, obs, forward, post, f"{method}, {label}: data, true-value and MAP curves",
                   references(args.noise), {"true values": TRUE}, f"CSL (VI): MAP vs true values, {label}",
                   "end of test (synthetic)", reference=truth, marginals_title=f"{method}, {label}: posterior marginals")
@@ -146,16 +148,16 @@ def report_run(out, args, post, obs, forward, summary, truth):
             "simsand_synthetic, header lines `# synthetic:`). They are not measurements.", "",
             run_line(summary) + ", J_g at MAP: " + ", ".join(f"{k} {v:.3g}" for k, v in jg.items()
                                                              if isinstance(v, float)), "",
-            study.parameter_table(post, references(args.noise)), "",
+            parameter_table(post, references(args.noise)), "",
             "Figures: curves.png, marginals.png, stages.png, csl.png."]
     (Path(out) / "report.md").write_text("\n".join(text) + "\n")
 
 
 @command
 def main(argv=None):
-    args = study.arguments(__doc__, argv, quick_help="N_s 400, at most 8 sweeps per stage (about 1-2 min)",
+    args = arguments(__doc__, argv, quick_help="N_s 400, at most 8 sweeps per stage (about 1-2 min)",
                            add=_options)
-    if args.regenerate and study.is_root():
+    if args.regenerate and is_root():
         generate_data(args.noise)
     obs, forward, like, prior = build(args.noise, args.free)
     preset = PRESETS["quick" if args.quick else "full"]
@@ -166,14 +168,14 @@ def main(argv=None):
     truth = sand_forward(obs, {})([TRUE])[0]
 
     def finish(run_args, seed, out, post):
-        summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
+        summary = write_summary(out, CASE, run_args, seed, post, like, extra={
             "synthetic": True, "noise": args.noise, "true_values": TRUE, "fixed": list(forward.fixed),
             "max_failure_fraction": MAX_FAILURE_FRACTION, "sigma_eps_bounds": SIGMA_BOUNDS})
         report_run(out, run_args, post, obs, forward, summary, truth)
         return summary
 
-    summaries = study.run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
-    if study.is_root():
+    summaries = run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
+    if is_root():
         truth = {**TRUE, "sigma_eps": args.noise} if args.noise else TRUE  # noise-free: sigma_eps has no true value
         write_runs(args.out or DEFAULT_OUT, f"{CASE}, SYNTHETIC data, noise {args.noise:g}", summaries,
                    list(prior.names), references(args.noise), truth)

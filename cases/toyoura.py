@@ -25,7 +25,7 @@ optimisation reference values.
 
 Error model: one sigma_eps for every curve (the paper's Eq. 4), or with ``--error-groups`` one error parameter per
 group of curves (Eq. 6g, docs/reference.md section 1) read from the ``[sigma_eps]`` table of FILE by the study
-library's reader (cases.study.error_model; default cases/examples/toyoura_groups.toml: sigma_eps_stress for q (and u
+library's reader (cases.study.reading.error_model; default cases/examples/toyoura_groups.toml: sigma_eps_stress for q (and u
 of undrained recordings), sigma_eps_volume for the void ratio e). A dense sand's void ratio changes by about 0.01 on
 e of about 0.7: its relative errors are far below those of q, and with one sigma the volume change is effectively
 unconstrained.
@@ -49,10 +49,12 @@ from pathlib import Path
 import numpy as np
 
 import inference
-from cases import study
-from cases.study.checks import Checker, read_toml
+from cases.study.cli import arguments
+from cases.study.outputs.report import parameter_table
+from cases.study.runner import is_root, method_name, run_all, write_summary
+from cases.study.reading.checks import Checker, read_toml
 from cases.study.cli import UsageError, command
-from cases.study.error_model import ErrorModel, read_error_model
+from cases.study.reading.error_model import ErrorModel, read_error_model
 from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, add_options, free_subset, parameters, run_line, \
     sampler_settings, sand_forward, volume_change_table, write_figures, write_runs
 from inference.observations import read_csv_table
@@ -136,7 +138,7 @@ def load_undrained(specs) -> list:
 
 
 def read_error_groups(path) -> ErrorModel:
-    """The ``[sigma_eps]`` table of a TOML file (cases.study.error_model; the file may also hold ``name`` and
+    """The ``[sigma_eps]`` table of a TOML file (cases.study.reading.error_model; the file may also hold ``name`` and
     ``description``); StudyError naming the file, table.field and value."""
     doc = read_toml(path)
     ck = Checker(path)
@@ -225,7 +227,7 @@ def jg_all(like_all, post) -> dict:
 
 
 def report_run(out, args, post, cal_obs, all_obs, forward_all, summary, like, volume_rows):
-    method = study.method_name(args.method)
+    method = method_name(args.method)
     note = "" if args.undrained else SUBSTITUTION_NOTE
     predicted = [t.name for t in all_obs if t.name not in cal_obs.tests]
     sigmas = curve_sigmas(like)
@@ -245,7 +247,7 @@ def report_run(out, args, post, cal_obs, all_obs, forward_all, summary, like, vo
              "J_g (Eq. 5) at MAP: " + ", ".join(
                  f"{k} {v:.3g} ({'calibration' if k in cal_obs.tests else 'prediction'})"
                  for k, v in jg.items() if isinstance(v, float)), "",
-             study.parameter_table(post, REFERENCES), "",
+             parameter_table(post, REFERENCES), "",
              "Volumetric strain of the predicted drained tests (%, compression positive, dilation negative; "
              "eps_v = 100 (e0 - e)/(1 + e0); measured: the record interpolated; 95 % posterior predictive of Eq. 1 "
              "on e):", "", *volume_lines(volume_rows), "",
@@ -255,7 +257,7 @@ def report_run(out, args, post, cal_obs, all_obs, forward_all, summary, like, vo
 
 @command
 def main(argv=None):
-    args = study.arguments(__doc__, argv, quick_help="N_s 300, at most 6 sweeps per stage", add=_options)
+    args = arguments(__doc__, argv, quick_help="N_s 300, at most 6 sweeps per stage", add=_options)
     error_model = read_error_groups(args.error_groups) if args.error_groups else None
     cal_obs, all_obs, forward, forward_all, like, prior = build(args.undrained, args.free, error_model)
     like_all = likelihood(all_obs, forward_all, error_model)
@@ -267,9 +269,9 @@ def main(argv=None):
     def finish(run_args, seed, out, post):
         volume_rows = volume_change_table(forward_all, post, all_obs, predicted, VOLUME_AT_PCT,
                                           sigmas=curve_sigmas(like))
-        if study.is_root():
+        if is_root():
             print("\n".join([f"volumetric strain of the predicted tests, seed {seed}:", *volume_lines(volume_rows)]))
-        summary = study.write_summary(out, CASE, run_args, seed, post, like, extra={
+        summary = write_summary(out, CASE, run_args, seed, post, like, extra={
             "synthetic": False, "calibration_tests": list(cal_obs.tests),
             "predicted_tests": [t for t in all_obs.tests if t not in cal_obs.tests],
             "substitution": "" if args.undrained else SUBSTITUTION_NOTE, "undrained_files": list(args.undrained),
@@ -279,8 +281,8 @@ def main(argv=None):
         report_run(out, run_args, post, cal_obs, all_obs, forward_all, summary, like, volume_rows)
         return summary
 
-    summaries = study.run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
-    if study.is_root():
+    summaries = run_all(args, DEFAULT_OUT, like, prior, n_samples, settings, finish)
+    if is_root():
         write_runs(args.out or DEFAULT_OUT, f"{CASE} (measured data, Verdugo & Ishihara 1996)", summaries,
                    list(prior.names), REFERENCES, PAPER_DE_MEAN, note="" if args.undrained else SUBSTITUTION_NOTE)
     return 0

@@ -22,7 +22,7 @@ stress curves of :data:`STRESS_CURVES` r > 0 means the soil was recorded stronge
 Effective and total stresses: a rate trend of an effective stress (:data:`EFFECTIVE_STRESS_CURVES`) separates
 viscosity (faster tests stronger) from partial drainage (slower tests drain more and are stronger); a total stress
 such as the pressuremeter's cavity pressure carries the pore pressure too, and in the two-rate SBP both effects make
-the faster test's total pressure higher than a rate-independent simulation (cases.concealed_sbp, data sets 1 and 2),
+the faster test's total pressure higher than a rate-independent simulation (validation.proofs.sbp, data sets 1 and 2),
 so on a total stress the rate trend only supports. With the pore pressure recorded (:data:`PORE_PRESSURE_CURVES`)
 the two are told apart by its rate trend: a viscous soil generates less excess pore pressure in faster undrained
 shear (the isotach effect, Sheahan, Ladd & Germaine 1996), whereas drainage that the assumed permeability
@@ -185,7 +185,7 @@ CATALOG = (
                "than the faster one's (more drainage than the assumed permeability allows: the between-test face of "
                "the drainage time factor)", PORE_PRESSURE_CURVES)),
         {"coupled": True},
-        # SBP scale only: the coupled FE (fem.pressuremeter, cases.concealed_sbp) re-solved with the permeability of
+        # SBP scale only: the coupled FE (fem.pressuremeter, validation.proofs.sbp) re-solved with the permeability of
         # each particle (fem.Solver.solve(permeability=...)); "coupled" is a forward-model switch, not an ANICREEP
         # argument. k log-uniform over five decades (clays 1e-11 to silts 1e-6 m/s).
         Enrichment("ANICREEP", {"coupled": True}, {"permeability": (1e-11, 1e-6)}, ("permeability",),

@@ -6,7 +6,7 @@
 The study files give the programmes: ``sand_lab``: twelve drained triaxial tests of a dense Toyoura-like sand, six in
 compression and six in extension, e0 0.76-0.86 at p'0 100 and 300 kPa; ``sand_density``: eight drained compression
 tests from dense to loose, e0 0.70-0.95 at p'0 100 and 400 kPa. Both record q and e to 15 % axial strain, 20 records
-each, computed by this project's SIMSAND through ``cases.study.generate.generate`` (the same forward model a calibration
+each, computed by this project's SIMSAND through ``cases.study.synthetic.generate.generate`` (the same forward model a calibration
 uses) at the generating values below, times independent multiplicative noise c ~ N(1, 0.02^2) per point (Eq. 1).
 
 Generating models (stated here only; the data files say where they come from but not what the model contains), each
@@ -28,8 +28,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from cases.study.generate import generate  # noqa: E402
-from cases.study.schema import load_study  # noqa: E402
+from cases.study.synthetic.generate import generate  # noqa: E402
+from cases.study.reading.schema import load_study  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 #: generating values of the studies' free parameters (the fixed ones are the study files')
@@ -47,7 +47,7 @@ FIXED_LINE = "# synthetic_fixed: {fixed} (the study's fixed values)\n"
 
 
 def synthetic_table(switches: dict, parameters: dict, seed: int) -> str:
-    """The [synthetic] table ``cases.study.generate.generate`` reads."""
+    """The [synthetic] table ``cases.study.synthetic.generate.generate`` reads."""
     pars = ", ".join(f"{k} = {v!r}" for k, v in parameters.items())
     sw = ", ".join(f"{k} = {str(v).lower()}" for k, v in switches.items())
     return (f"\n[synthetic]\nparameters = {{ {pars} }}\nswitches = {{ {sw} }}\nnoise = 0.02\nseed = {seed}\n"

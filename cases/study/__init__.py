@@ -14,11 +14,3 @@ Modules, from the files a user writes to the figures a run draws:
 
 The names below are the ones the runnable cases share.
 """
-from .cli import arguments, pairs, run_settings
-from .outputs import parameter_table, plot_marginals, plot_stages, pyplot, runs_table
-from .records import generating_values, write_records
-from .runner import RunSettings, calibrate, is_root, method_name, run_all, run_directories, write_summary
-
-__all__ = ["arguments", "pairs", "run_settings", "RunSettings", "is_root", "method_name", "calibrate", "run_all",
-           "write_summary", "parameter_table", "runs_table", "plot_marginals", "plot_stages", "run_directories",
-           "pyplot", "generating_values", "write_records"]

@@ -23,8 +23,8 @@ import inference
 from constitutive import ParameterError
 from fem import MeshError, ProblemError
 
-from .checks import StudyError
-from .runner import PROPOSALS, OutputLocked, RunSettings, is_root
+from cases.study.reading.checks import StudyError
+from cases.study.runner import PROPOSALS, OutputLocked, RunSettings, is_root
 
 __all__ = ["UsageError", "REFUSED", "EXIT_REFUSED", "EXIT_INTERRUPTED", "command", "arguments", "run_settings",
            "pairs", "positive_int", "non_negative_int", "positive_float", "non_negative_float"]

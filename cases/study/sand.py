@@ -9,7 +9,7 @@ fraction inside the model. Compression positive, kPa.
 Conditions of a test are read from its CSV ``#`` metadata (or given by the caller): ``e0`` (void ratio at the start
 of shearing), ``p0_kPa`` (isotropic p'_0 in kPa) and ``drained`` (true/false).
 
-The forward model is :class:`cases.study.lab_forward.LabForward` with SIMSAND: every test of a batch in one batched
+The forward model is :class:`cases.study.forward.lab.LabForward` with SIMSAND: every test of a batch in one batched
 call per drainage type (SIMSAND's own triaxial integrator), simulated on a strain grid from 0 and interpolated by the
 likelihood to the recorded strains. A particle whose integration fails in any test is a zero-likelihood particle
 with its reason, never a crash.
@@ -24,9 +24,9 @@ import inference
 from constitutive import SIMSAND
 from inference import DataError
 
-from .lab_forward import LabForward
-from .outputs import plot_marginals, plot_stages, pyplot, runs_table
-from .programme import TestSpec
+from cases.study.forward.lab import LabForward
+from cases.study.outputs.report import plot_marginals, plot_stages, pyplot, runs_table
+from cases.study.programme import TestSpec
 
 __all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
            "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_csl", "plot_map_spread",

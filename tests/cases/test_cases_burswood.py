@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cases import burswood_sbp as sbp
-from cases.study.records import load_sbp_recordings
+from cases.study.reading.records import load_sbp_recordings
 from inference.observations import DataError
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

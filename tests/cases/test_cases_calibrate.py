@@ -9,11 +9,12 @@ import pytest
 
 import inference
 from cases import burswood_sbp, calibrate as cal
-from cases.study.checks import StudyError
-from cases.study.generate import generate
-from cases.study.problem import StudyProblem
-from cases.study.records import generating_values, load_observations
-from cases.study.schema import Settings, load_study
+from cases.study.cli import arguments
+from cases.study.reading.checks import StudyError
+from cases.study.synthetic.generate import generate
+from cases.study.loop.problem import StudyProblem
+from cases.study.reading.records import generating_values, load_observations
+from cases.study.reading.schema import Settings, load_study
 from constitutive import ANICREEP, SIMSAND, ModifiedCamClay, labtests
 from inference.observations import DataError
 from corpus_inputs import LAB_CSV as CSV, LAB_TOML as TOML
@@ -21,6 +22,7 @@ from tolerances import FE_RTOL, PRINTED_RTOL
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "cases" / "examples"
+VALIDATION_STUDIES = ROOT / "validation" / "studies"
 LAB_EXAMPLES = ("triaxial_drained", "triaxial_undrained", "oedometer_crs", "oedometer_creep")
 DESIGN_FIELDS = ("case", "method", "seed", "n_samples", "n_stages", "n_forward_solves", "wall_s", "ranks",
                  "parameters", "sigma_eps", "log_evidence", "J_g_at_map")
@@ -54,7 +56,8 @@ def test_a_valid_study_loads(tmp_path):
 def test_enriched_classes_tolerate_failed_solves_the_base_does_not(tmp_path, monkeypatch):
     """The loop's enriched classes stop only when half a stage's solves fail (an enrichment's prior holds regions
     the programme cannot follow); the base class keeps the sampler's default."""
-    from cases.study import problem as problem_module
+    from cases.study.loop import problem as problem_module
+
     s = load_study(_study(tmp_path))
     obs, times = load_observations(s.tests)
     problem = StudyProblem(s, obs, times, quick=True)
@@ -354,15 +357,15 @@ def test_generate_refuses_a_study_without_generating_values(tmp_path):
         generate(path)
     assert (tmp_path / "t1.csv").read_text() == CSV
     with pytest.raises(StudyError, match="synthetic.parameters.M is missing"):
-        generate(EXAMPLES / "concealed_viscosity.toml")  # never overwrites the case's data
+        generate(VALIDATION_STUDIES / "concealed_viscosity.toml")  # never overwrites the case's data
 
 
 def test_concealed_viscosity_study_has_the_case_data_and_forward_model():
     """The study file reads the case's records unchanged and its forward model equals the case's (to the 9
     digits of the recorded strains), for the base and the enriched class."""
-    from cases import concealed_viscosity as cv
+    from validation.proofs import rates as cv
 
-    study = load_study(EXAMPLES / "concealed_viscosity.toml")
+    study = load_study(VALIDATION_STUDIES / "concealed_viscosity.toml")
     obs, _ = load_observations(study.tests)
     ref = cv.load_data(cv.DATASETS["concealed"])
     assert [t.name for t in obs] == [t.name for t in ref]
@@ -457,12 +460,12 @@ def test_concealed_viscosity_study_reproduces_the_case_loop(tmp_path):
     """The concealed-viscosity data written as a study file: cases.calibrate --diagnose gives the case's own loop
     (same likelihood up to the 9 digits of the recorded strains, prior order and covariates): equal log-evidences,
     viscosity named and confirmed."""
-    from cases import concealed_viscosity as cv
+    from validation.proofs import rates as cv
 
     settings = Settings(24, 5, 60)  # the study file's [sampler.quick] with --samples 24
-    args = cv.study.arguments("", ["--samples", "24", "--processes", "1"])
+    args = arguments("", ["--samples", "24", "--processes", "1"])
     ref = cv.run_loop(cv.load_data(cv.DATASETS["concealed"]), args, tmp_path / "case", 3, settings, "test")
-    argv = [str(EXAMPLES / "concealed_viscosity.toml"), "--quick", "--samples", "24", "--seed", "3",
+    argv = [str(VALIDATION_STUDIES / "concealed_viscosity.toml"), "--quick", "--samples", "24", "--seed", "3",
             "--processes", "1", "--out", str(tmp_path / "study"), "--diagnose"]
     assert cal.main(argv) == 0
     mine = json.loads((tmp_path / "study" / "diagnosis.json").read_text())

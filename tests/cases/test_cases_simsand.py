@@ -1,4 +1,4 @@
-"""The SIMSAND studies (cases.simsand_synthetic, cases.toyoura) and their forward model (cases.study.lab_forward)."""
+"""The SIMSAND studies (cases.simsand_synthetic, cases.toyoura) and their forward model (cases.study.forward.lab)."""
 import json
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 import inference
 from cases import simsand_synthetic as syn
 from cases import toyoura
-from cases.study.lab_forward import LabForward
+from cases.study.forward.lab import LabForward
 from cases.study.programme import TestSpec
 from cases.study.sand import conditions_of
 from constitutive import SIMSAND

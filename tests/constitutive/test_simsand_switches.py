@@ -237,9 +237,9 @@ def test_study_switches_off_without_n_p_n_d_and_the_initial_state_parameter_cova
     model (phi_mu = 30: no peak above M_mu) and reports each test's initial state parameter psi_0 = e_0 - e_c(p'_0)
     (Been & Jefferies 1985), computed here from (VI) and the test conditions, as a between-test covariate."""
     import inference
-    from cases.study.problem import StudyProblem
-    from cases.study.records import load_observations
-    from cases.study.schema import load_study
+    from cases.study.loop.problem import StudyProblem
+    from cases.study.reading.records import load_observations
+    from cases.study.reading.schema import load_study
 
     study = load_study(_drained_study(tmp_path))
     assert study.switches == {"lode_dependence": False, "state_dependent_dilatancy": False}
@@ -263,16 +263,16 @@ def test_study_switches_off_without_n_p_n_d_and_the_initial_state_parameter_cova
     ("", "n_d = [0.1, 10.0]\n", "model.free.n_d.*not used when state_dependent_dilatancy = false"),
 ])
 def test_study_refuses_interlocking_parameters_with_the_switch_off(tmp_path, interlocking, free, message):
-    from cases.study.checks import StudyError
-    from cases.study.schema import load_study
+    from cases.study.reading.checks import StudyError
+    from cases.study.reading.schema import load_study
 
     with pytest.raises(StudyError, match=message):
         load_study(_drained_study(tmp_path, interlocking=interlocking, free=free))
 
 
 def test_study_needs_n_p_n_d_with_state_dependent_dilatancy(tmp_path):
-    from cases.study.checks import StudyError
-    from cases.study.schema import load_study
+    from cases.study.reading.checks import StudyError
+    from cases.study.reading.schema import load_study
 
     with pytest.raises(StudyError, match="state_dependent_dilatancy = true needs n_d"):
         load_study(_drained_study(tmp_path, switches="", interlocking="n_p = 2.0\n"))
@@ -285,7 +285,7 @@ def test_sand_examples_are_synthetic_do_not_name_the_effect_and_equal_their_gene
     import importlib.util
     from pathlib import Path
 
-    from cases.study.schema import load_study
+    from cases.study.reading.schema import load_study
 
     examples = Path(__file__).resolve().parents[2] / "cases" / "examples"
     spec = importlib.util.spec_from_file_location("sand_lab_data", examples / "sand_lab_data.py")

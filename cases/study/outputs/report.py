@@ -1,0 +1,241 @@
+"""What a calibrated study shows: parameter tables, posterior marginals and stages, recorded vs simulated curves with
+the posterior predictive band, the loop's figure and the Markdown report of one calibrated class.
+
+Figures are written with matplotlib on the off-screen Agg backend.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from inference import diagnosis
+
+from cases.study.runner import method_name
+from cases.study.outputs.calibration_warnings import calibration_warnings
+
+__all__ = ["LABELS", "X_LABELS", "parameter_table", "runs_table", "pyplot", "plot_marginals", "plot_stages",
+           "plot_curves", "plot_loop", "write_outputs"]
+
+LABELS = {"q": "q (kPa)", "p": "p' (kPa)", "excess_pore_pressure": "excess pore pressure (kPa)",
+          "volumetric_strain": "volumetric strain (%)", "void_ratio": "void ratio e",
+          "axial_stress": "sigma'_v (kPa)", "axial_strain": "axial strain (%)",
+          "cavity_pressure": "total cavity pressure (kPa)", "pore_pressure": "pore pressure at the wall (kPa)"}
+X_LABELS = {"axial_strain": "axial strain (%)", "time": "time (s)", "cavity_strain": "cavity strain (%)"}
+
+def _fmt(v):
+    if v is None or (isinstance(v, float) and not np.isfinite(v)):
+        return "-"
+    a = abs(v)
+    return f"{v:.4g}" if (a >= 1e-3 or a == 0) else f"{v:.3e}"
+
+
+def parameter_table(post, reference: dict | None = None, units: dict | None = None) -> str:
+    """Markdown table: MAP, mean, std, 95 % interval per parameter, then reference columns
+    ``{column label: {name: value}}`` (true values, the paper's table...)."""
+    reference = reference or {}
+    units = units or {}
+    q = post.quantiles()
+    head = ["parameter", "MAP", "mean", "std", "95 % interval"] + list(reference)
+    rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for n in post.names:
+        label = f"{n} ({units[n]})" if units.get(n) else n
+        cells = [label, _fmt(post.map[n]), _fmt(post.mean[n]), _fmt(post.std[n]),
+                 f"[{_fmt(q[n][0])}, {_fmt(q[n][2])}]"]
+        cells += [_fmt(col.get(n)) for col in reference.values()]
+        rows.append("| " + " | ".join(cells) + " |")
+    return "\n".join(rows)
+
+
+def runs_table(summaries: list, names, reference: dict | None = None) -> str:
+    """Markdown table over independent runs, one column pair per method (side by side): average MAP and its
+    spread (std over runs) per parameter, then reference columns; then ln Z and forward solves per method."""
+    reference = reference or {}
+    methods = sorted({s["method"] for s in summaries})
+    by = {m: [s for s in summaries if s["method"] == m] for m in methods}
+    head = ["parameter"] + [f"{m}: {h}" for m in methods for h in ("average MAP", "spread of MAP")] + list(reference)
+    rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for n in names:
+        cells = [n]
+        for m in methods:
+            maps = np.array([s["parameters"][n]["map"] for s in by[m]])
+            cells += [_fmt(float(maps.mean())), _fmt(float(maps.std(ddof=1)) if maps.size > 1 else None)]
+        rows.append("| " + " | ".join(cells + [_fmt(col.get(n)) for col in reference.values()]) + " |")
+    rows.append("")
+    for m in methods:
+        ev = np.array([s["log_evidence"] for s in by[m]])
+        solves = np.array([s["n_forward_solves"] for s in by[m]])
+        wall = np.array([s["wall_s"] for s in by[m]])
+        rows.append(f"- {m}: {ev.size} run(s); ln Z mean {ev.mean():.3f}, spread "
+                    f"{ev.std(ddof=1) if ev.size > 1 else 0:.3f}; forward evaluations {solves.mean():.0f} per run; "
+                    f"wall {wall.mean():.0f} s per run")
+    return "\n".join(rows)
+
+
+def pyplot():
+    """matplotlib.pyplot on the off-screen Agg backend."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_marginals(post, path, marks: dict | None = None, bounds: dict | None = None, title: str | None = None):
+    """Histogram of each parameter's final-stage samples; ``marks`` {label: {name: value}} drawn as lines;
+    ``title`` above the panels (say "synthetic" there when the data are)."""
+    plt = pyplot()
+    d = len(post.names)
+    cols = min(d, 4)
+    rows = -(-d // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.6 * rows), squeeze=False)
+    styles = ["-", "--", ":", "-."]
+    for ax, (i, n) in zip(axes.flat, enumerate(post.names)):
+        ax.hist(post.samples[:, i], bins=30, density=True, color="0.75")
+        ax.axvline(post.map_theta[i], color="C3", lw=1.5, label="MAP")
+        for k, (label, values) in enumerate((marks or {}).items()):
+            if n in values:
+                ax.axvline(values[n], color=f"C{k}", ls=styles[k % 4], lw=1.2, label=label)
+        if bounds and n in bounds:
+            ax.set_xlim(bounds[n])
+        ax.set_xlabel(n)
+        ax.set_yticks([])
+    for ax in list(axes.flat)[d:]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_stages(post, path):
+    """Samples of each parameter against the stage index (how the population narrows)."""
+    plt = pyplot()
+    d = len(post.names)
+    fig, axes = plt.subplots(1, d, figsize=(2.6 * d, 2.6), squeeze=False)
+    for i, (ax, n) in enumerate(zip(axes[0], post.names)):
+        for j, th in enumerate(post.stage_samples):
+            ax.plot(np.full(len(th), j) + np.linspace(-0.3, 0.3, len(th)), th[:, i], ".", ms=1, color="C0")
+        ax.set_xlabel("stage")
+        ax.set_title(n, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, truth: dict | None):
+    """report.md (with the calibration warnings of :mod:`cases.study.outputs.calibration_warnings`, also printed on stdout as
+    ``warning: ...``), curves.png, marginals.png, stages.png of one calibrated class of ``study`` (its summary.json is
+    written); ``cls`` the class record (MAP and posterior-sample curves), ``truth`` the values synthetic
+    recordings were made from (or None)."""
+    out = Path(out)
+    tag = "SYNTHETIC recordings" if synthetic else "recordings"
+    bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
+    title = f"{study.name}: {cls['name']}, {method_name(method)} ({tag})"
+    plot_curves(out / "curves.png", like, cls["map_simulated"], bands, title)
+    marks = {"generating (synthetic)": truth} if truth else None
+    sigma_bounds = ({"sigma_eps": study.sigma_bounds} if study.error_model is None
+                    else study.error_model.parameter_bounds())
+    plot_marginals(post, out / "marginals.png", marks=marks, bounds={**study.free, **sigma_bounds}, title=title)
+    plot_stages(post, out / "stages.png")
+    summary = json.loads((out / "summary.json").read_text())
+    lines = [f"# {study.name}: {method_name(method)} calibration of {cls['name']}", ""]
+    if synthetic:
+        lines += ["**The recordings are SYNTHETIC** (their `# synthetic` header lines say how they were made); they "
+                  "are not measurements.", ""]
+    if study.description:
+        lines += [study.description, ""]
+    lines += [f"- study file: {study.path}"]
+    lines += [f"- {t.name}: {t.describe()}, curves {', '.join(like.observations[t.name].curves)} ({t.file})"
+              for t in study.tests]
+    lines += [f"- fixed: {json.dumps(study.fixed)}",
+              f"- N_s = {summary['n_samples']}, stages {summary['n_stages']}, forward evaluations "
+              f"{summary['n_forward_solves']}, failed {summary['n_failed_solves']}, wall {summary['wall_s']:.1f} s on "
+              f"{summary['ranks']} process(es) ({summary['executor']})",
+              f"- ln Z = {post.log_evidence:.3f}; J_g at MAP: " + ", ".join(
+                  f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in summary["J_g_at_map"].items()),
+              "", parameter_table(post, {"generating (synthetic)": truth} if truth else None), ""]
+    if truth:
+        names = [n for n in post.names if n in truth]
+        lines.append("Generating values inside the 95 % posterior interval: " + ", ".join(
+            f"{n} {'yes' if lo <= truth[n] <= hi else 'NO'}" for n in names for lo, hi in [post.credible_interval(n)]))
+        lines.append("")
+    lines += ["Predictive coverage of the records (95 % band): " + ", ".join(
+        f"{t} {c} {100 * b.coverage:.0f} %" for (t, c), b in bands.items()), ""]
+    warnings = cls["warnings"] if "warnings" in cls else calibration_warnings(post, like, cls["map_simulated"])
+    for text in warnings:
+        print(f"warning: {text}", flush=True)
+    lines += ["## Warnings", ""] + ([f"- {text}" for text in warnings] or ["none"]) + [""]
+    lines += ["Figures: curves.png (records, MAP, 95 % posterior predictive band), marginals.png, stages.png."]
+    (out / "report.md").write_text("\n".join(lines) + "\n")
+
+
+def _panels(like):
+    return [(t.name, c) for t in like.observations for c in t.curves]
+
+
+def plot_curves(path, like, map_simulated, bands, title):
+    """One row per test, one panel per curve: records, MAP and the 95 % posterior predictive band."""
+    plt = pyplot()
+    tests = list(like.observations)
+    ncol = max(len(t.curves) for t in tests)
+    fig, axes = plt.subplots(len(tests), ncol, figsize=(4.8 * ncol, 3.2 * len(tests)), squeeze=False)
+    for row, t in zip(axes, tests):
+        for ax, (c, curve) in zip(row, t.curves.items()):
+            band = bands[t.name, c]
+            ax.fill_between(curve.x, band.lower, band.upper, color="C0", alpha=0.25, lw=0,
+                            label=f"95 % predictive ({100 * band.coverage:.0f} % inside)")
+            ax.plot(curve.x, map_simulated[t.name, c], "C0-", lw=1.5, label="MAP")
+            ax.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
+            ax.set_xlabel(X_LABELS.get(curve.x_name, curve.x_name))
+            ax.set_ylabel(LABELS.get(c, c))
+            ax.set_title(t.name, fontsize=9)
+            ax.legend(fontsize=7)
+        for ax in row[len(t.curves):]:
+            ax.axis("off")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_loop(path, like, classes, diag, label, synthetic):
+    """Per recorded curve: data with the base (dashed) and enriched (solid) MAP, and below it the base class's
+    relative residual with the mismatch regions shaded. The enriched class drawn is the confirmed one, else the one
+    of largest ln Z."""
+    plt = pyplot()
+    panels = _panels(like)
+    ncol = min(4, len(panels))
+    nrow = -(-len(panels) // ncol)
+    fig, axes = plt.subplots(2 * nrow, ncol, figsize=(4.2 * ncol, 5.6 * nrow), squeeze=False)
+    for j in range(len(panels), nrow * ncol):
+        axes[2 * (j // ncol), j % ncol].axis("off")
+        axes[2 * (j // ncol) + 1, j % ncol].axis("off")
+    base, enriched = classes[0], None
+    if len(classes) > 1:
+        confirmed = [c for c in classes[1:] if c["candidate"] == diag["omitted_physics"]]
+        enriched = confirmed[0] if confirmed else max(classes[1:], key=lambda c: c["log_evidence"])
+    for j, (t, c) in enumerate(panels):
+        row, col = 2 * (j // ncol), j % ncol
+        curve, top, bottom = like.observations[t].curves[c], axes[row, col], axes[row + 1, col]
+        top.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
+        top.plot(curve.x, base["map_simulated"][t, c], "k--", lw=1, label="base MAP")
+        if enriched is not None:
+            top.plot(curve.x, enriched["map_simulated"][t, c], "C0-", lw=1.3, label=f"{enriched['candidate']} MAP")
+        top.set_title(f"{t}: {c}", fontsize=9)
+        top.set_ylabel(LABELS.get(c, c))
+        top.legend(fontsize=7)
+        bottom.plot(curve.x, 100 * (curve.y / base["map_simulated"][t, c] - 1.0), "o-", ms=3, lw=0.6, color="C3")
+        for reg in diag["mismatch_regions"]:
+            if reg["test"] == t and reg["curve"] == c:
+                bottom.axvspan(reg["x_start"], reg["x_end"], color="C3", alpha=0.15)
+        bottom.axhline(0, color="k", lw=0.6)
+        bottom.set_xlabel(X_LABELS.get(curve.x_name, curve.x_name))
+        bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")
+    tag = "SYNTHETIC data" if synthetic else "recordings"
+    fig.suptitle(f"{tag} ({label}): {diag['verdict']}; omitted physics: {diag['omitted_physics']}", fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -1,0 +1,30 @@
+"""``python -m validation.independent --write [--folder DIR]``: regenerate the independent generator's programmes
+(every programme x hidden effect x noise seed, the pressuremeter's included) and their KEY.json under
+validation/data/independent/."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .recording import write_all
+from .sbp import write_sbp
+
+DATA = Path(__file__).resolve().parent.parent / "data" / "independent"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m validation.independent", description=__doc__.split("\n")[0])
+    ap.add_argument("--write", action="store_true", help="write the CSVs, study files and KEY.json")
+    ap.add_argument("--folder", type=Path, default=DATA, help=f"output folder (default {DATA})")
+    args = ap.parse_args(argv)
+    if not args.write:
+        ap.print_help()
+        return 0
+    key = write_all(args.folder)
+    key.update(write_sbp(args.folder))
+    print(f"{len(key)} cases written to {args.folder}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
