@@ -88,9 +88,9 @@ class ModifiedCamClay(MaterialModel):
         self.lambda_ = self._checked("lambda_", lambda_)
         bad = np.broadcast_to(self.kappa >= self.lambda_, np.broadcast(self.kappa, self.lambda_).shape)
         if np.any(bad):
-            k, l = np.broadcast_arrays(self.kappa, self.lambda_)
-            raise ParameterError(f"{self.name}: parameter kappa = {k[bad].ravel()[0]:g} must be < lambda_ = "
-                                 f"{l[bad].ravel()[0]:g}")
+            kappa, lambda_ = np.broadcast_arrays(self.kappa, self.lambda_)
+            raise ParameterError(f"{self.name}: parameter kappa = {kappa[bad].ravel()[0]:g} must be < lambda_ = "
+                                 f"{lambda_[bad].ravel()[0]:g}")
         if (G is None) == (nu is None):
             raise ParameterError(f"{self.name}: give exactly one of G (constant shear modulus) or nu (constant "
                                  f"Poisson's ratio), got G={G}, nu={nu}")

@@ -129,9 +129,9 @@ class ModifiedEulerSubstepping:
         ``space`` is GENERAL or TRIAXIAL; ``par`` the parameters of the same points ((ncol, m), _point_params);
         ``dstrain`` (the substep strain) gives the deviatoric flow direction at q = 0. Returns a dict of arrays.
         """
-        I = space.identity
+        identity = space.identity
         p = (sig @ space.volumetric_row) / 3.0 if space.size == 2 else sig[:, :3].sum(axis=1) / 3.0
-        s = sig - p[:, None] * I
+        s = sig - p[:, None] * identity
         J2 = 0.5 * ((s * s) @ space.weights)
         q = np.sqrt(3.0 * J2)
         pe = np.maximum(p, self.p_min)
@@ -163,12 +163,12 @@ class ModifiedEulerSubstepping:
         if lode_grad is not None:
             a_dev = a_dev - HdM_dsin3[:, None] * lode_grad
         # plastic potential (V): m = A_d (M_pt - eta) I/3 + nhat (strain-like), D m = K A_d (M_pt - eta) I + 2 G nhat
-        Dm = (K * dil)[:, None] * I + 2.0 * G[:, None] * nhat
+        Dm = (K * dil)[:, None] * identity + 2.0 * G[:, None] * nhat
         den = df_dp * K * dil + 2.0 * G * ((a_dev * nhat) @ space.weights) + Kp
         # row acting on a strain increment: a:D d eps + (df/de) de, with de = -(1 + e_0) d eps_v (caller adds v0)
-        Da = space.strain_row * (2.0 * G[:, None] * a_dev + (df_dp * K)[:, None] * I)
+        Da = space.strain_row * (2.0 * G[:, None] * a_dev + (df_dp * K)[:, None] * identity)
         return {"p": p, "q": q, "eta": eta, "f": f, "K": K, "G": G, "Dm": Dm, "den": den, "Da": Da, "df_de": df_de,
-                "a": a_dev + (df_dp / 3.0)[:, None] * I}
+                "a": a_dev + (df_dp / 3.0)[:, None] * identity}
 
     @staticmethod
     def _elastic(space, ev, deps):

@@ -145,7 +145,7 @@ class DelayedSwelling(MaterialModel):
         lagged = np.where(p_n < state["p_max"], slope * np.log(np.maximum(p_n, 1e-300) / state["p_max"]), 0.0)
         x = np.minimum(x_hi, (eps_n + a * lagged) / (1.0 + a))    # x_0, the lagged estimate
         active = np.ones(n, dtype=bool)
-        result, bracket = None, None
+        result, bracket, evaluation = None, None, None
         for iteration in range(self.max_iterations):
             done = np.empty(n, dtype=bool)
             # after the first evaluation, where few points still iterate, the base updates only those

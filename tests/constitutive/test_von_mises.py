@@ -76,8 +76,9 @@ def test_consistent_tangent_matches_finite_differences():
     s, _, C = m.update(stress0, state, dstrain, 1.0)
     h = 1e-7
     for j in range(6):
-        dp = dstrain.copy(); dp[:, j] += h
-        dm = dstrain.copy(); dm[:, j] -= h
+        dp, dm = dstrain.copy(), dstrain.copy()
+        dp[:, j] += h
+        dm[:, j] -= h
         fd = (m.update(stress0, state, dp, 1.0)[0] - m.update(stress0, state, dm, 1.0)[0]) / (2 * h)
         np.testing.assert_allclose(C[:, :, j], fd, rtol=1e-6, atol=1e-6 * G)
 
