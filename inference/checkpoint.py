@@ -6,14 +6,16 @@ evaluations of the batch under way) and a fingerprint of the problem. Random num
 
 The file is a zip archive (readable with ``numpy.load``) of:
 - ``a<k>.npy``: every array of the state, written and read with ``allow_pickle=False``;
-- ``meta.json``: the format number, the fingerprint and the state's structure: numbers, strings, lists and
-  dataclasses of the kinds the reader is given (by class name), arrays by member name;
+- ``meta.json``: the format number, the fingerprint and the state's structure: numbers, strings, lists,
+  dataclasses and enum members (by their value) of the kinds the reader is given (by class name), arrays by member
+  name;
 - ``sha256``: the SHA-256 of every other member (name and bytes, in name order), checked before anything is parsed.
 It is written atomically: a temporary file, fsync, rename, fsync of the folder.
 """
 from __future__ import annotations
 
 import dataclasses
+import enum
 import hashlib
 import io
 import json
@@ -34,8 +36,8 @@ class CheckpointError(RuntimeError):
 
 
 def save_checkpoint(path, state, fingerprint: dict) -> None:
-    """Write ``state`` (a dataclass of numbers, strings, arrays, lists, tuples, dicts and dataclasses) and the
-    problem's ``fingerprint`` (a JSON-able dict) to ``path``."""
+    """Write ``state`` (a dataclass of numbers, strings, arrays, lists, tuples, dicts, dataclasses and enum members)
+    and the problem's ``fingerprint`` (a JSON-able dict) to ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     arrays = {}
@@ -113,7 +115,10 @@ def _digest(members: dict) -> str:
 
 def _encode(obj, arrays):
     """JSON tree of ``obj``; arrays go to ``arrays`` under a member name. Tagged forms: {"array": name},
-    {"tuple": [...]}, {"dict": [[key, value], ...]}, {"type": class name, "fields": {...}}."""
+    {"tuple": [...]}, {"dict": [[key, value], ...]}, {"type": class name, "fields": {...}},
+    {"enum": class name, "value": the member's value}."""
+    if isinstance(obj, enum.Enum):
+        return {"enum": type(obj).__name__, "value": _encode(obj.value, arrays)}
     if obj is None or isinstance(obj, (bool, str)):
         return obj
     if isinstance(obj, np.bool_):
@@ -149,6 +154,11 @@ def _decode(tree, members, types):
         return tuple(_decode(x, members, types) for x in tree["tuple"])
     if "dict" in tree:
         return {_decode(k, members, types): _decode(v, members, types) for k, v in tree["dict"]}
+    if "enum" in tree:
+        cls = types.get(tree["enum"])
+        if not (isinstance(cls, type) and issubclass(cls, enum.Enum)):
+            raise TypeError(f"enum {tree['enum']!r} is not part of the sampler state")
+        return cls(_decode(tree["value"], members, types))
     cls = types.get(tree.get("type"))
     if cls is None:
         raise TypeError(f"type {tree.get('type')!r} is not part of the sampler state")

@@ -50,7 +50,7 @@ class Posterior:
 
     @classmethod
     def from_state(cls, st, prior, settings: dict, executor, wall_s, wall_s_this_session):
-        """The posterior of a finished run: ``st`` an ``inference.tmcmc.state.RunState`` in phase "done"."""
+        """The posterior of a finished run: ``st`` an ``inference.tmcmc.state.RunState`` in phase DONE."""
         return cls(
             names=tuple(prior.names), samples=st.theta, log_like=st.log_like,
             log_evidence=float(st.log_evidence), map_theta=st.map.theta,

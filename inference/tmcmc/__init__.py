@@ -6,7 +6,9 @@ docs/reference.md section 2. Modules:
   Eqs. (11)-(12), resampling, random streams, the adaptive-sweep statistic;
 - :mod:`.mixture`: Gaussian mixtures and their EM fit (the O-TMCMC mixture move);
 - :mod:`.moves`: the Metropolis-Hastings moves, one class each (Gaussian, mixture, DE Eqs. (13)-(15));
-- :mod:`.state`: typed run, stage and chain state; :mod:`.run`: the run loop with checkpoints and signals;
+- :mod:`.state`: typed run, stage and chain state and the run's :class:`Phase`;
+- :mod:`.steps`: the steps of a run as functions of its state (stage 0, steps 1-4, steps 5-6), free of I/O;
+- :mod:`.run`: the driver that loops the steps, with evaluations, checkpoints, signals and progress;
 - :mod:`.sampler`: :func:`tmcmc`.
 
 Random numbers: each move draws its arrays from a stream keyed by (seed, stage, sweep, move), row k belonging to

@@ -89,7 +89,7 @@ def tmcmc(loglike, prior: Prior, settings: TMCMCSettings | None = None, *, execu
         if resume and checkpoint is not None and Path(checkpoint).exists():
             st = load_checkpoint(checkpoint, fingerprint, STATE_TYPES)
             check_resumable(st, prior, checkpoint)
-            run.say(f"resuming from {checkpoint}: stage {st.stage}, phase {st.phase}, "
+            run.say(f"resuming from {checkpoint}: stage {st.stage}, phase {st.phase.value}, "
                     f"{st.n_evals} evaluations done")
         else:
             st = RunState()

@@ -5,13 +5,25 @@ Everything here is plain data (numbers, strings, arrays, lists), so a checkpoint
 """
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .mixture import GaussianMixture
 
-__all__ = ["StageRecord", "MapPoint", "ChainState", "RunState", "STATE_TYPES"]
+__all__ = ["Phase", "StageRecord", "MapPoint", "ChainState", "RunState", "STATE_TYPES"]
+
+
+class Phase(enum.Enum):
+    """Where a run stands: stage 0 to draw from the prior, a stage to select (steps 1-4 of docs/reference.md
+    section 2), its Metropolis sweeps under way (steps 5-6), or finished at p = 1 (step 7). A checkpoint stores the
+    value string."""
+
+    PRIOR = "prior"
+    SELECT = "select"
+    MCMC = "mcmc"
+    DONE = "done"
 
 
 @dataclass
@@ -80,11 +92,12 @@ class ChainState:
 
 @dataclass
 class RunState:
-    """A whole run: the phase it is in ("prior", "select", "mcmc", "done"), the current population, the evidence so
-    far (ln Z = sum_j ln S_j), the stage records and every stage's samples, failures, the MAP and the batch of
-    evaluations under way (``partial``: particle -> (ln L, failure reason, rank), kept across a checkpoint)."""
+    """A whole run: the :class:`Phase` it is in, the current population, the evidence so far (ln Z = sum_j ln S_j),
+    the stage records and every stage's samples, failures, the MAP and the batch of evaluations under way
+    (``partial``: particle -> (ln L, failure reason, rank), kept across a checkpoint). ``phase`` is also accepted as
+    its value string (a checkpoint may hold the bare string)."""
 
-    phase: str = "prior"
+    phase: Phase = Phase.PRIOR
     stage: int = 0
     exponent: float = 0.0
     log_evidence: float = 0.0
@@ -103,6 +116,9 @@ class RunState:
     wall_before: float = 0.0
     scale: float = 1.0
 
+    def __post_init__(self):
+        self.phase = Phase(self.phase)
+
 
 #: the classes a checkpoint may rebuild (and no others)
-STATE_TYPES = {cls.__name__: cls for cls in (StageRecord, MapPoint, ChainState, RunState, GaussianMixture)}
+STATE_TYPES = {cls.__name__: cls for cls in (Phase, StageRecord, MapPoint, ChainState, RunState, GaussianMixture)}

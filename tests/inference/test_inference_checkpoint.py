@@ -13,7 +13,7 @@ import pytest
 from inference import CheckpointError, SerialExecutor, UniformPrior, tmcmc
 from inference.checkpoint import load_checkpoint, save_checkpoint
 from inference.tmcmc import GaussianMixture
-from inference.tmcmc.state import STATE_TYPES, ChainState, MapPoint, RunState, StageRecord
+from inference.tmcmc.state import STATE_TYPES, ChainState, MapPoint, Phase, RunState, StageRecord
 
 PRIOR = UniformPrior({"x": (0.0, 1.0), "y": (-1.0, 1.0)})
 
@@ -37,7 +37,7 @@ def _state():
                        length=np.array([1, 2, 1, 0, 1]), samples=[(np.arange(3), rng.normal(size=(3, 2)), None, 1.0)],
                        mixtures=[mix], fit_of=np.array([0, 1, 0, 1, 0]),
                        resp=[mix.log_responsibilities(np.zeros((5, 2)))])
-    return RunState(phase="mcmc", stage=3, exponent=0.1 + 0.2, log_evidence=-12.345678901234567,
+    return RunState(phase=Phase.MCMC, stage=3, exponent=0.1 + 0.2, log_evidence=-12.345678901234567,
                     theta=rng.normal(size=(5, 2)), records=[StageRecord(0, 0.0, 0.04, acceptance=float("nan"))],
                     failures=[{"stage": 1, "reason": None, "theta": {"x": 0.1}}], map=MapPoint(np.ones(2), -1.0, -2.0),
                     chain=chain, partial={3: (-np.inf, "RuntimeError: diverged", 1), 0: (-1.25, None, 0)})
@@ -48,7 +48,7 @@ def test_state_round_trip_is_exact(tmp_path):
     path = tmp_path / "c.ckpt"
     save_checkpoint(path, st, {"seed": 1})
     got = load_checkpoint(path, {"seed": 1}, STATE_TYPES)
-    assert got.phase == "mcmc" and got.stage == 3 and got.exponent == st.exponent
+    assert got.phase is Phase.MCMC and got.stage == 3 and got.exponent == st.exponent
     assert got.log_evidence == st.log_evidence and np.isnan(got.records[0].acceptance)
     np.testing.assert_array_equal(got.theta, st.theta)
     np.testing.assert_array_equal(got.chain.log_like, st.chain.log_like)
@@ -73,7 +73,7 @@ def test_a_finished_run_checkpoint_holds_the_posterior(tmp_path):
     path = tmp_path / "run.ckpt"
     post = _run(path)
     st = load_checkpoint(path, json.loads(json.dumps(_fingerprint_of(path))), STATE_TYPES)
-    assert st.phase == "done" and st.log_evidence == post.log_evidence
+    assert st.phase is Phase.DONE and st.log_evidence == post.log_evidence
     np.testing.assert_array_equal(np.stack(st.stage_theta), np.stack(post.stage_samples))
     again = _run(path, resume=True)  # resuming a finished run returns the same posterior
     assert again.log_evidence == post.log_evidence
