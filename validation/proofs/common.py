@@ -30,7 +30,7 @@ __all__ = ["PRESETS", "Programme", "test_kind", "synthetic_curves", "observation
 
 #: the first header line of every shipped proof file
 SYNTHETIC_LINE = ("synthetic: NOT MEASURED DATA. Generated with constitutive.labtests from a generating model stated "
-                  "in a concealed-effect proof (python -m validation.concealed --generate); the file does not name it")
+                  "in validation/proofs/ (its --generate option); the file does not name it")
 #: class calibration sizes of the laboratory proofs
 PRESETS = {"paper": Settings(400, 8, 100), "quick": Settings(200, 5, 60)}
 #: recorded curve -> CSV column quantity (all in kPa)

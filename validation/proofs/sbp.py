@@ -115,8 +115,7 @@ def synthetic_curves(effect: str, seed: int, noise=NOISE) -> dict:
 
 def header(effect: str, seed: int, test: str, noise=NOISE) -> list:
     return ["synthetic: NOT MEASURED DATA. Generated with this project's coupled FE from a generating model stated in "
-            "a concealed-effect proof (python -m validation.concealed --scale sbp --generate); the file does not name "
-            "it",
+            "validation/proofs/ (its --generate option); the file does not name it",
             f"synthetic_noise: multiplicative c ~ N(1, {noise}^2) per point on both pressures (Eq. 1), seed {seed}",
             f"test: {test}", f"strain_rate_per_s: {RATES[test]}",
             f"site: sigma_v0_kPa {SITE['sigma_v0']}, K0 {SITE['K0']}, u0_kPa {SITE['u0']}, probe_radius_m "
