@@ -3,6 +3,7 @@
 Generic: knows nothing of soil. A forward model is any callable from a parameter vector to simulated curves.
 """
 from .checkpoint import CheckpointError
+from .discrepancy import Discrepancy
 from .evidence import EvidenceEstimate, mode_evidence
 from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
 from .likelihood import ForwardModelError, Likelihood, goodness_of_fit
@@ -13,7 +14,7 @@ from .results import Posterior, RunProgress, write_failures
 from .tmcmc import EXIT_CHECKPOINTED, Checkpointed, RunStopped, SamplerError, TMCMCSettings, tmcmc
 
 __all__ = [
-    "CheckpointError", "Evaluator", "Executor", "MPIExecutor", "PoolExecutor", "SerialExecutor", "default_executor",
+    "CheckpointError", "Discrepancy", "Evaluator", "Executor", "MPIExecutor", "PoolExecutor", "SerialExecutor", "default_executor",
     "ForwardModelError", "Likelihood", "goodness_of_fit", "Curve", "DataError", "Observations", "Test",
     "Bound", "Constraint", "LogUniformPrior", "Prior", "PriorError", "UniformPrior", "Posterior", "RunProgress", "write_failures",
     "EXIT_CHECKPOINTED", "SamplerError", "RunStopped", "Checkpointed", "TMCMCSettings", "tmcmc", "ScreenReport",

@@ -27,11 +27,16 @@ error parameter) and their values ``(m, k)`` and returns ``(curves, reasons)``: 
 are then ignored). The whole batch is then interpolated and scored by Eq. (5) in numpy expressions over the batch,
 with no per-particle Python objects; the per-particle path (dict results) runs through the same interpolation and
 the same :func:`goodness_of_fit`, so both give the same bits.
+
+A model-form discrepancy (:class:`inference.Discrepancy`, Eqs. (D1)-(D2) of :mod:`inference.discrepancy`) replaces
+each curve's independent errors by errors plus a smooth Gaussian process marginalized exactly; its parameters
+(``delta_<group>`` amplitudes and ``delta_length``) are then part of the prior like the error parameters.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .discrepancy import CurveDiscrepancy, Discrepancy, normalized_abscissa
 from .observations import Observations
 
 __all__ = ["ForwardModelError", "Likelihood", "goodness_of_fit", "curve_mean_squares", "log_likelihood_test"]
@@ -88,10 +93,12 @@ class Likelihood:
         key, ...]}, Eq. (6g): a curve name stands for that curve of every test; every curve falls in exactly one
         group. With two or more groups the error parameters are ``<sigma>_<group>`` (e.g. sigma_eps_volume) in the
         prior, in the order of ``groups``; with one group the name stays ``sigma``.
+    discrepancy: None (the paper's independent errors) or an :class:`inference.Discrepancy`: a model-form
+        discrepancy per curve (Eqs. (D1)-(D2)), whose parameters must be in the prior (:attr:`discrepancy_names`).
     """
 
     def __init__(self, observations: Observations, forward, weights=None, sigma="sigma_eps", floor=0.01,
-                 batch=False, groups=None):
+                 batch=False, groups=None, discrepancy: Discrepancy | None = None):
         if not isinstance(observations, Observations):
             raise TypeError("observations must be an inference.Observations")
         self.observations = observations
@@ -139,8 +146,21 @@ class Likelihood:
                  int(sum(self.masks[t.name, c].sum() for c in names if self.group_of[t.name, c] == g)))
                 for k, g in enumerate(self.groups) if any(self.group_of[t.name, c] == g for c in names)]
         self._plans = {}  # (test, curve) -> (simulation abscissa bytes, interpolation plan), the last one seen
+        self.discrepancy = discrepancy
+        self.discrepancy_names, self._curve_discrepancy, self._discrepancy_column = (), {}, {}
+        if discrepancy is not None:
+            group_of = discrepancy.group_of(self.curve_keys)
+            groups = tuple(dict.fromkeys(group_of.values()))
+            self.discrepancy_names = discrepancy.parameter_names(groups)
+            self._discrepancy_column = {k: groups.index(g) for k, g in group_of.items()}
+            for t in observations:
+                for cname, c in t.curves.items():
+                    u = normalized_abscissa(c.x[self.masks[t.name, cname]], c.x_name)
+                    self._curve_discrepancy[t.name, cname] = CurveDiscrepancy(
+                        u, len(t.curves), self.n_points[t.name], discrepancy.min_spacings)
         self.names = None
         self._soil_names, self._soil_columns, self._sigma_columns = None, None, None
+        self._discrepancy_columns = []
 
     def _resolve_groups(self, groups) -> dict:
         """{(test, curve): group} from ``groups`` (see the class docstring); ValueError naming the curve or entry."""
@@ -178,10 +198,15 @@ class Likelihood:
         for n in self.sigma_names:
             if n not in names:
                 raise ValueError(f"the prior has no error parameter {n!r}: add it or pass sigma=<float>")
+        for n in self.discrepancy_names:
+            if n not in names:
+                raise ValueError(f"the prior has no discrepancy parameter {n!r}")
         self.names = names
-        self._soil_columns = [k for k, n in enumerate(names) if n not in self.sigma_names]
+        self._soil_columns = [k for k, n in enumerate(names)
+                              if n not in self.sigma_names and n not in self.discrepancy_names]
         self._soil_names = tuple(names[k] for k in self._soil_columns)
         self._sigma_columns = [names.index(n) for n in self.sigma_names]
+        self._discrepancy_columns = [names.index(n) for n in self.discrepancy_names]
         return self
 
     def split(self, theta):
@@ -190,6 +215,8 @@ class Likelihood:
         if self.names is None:
             raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
         params = {n: float(v) for n, v in zip(self.names, theta)}
+        for n in self.discrepancy_names:
+            params.pop(n)
         if not self.sigma_names:
             sigma = float(self.sigma)
             return params, sigma if len(self.groups) == 1 else {g: sigma for g in self.groups}
@@ -208,6 +235,17 @@ class Likelihood:
             sigma = np.full((len(thetas), len(self.groups)), float(self.sigma))
         return sigma[:, 0] if len(self.groups) == 1 else sigma
 
+    def discrepancy_arrays(self, thetas):
+        """The discrepancy parameters of m parameter sets: (amplitudes (m, number of groups), length (m,)), or None
+        without a discrepancy."""
+        if self.discrepancy is None:
+            return None
+        thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
+        if self.names is None:
+            raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
+        values = thetas[:, self._discrepancy_columns]
+        return values[:, :-1], values[:, -1]
+
     def curve_sigmas(self, thetas):
         """Each curve's sigma (of its group) for m parameter sets: (m,) with one group (every curve's), else
         (m, number of curves) in the order of ``curve_keys``."""
@@ -219,8 +257,9 @@ class Likelihood:
 
     def fingerprint(self) -> str:
         groups = "" if len(self.groups) == 1 else f"|groups={sorted(self.group_of.items())}"
+        delta = "" if self.discrepancy is None else f"|delta={self.discrepancy}"
         return (f"{self.observations.fingerprint()}|w={sorted(self.weights.items())}|floor={self.floor}"
-                f"|s={self.sigma}{groups}")
+                f"|s={self.sigma}{groups}{delta}")
 
     # ----------------------------------------------------------------- simulated curves at the recorded abscissae
     def _interpolation(self, test, cname, xs):
@@ -316,9 +355,12 @@ class Likelihood:
                                         [simulated[t.name, c][..., self._kept[t.name, c]] for c in t.curves])
                 for t in self.observations}
 
-    def _log_likelihood(self, simulated, sigma):
+    def _log_likelihood(self, simulated, sigma, delta=None):
         """Eqs. (4)-(6) for m parameter sets from {(test, curve): (m, n_recorded)} and sigma (m,), or Eq. (6g) with
-        sigma (m, number of groups)."""
+        sigma (m, number of groups); with a discrepancy, (D2) summed over curves and tests, ``delta`` the
+        :meth:`discrepancy_arrays` of the rows."""
+        if self.discrepancy is not None:
+            return self._log_likelihood_discrepancy(simulated, sigma, delta)
         if sigma.ndim == 1:
             jg = self.goodness_of_fit(simulated)
             return sum(self.weights[t] * log_likelihood_test(jg[t], self.n_points[t], sigma) for t in jg)
@@ -334,6 +376,49 @@ class Likelihood:
             total = total + self.weights[t.name] * term
         return total
 
+    def _log_likelihood_discrepancy(self, simulated, sigma, delta):
+        """(D2) summed over the curves of each test, times the test's weight."""
+        amplitudes, length = delta
+        sigmas = self.curve_sigmas_from(sigma)
+        total = 0.0
+        for t in self.observations:
+            term = 0.0
+            for cname in t.curves:
+                key = (t.name, cname)
+                used = self._used[key]
+                residuals = (used - simulated[key][..., self._kept[key]]) / used
+                term = term + self._curve_discrepancy[key].log_density(
+                    residuals, sigmas[self.curve_keys.index(key)], amplitudes[:, self._discrepancy_column[key]],
+                    length)
+            total = total + self.weights[t.name] * term
+        return total
+
+    def curve_sigmas_from(self, sigma) -> list:
+        """Each curve's sigma_g (m,) in the order of ``curve_keys`` from :meth:`sigma_arrays`' value."""
+        if sigma.ndim == 1:
+            return [sigma] * len(self.curve_keys)
+        column = {g: k for k, g in enumerate(self.groups)}
+        return [sigma[:, column[self.group_of[key]]] for key in self.curve_keys]
+
+    def discrepancy_mean(self, theta) -> dict:
+        """The posterior mean of the discrepancy delta (relative, as the residuals) per (test, curve) at theta, at the
+        recorded points (excluded points NaN); {} without a discrepancy."""
+        if self.discrepancy is None:
+            return {}
+        residuals = self.residuals(theta)
+        sigma = self.sigma_arrays(theta)
+        sigmas = self.curve_sigmas_from(sigma)
+        amplitudes, length = self.discrepancy_arrays(theta)
+        out = {}
+        for i, key in enumerate(self.curve_keys):
+            mask = self.masks[key]
+            mean = np.full(mask.size, np.nan)
+            mean[mask] = self._curve_discrepancy[key].posterior_mean(
+                residuals[key][mask], float(sigmas[i][0]), float(amplitudes[0, self._discrepancy_column[key]]),
+                float(length[0]))
+            out[key] = mean
+        return out
+
     def _sigma_reason(self, sigma):
         """The reason a parameter set's error parameters are refused (one row of :meth:`sigma_arrays`), or None."""
         if np.ndim(sigma) == 0:
@@ -343,9 +428,10 @@ class Likelihood:
                 return f"{name} = {s} must be > 0"
         return None
 
-    def log_likelihood_from(self, result, sigma) -> float:
+    def log_likelihood_from(self, result, sigma, delta=None) -> float:
         """Eqs. (4) and (6) (Eq. (6g) with ``sigma`` {group: sigma_g}) from one forward result (computed as a batch
-        of one: the same bits as in any batch)."""
+        of one: the same bits as in any batch); with a discrepancy, ``delta`` is the parameter set's
+        :meth:`discrepancy_arrays` (one row)."""
         if isinstance(sigma, dict):
             sigma = np.array([[float(sigma[g]) for g in self.groups]])
         else:
@@ -355,14 +441,14 @@ class Likelihood:
         reason = self._sigma_reason(sigma[0])
         if reason:
             raise ForwardModelError(reason)
-        return float(self._log_likelihood(self._simulated_one(result), sigma)[0])
+        return float(self._log_likelihood(self._simulated_one(result), sigma, delta)[0])
 
     def _forward_one(self, params):
         return self.forward([params])[0] if self.batch else self.forward(params)
 
     def __call__(self, theta) -> float:
         params, sigma = self.split(theta)
-        return self.log_likelihood_from(self._forward_one(params), sigma)
+        return self.log_likelihood_from(self._forward_one(params), sigma, self.discrepancy_arrays(theta))
 
     def evaluate_many(self, thetas):
         """Batch evaluation: (values (m,), reasons list) with -inf and a reason for each failed parameter set.
@@ -394,7 +480,8 @@ class Likelihood:
                     res = results[i]
                 else:
                     res = self._forward_one(params)
-                values[i] = self.log_likelihood_from(res, sigma)
+                delta = None if self.discrepancy is None else self.discrepancy_arrays(thetas[i])
+                values[i] = self.log_likelihood_from(res, sigma, delta)
             except Exception as exc:
                 reasons[i] = f"{type(exc).__name__}: {exc}"
         return values, reasons
@@ -417,7 +504,7 @@ class Likelihood:
             for i in np.flatnonzero(bad):
                 reasons[i] = reasons[i] or f"{error}: {message}"
         with np.errstate(all="ignore"):  # failed rows are computed with their NaNs and then discarded
-            values = self._log_likelihood(simulated, sigma)
+            values = self._log_likelihood(simulated, sigma, self.discrepancy_arrays(thetas))
         values[[r is not None for r in reasons]] = -np.inf
         return values, reasons
 

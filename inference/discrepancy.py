@@ -1,0 +1,154 @@
+"""A model-form discrepancy on the relative residuals (Kennedy & O'Hagan 2001; docs/reference.md section 10).
+
+The paper's likelihood (Eqs. (4)-(6), (6g)) treats the relative errors r = (U_obs - U_num)/U_obs of a curve as
+independent, N(0, s_j^2) per point, where s_j^2 = sigma_g^2 N_0 N_j / N_i makes every curve of a test weigh the
+same whatever its number of points (N_i points in the test, N_0 curves, N_j points in curve j, sigma_g its error
+group's parameter). A discrepancy class adds a smooth function of the curve's abscissa to the errors:
+
+    r_j = delta_j(u) + eps,   delta_j ~ GP(0, a_k^2 exp(-(u - u')^2 / (2 l_j^2))),   eps ~ N(0, s_j^2 I),   (D1)
+
+one Gaussian process per curve, independent between curves, with the amplitude a_k of the curve's discrepancy
+group k (by default one group per curve name: a quantity has one amplitude) and one length scale l shared by every
+curve, as a fraction of the curve's normalized abscissa u in [0, 1] (the recorded abscissa, or its logarithm for a
+time record spanning more than two decades), never shorter than ``min_spacings`` of the curve's median record
+spacing (l_j = max(l, floor_j)). delta is marginalized exactly, so each curve contributes
+
+    ln N(r_j; 0, C_j) + N_j/2 ln(N_0 N_j / N_i),   C_j = s_j^2 I + a_k^2 K_j(l_j),                            (D2)
+
+times the test's weight w_i. The constant makes (D2) at a_k = 0 exactly the curve's share of Eq. (4) / (6g): the
+discrepancy class nests the base class, and the evidences of both (and of any enriched class without discrepancy)
+are of the same likelihood family and comparable.
+
+Priors (``amplitude`` and ``length`` bounds, log-uniform) keep delta from being confounded with the physics
+(Brynjarsdottir & O'Hagan 2014): the amplitude is bounded near the noise scale and the length scale from below, so
+that the discrepancy is a smooth misfit of model form, not a second noise term.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Discrepancy", "CurveDiscrepancy"]
+
+#: rows of a batch whose covariance matrices are built at once (memory: rows x n^2 floats per curve)
+_ROWS_PER_BLOCK = 64
+
+
+@dataclass(frozen=True)
+class Discrepancy:
+    """Settings of the model-form discrepancy (D1).
+
+    groups: None (one amplitude per curve name) or {group: [curve name or (test, curve) key, ...]}, every curve in
+        exactly one group (as the error groups of :class:`inference.Likelihood`);
+    amplitude: bounds of each group's amplitude a_k (relative, as the residuals), log-uniform prior;
+    length: bounds of the shared length scale l, a fraction of the normalized abscissa, log-uniform prior;
+    min_spacings: the length scale of a curve is at least this many of its median record spacings;
+    prefix: the parameters are ``<prefix>_<group>`` (amplitudes) and ``<prefix>_length``.
+    """
+
+    groups: dict | None = None
+    amplitude: tuple = (1e-3, 0.3)
+    length: tuple = (0.05, 1.0)
+    min_spacings: float = 3.0
+    prefix: str = "delta"
+
+    def __post_init__(self):
+        for name, (lo, hi) in (("amplitude", self.amplitude), ("length", self.length)):
+            if not 0.0 < lo < hi:
+                raise ValueError(f"discrepancy {name} bounds ({lo}, {hi}) must satisfy 0 < lower < upper")
+        if not self.min_spacings > 0:
+            raise ValueError(f"discrepancy min_spacings = {self.min_spacings} must be > 0")
+
+    def group_of(self, curve_keys) -> dict:
+        """{(test, curve): group} for the likelihood's curve keys; ValueError naming an unknown or doubled curve."""
+        if self.groups is None:
+            return {k: k[1] for k in curve_keys}
+        out = {}
+        for g, members in self.groups.items():
+            for entry in ([members] if isinstance(members, (str, tuple)) else members):
+                keys = [entry] if isinstance(entry, tuple) else [k for k in curve_keys if k[1] == entry]
+                if not keys or not set(keys) <= set(curve_keys):
+                    raise ValueError(f"discrepancy group {g}: {entry!r} names no recorded curve")
+                for k in keys:
+                    if out.get(k, g) != g:
+                        raise ValueError(f"test {k[0]}, curve {k[1]} is in two discrepancy groups: {out[k]} and {g}")
+                    out[k] = g
+        missing = [k for k in curve_keys if k not in out]
+        if missing:
+            raise ValueError(f"test {missing[0][0]}, curve {missing[0][1]} is in no discrepancy group")
+        return out
+
+    def parameter_names(self, groups) -> tuple:
+        """The parameter names for discrepancy groups ``groups`` (in order): amplitudes, then the length scale."""
+        return tuple(f"{self.prefix}_{g}" for g in groups) + (f"{self.prefix}_length",)
+
+    def bounds(self, groups) -> dict:
+        """{parameter: (lower, upper)} of the log-uniform priors."""
+        names = self.parameter_names(groups)
+        return {**{n: tuple(self.amplitude) for n in names[:-1]}, names[-1]: tuple(self.length)}
+
+
+def normalized_abscissa(x, x_name: str = "") -> np.ndarray:
+    """The abscissa of a curve mapped to [0, 1]: linear, or logarithmic for a time record (``x_name`` containing
+    "time") whose positive values span more than two decades (log(x + x_min+), x_min+ the smallest positive x)."""
+    x = np.asarray(x, dtype=float)
+    if "time" in x_name and (x > 0).any():
+        small = x[x > 0].min()
+        if x.max() / small > 100.0:
+            x = np.log(np.maximum(x, 0.0) + small)
+    span = x.max() - x.min()
+    return (x - x.min()) / span if span > 0 else np.zeros_like(x)
+
+
+class CurveDiscrepancy:
+    """The terms (D2) of one curve: its normalized abscissa at the used points, squared distances, length floor."""
+
+    def __init__(self, u, n_curves: int, n_test: int, min_spacings: float):
+        self.u = np.asarray(u, dtype=float)
+        self.n = self.u.size
+        self.sq = (self.u[:, None] - self.u[None, :]) ** 2
+        spacing = np.diff(np.sort(self.u))
+        spacing = spacing[spacing > 0]
+        self.floor = min_spacings * (float(np.median(spacing)) if spacing.size else 1.0)
+        #: s_j^2 / sigma_g^2 and the constant of (D2)
+        self.scale = n_curves * self.n / n_test
+        self.constant = 0.5 * self.n * np.log(self.scale)
+
+    def covariance(self, noise_sd, amplitude, length) -> np.ndarray:
+        """C_j of (D2) for rows of parameters: ``noise_sd`` s_j, ``amplitude`` a_k, ``length`` l, each (m,);
+        returns (m, n, n)."""
+        ell = np.maximum(length, self.floor)
+        k = np.exp(-self.sq[None, :, :] / (2.0 * ell[:, None, None] ** 2))
+        c = (amplitude**2)[:, None, None] * k
+        diagonal = np.arange(self.n)
+        # a relative jitter keeps the matrix positive definite when the noise is negligible against the amplitude
+        c[:, diagonal, diagonal] += noise_sd[:, None] ** 2 + 1e-10 * (amplitude**2)[:, None]
+        return c
+
+    def log_density(self, residuals, sigma, amplitude, length) -> np.ndarray:
+        """(D2) for m rows: ``residuals`` (m, n) relative errors at the used points, ``sigma`` the error group's
+        sigma_g (m,), ``amplitude`` (m,), ``length`` (m,). Rows with a non-finite residual give NaN."""
+        m = residuals.shape[0]
+        out = np.empty(m)
+        noise_sd = sigma * np.sqrt(self.scale)
+        for start in range(0, m, _ROWS_PER_BLOCK):
+            rows = slice(start, min(m, start + _ROWS_PER_BLOCK))
+            r = residuals[rows]
+            finite = np.isfinite(r).all(axis=1)
+            r = np.where(finite[:, None], r, 0.0)
+            c = self.covariance(noise_sd[rows], amplitude[rows], length[rows])
+            chol = np.linalg.cholesky(c)
+            z = np.linalg.solve(chol, r[:, :, None])[:, :, 0]  # L^-1 r (a general solve on a triangular matrix)
+            quad = np.cumsum(z * z, axis=1)[:, -1]
+            logdet = 2.0 * np.cumsum(np.log(np.diagonal(chol, axis1=1, axis2=2)), axis=1)[:, -1]
+            value = -0.5 * quad - 0.5 * logdet - 0.5 * self.n * np.log(2.0 * np.pi) + self.constant
+            out[rows] = np.where(finite, value, np.nan)
+        return out
+
+    def posterior_mean(self, residuals, sigma, amplitude, length) -> np.ndarray:
+        """E[delta_j | r_j] = a^2 K C^-1 r at the used points for one parameter set (floats; ``residuals`` (n,))."""
+        noise_sd = np.array([sigma * np.sqrt(self.scale)])
+        c = self.covariance(noise_sd, np.array([amplitude]), np.array([length]))[0]
+        k = c - np.diag(np.full(self.n, noise_sd[0] ** 2 + 1e-10 * amplitude**2))
+        return k @ np.linalg.solve(c, np.asarray(residuals, dtype=float))

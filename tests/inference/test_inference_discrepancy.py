@@ -1,0 +1,141 @@
+"""The model-form discrepancy of the likelihood (inference.discrepancy, Eqs. (D1)-(D2)): it nests the paper's
+likelihood at zero amplitude, equals a dense multivariate normal written here independently, and its evidence
+tells a smooth misfit of model form from noise."""
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import multivariate_normal
+
+import inference
+from inference import Curve, Discrepancy, Likelihood, Observations, Test
+from inference.discrepancy import normalized_abscissa
+
+X1 = np.linspace(0.5, 10.0, 12)
+X2 = np.linspace(1.0, 6.0, 7)
+
+
+def observations():
+    return Observations([
+        Test("t1", {"q": Curve(X1, 10.0 + 3.0 * X1), "e": Curve(X1, 1.0 - 0.01 * X1)}),
+        Test("t2", {"q": Curve(X2, 12.0 + 2.0 * X2)}),
+    ])
+
+
+def forward(params):
+    a = params["a"]
+    return {"t1": {"q": (X1, a * (10.0 + 3.0 * X1)), "e": (X1, 1.0 - 0.0102 * X1)},
+            "t2": {"q": (X2, a * (12.0 + 2.0 * X2))}}
+
+
+def test_zero_amplitude_is_the_papers_likelihood_with_groups_and_weights():
+    obs = observations()
+    groups = {"stress": ["q"], "volume": ["e"]}
+    base = Likelihood(obs, forward, weights={"t2": 0.5}, groups=groups).bind(["a", "sigma_eps_stress",
+                                                                             "sigma_eps_volume"])
+    with_delta = Likelihood(obs, forward, weights={"t2": 0.5}, groups=groups, discrepancy=Discrepancy())
+    with_delta.bind(["a", "sigma_eps_stress", "sigma_eps_volume", "delta_q", "delta_e", "delta_length"])
+    for a in (0.97, 1.0, 1.04):
+        ref = base([a, 0.02, 0.005])
+        got = with_delta([a, 0.02, 0.005, 0.0, 0.0, 0.3])
+        assert got == pytest.approx(ref, rel=1e-10, abs=1e-8)
+
+
+def test_the_curve_terms_equal_a_dense_normal_density_written_here():
+    obs = observations()
+    like = Likelihood(obs, forward, discrepancy=Discrepancy(length=(0.01, 1.0)))
+    like.bind(["a", "sigma_eps", "delta_q", "delta_e", "delta_length"])
+    theta = [1.03, 0.02, 0.05, 0.01, 0.2]
+    sim = forward({"a": 1.03})
+    expected = 0.0
+    for t in obs:
+        n_test = sum(c.y.size for c in t.curves.values())
+        for name, c in t.curves.items():
+            r = (c.y - sim[t.name][name][1]) / c.y
+            u = (c.x - c.x.min()) / (c.x.max() - c.x.min())
+            floor = 3.0 * np.median(np.diff(u))
+            ell = max(0.2, floor)
+            amp = 0.05 if name == "q" else 0.01
+            s2 = 0.02**2 * len(t.curves) * c.y.size / n_test
+            cov = s2 * np.eye(u.size) + amp**2 * np.exp(-np.subtract.outer(u, u) ** 2 / (2 * ell**2))
+            cov += 1e-10 * amp**2 * np.eye(u.size)
+            expected += multivariate_normal(np.zeros(u.size), cov).logpdf(r)
+            expected += 0.5 * c.y.size * math.log(len(t.curves) * c.y.size / n_test)
+    assert like(theta) == pytest.approx(expected, rel=1e-10)
+
+
+def test_batch_rows_give_the_bits_of_single_rows():
+    obs = observations()
+
+    def batch_forward(plist):
+        return [forward(p) for p in plist]
+
+    like = Likelihood(obs, batch_forward, batch=True, discrepancy=Discrepancy())
+    like.bind(["a", "sigma_eps", "delta_q", "delta_e", "delta_length"])
+    rng = np.random.default_rng(3)
+    thetas = np.column_stack([rng.uniform(0.95, 1.05, 70), rng.uniform(0.01, 0.05, 70),
+                              rng.uniform(0.001, 0.3, (70, 2)), rng.uniform(0.05, 1.0, 70)])
+    values, reasons = like.evaluate_many(thetas)
+    assert all(r is None for r in reasons)
+    for i in (0, 63, 64, 69):  # both sides of a block boundary
+        assert like.evaluate_many(thetas[i:i + 1])[0][0] == values[i]
+
+
+def test_refusals_name_the_parameter_or_curve():
+    obs = observations()
+    like = Likelihood(obs, forward, discrepancy=Discrepancy())
+    with pytest.raises(ValueError, match="delta_length"):
+        like.bind(["a", "sigma_eps", "delta_q", "delta_e"])
+    with pytest.raises(ValueError, match="names no recorded curve"):
+        Likelihood(obs, forward, discrepancy=Discrepancy(groups={"stress": ["p"]}))
+    with pytest.raises(ValueError, match="in no discrepancy group"):
+        Likelihood(obs, forward, discrepancy=Discrepancy(groups={"stress": ["q"]}))
+    with pytest.raises(ValueError, match="0 < lower < upper"):
+        Discrepancy(amplitude=(0.1, 0.01))
+
+
+def test_time_records_over_decades_are_spaced_in_log_time():
+    t = np.array([0.0, 6.0, 60.0, 600.0, 6000.0, 60000.0])
+    u = normalized_abscissa(t, "time")
+    assert u[0] == 0.0 and u[-1] == 1.0
+    # log(t + 6 s): the decades after the first records are evenly spaced, ln(10) each
+    steps = np.diff(np.log(t + 6.0))
+    assert np.diff(u) == pytest.approx(steps / steps.sum(), rel=1e-12)
+    assert np.diff(u)[2:] == pytest.approx(np.full(3, np.diff(u)[-1]), rel=0.05)
+    assert normalized_abscissa(np.linspace(0, 5, 6), "axial_strain") == pytest.approx(np.linspace(0, 1, 6))
+
+
+def _evidence(obs, fwd, discrepancy, seed=4):
+    names = {"a": (0.8, 1.2), "sigma_eps": (0.001, 0.3)}
+    like = Likelihood(obs, fwd, batch=True, discrepancy=discrepancy)
+    bounds = dict(names)
+    log_names = ["sigma_eps"]
+    if discrepancy is not None:
+        bounds.update({"delta_q": discrepancy.amplitude, "delta_length": discrepancy.length})
+        log_names += ["delta_q", "delta_length"]
+    prior = inference.Prior([inference.Bound(n, lo, hi, "log-uniform" if n in log_names else "uniform")
+                             for n, (lo, hi) in bounds.items()])
+    post = inference.tmcmc(like, prior, n_samples=300, seed=seed, progress=False,
+                           executor=inference.SerialExecutor())
+    return post.log_evidence
+
+
+@pytest.mark.slow
+def test_evidence_prefers_the_discrepancy_for_a_smooth_misfit_and_not_for_noise():
+    """Data = linear model x (1 + smooth S-shaped misfit of 3 %) x noise 1 %: the discrepancy class wins clearly;
+    data = linear model x noise 1 %: it does not (its extra parameters cost more than they explain)."""
+    x = np.linspace(0.2, 10.0, 40)
+    rng = np.random.default_rng(11)
+    shape = 0.03 * np.tanh((x - 5.0) / 1.5)
+
+    def fwd(plist):
+        return [{"t": {"q": (x, p["a"] * (5.0 + 2.0 * x))}} for p in plist]
+
+    noise = rng.normal(1.0, 0.01, x.size)
+    smooth = Observations([Test("t", {"q": Curve(x, (5.0 + 2.0 * x) * (1 + shape) * noise)})])
+    plain = Observations([Test("t", {"q": Curve(x, (5.0 + 2.0 * x) * noise)})])
+    d = Discrepancy()
+    gain_smooth = _evidence(smooth, fwd, d) - _evidence(smooth, fwd, None)
+    gain_plain = _evidence(plain, fwd, d) - _evidence(plain, fwd, None)
+    assert gain_smooth > 10.0
+    assert gain_plain < 1.0
