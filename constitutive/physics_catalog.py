@@ -85,13 +85,23 @@ class Enrichment:
     physics switch and any constructor argument the enrichment holds fixed), and free ``parameters``
     {name: (lower, upper)} (log-uniform prior for the names in ``log_uniform``). ``forward_arguments``: the names
     among switches and parameters that go to the forward model instead of ``model_class`` (e.g. the permeability
-    of the coupled FE)."""
+    of the coupled FE). ``inert_at``: {parameter: "lower" or "upper"}, the end of an added parameter's prior where
+    the enriched class is the base class again or is no longer the physics the candidate names (a viscosity
+    coefficient at its floor; a swelling time constant at its floor is an instantaneous compliance, not a time
+    effect): an enriched class whose mode sits there cannot confirm the candidate."""
 
     model_class: str
     switches: dict
     parameters: dict
     log_uniform: tuple = ()
     forward_arguments: tuple = ()
+    inert_at: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        for name, end in self.inert_at.items():
+            if name not in self.parameters or end not in ("lower", "upper"):
+                raise ValueError(f"enrichment {self.switches}: inert_at {name}={end!r} must name a free parameter "
+                                 "and 'lower' or 'upper'")
 
 
 @dataclass(frozen=True)
@@ -117,7 +127,8 @@ class Candidate:
                 "enrichment": None if e is None else {"model_class": e.model_class, "switches": dict(e.switches),
                                                       "parameters": {k: list(v) for k, v in e.parameters.items()},
                                                       "log_uniform": list(e.log_uniform),
-                                                      "forward_arguments": list(e.forward_arguments)},
+                                                      "forward_arguments": list(e.forward_arguments),
+                                                      "inert_at": dict(e.inert_at)},
                 "unavailable": self.unavailable}
 
 
@@ -145,7 +156,8 @@ CATALOG = (
                "unloading a viscous soil relaxes little (its stress lies inside the yield surface), so holds after "
                "unloading carry little of this signature", None)),
         {"viscous": True},
-        Enrichment("ANICREEP", {"viscous": True}, {"C_alpha_e": (0.001, 0.1)}, ("C_alpha_e",)),
+        Enrichment("ANICREEP", {"viscous": True}, {"C_alpha_e": (0.001, 0.1)}, ("C_alpha_e",),
+                   inert_at={"C_alpha_e": "lower"}),
         references=("docs/reference.md section 4: beta = (lambda - kappa)/C_alpha_e, CRS ratio "
                     "(rate2/rate1)^(C_alpha_e/lambda)",)),
     Candidate(
@@ -167,7 +179,7 @@ CATALOG = (
         # swelling's slope in e-ln p', log-uniform over 0.001-0.05 (a fraction to about half of the kappa of soft
         # clays); tau_s, its time constant, log-uniform over 100 s to 4 months (laboratory holds last hours to weeks)
         Enrichment("ANICREEP", {"swelling": True}, {"kappa_s": (0.001, 0.05), "tau_s": (1.0e2, 1.0e7)},
-                   ("kappa_s", "tau_s")),
+                   ("kappa_s", "tau_s"), inert_at={"kappa_s": "lower", "tau_s": "lower"}),
         references=("Yin & Graham (1999) elastic visco-plastic swelling; Leroueil, Kabbaj, Tavenas & Bouchard (1985) "
                     "stress-strain-strain rate relation; constitutive/swelling.py (S1)-(S4)",)),
     Candidate(
@@ -189,7 +201,7 @@ CATALOG = (
         # each particle (fem.Solver.solve(permeability=...)); "coupled" is a forward-model switch, not an ANICREEP
         # argument. k log-uniform over five decades (clays 1e-11 to silts 1e-6 m/s).
         Enrichment("ANICREEP", {"coupled": True}, {"permeability": (1e-11, 1e-6)}, ("permeability",),
-                   forward_arguments=("coupled", "permeability")),
+                   forward_arguments=("coupled", "permeability"), inert_at={"permeability": "lower"}),
         "the lab-test drivers (constitutive.labtests) treat a specimen as one material point, drained or undrained; "
         "the enrichment (permeability free, m/s) exists only for forward models that solve consolidation (the SBP "
         "FE in fem/, switch 'coupled')"),
@@ -232,7 +244,7 @@ CATALOG = (
         # (0.2-0.4): in undrained shear d eps_v^vp is small, so destructuration is driven by xi xi_d eps_d^vp and the
         # two are identifiable only as a product; fixing xi_d keeps two extra parameters on a ridge-free prior.
         Enrichment("ANICREEP", {"destructuration": True, "xi_d": 0.2}, {"chi0": (0.1, 50.0), "xi": (1.0, 30.0)},
-                   ("chi0", "xi")),
+                   ("chi0", "xi"), inert_at={"chi0": "lower", "xi": "lower"}),
         references=("Koskinen, Karstunen & Wheeler (2002) S-CLAY1S; Yin, Karstunen, Chang, Koskinen & Lojander "
                     "(2011) EVP-SCLAY1S; constitutive/anicreep.py (D)",)),
     Candidate(
@@ -251,7 +263,8 @@ CATALOG = (
         {"state_dependent_dilatancy": True},
         # SIMSAND's interlocking (VII) on: n_p, n_d free with the paper's SIMSAND priors (uniform [0.1, 10] both,
         # cases.simsand_synthetic.BOUNDS; the printed table of the paper swaps them)
-        Enrichment("SIMSAND", {"state_dependent_dilatancy": True}, {"n_p": (0.1, 10.0), "n_d": (0.1, 10.0)}),
+        Enrichment("SIMSAND", {"state_dependent_dilatancy": True}, {"n_p": (0.1, 10.0), "n_d": (0.1, 10.0)},
+                   inert_at={"n_p": "lower", "n_d": "lower"}),
         references=("docs/reference.md section 3 (VII): tan phi_p = (e_c/e)^n_p tan phi_mu, tan phi_pt = (e_c/e)^-n_d "
                     "tan phi_mu; Been & Jefferies (1985) state parameter",)),
     Candidate(
