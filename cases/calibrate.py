@@ -77,10 +77,11 @@ def main(argv=None):
             if not run.resume:
                 announce_compilation(kernels)
             for one, seed, out in run_directories(run, default_out):
-                d = run_loop(problem, observations, one, out, seed, settings, f"study {study.name}, seed {seed}")
-                print(json.dumps({"case": CASE, "study": study.name, "out": str(out), "verdict": d["verdict"],
-                                  "omitted_physics": d["omitted_physics"], "log_bayes": d["log_bayes"],
-                                  "timing": d["timing"]}, default=float), flush=True)
+                result = run_loop(problem, observations, one, out, seed, settings, f"study {study.name}, seed {seed}")
+                d = result.final
+                print(json.dumps({"case": CASE, "study": study.name, "out": str(out), "verdict": d.verdict,
+                                  "omitted_physics": d.omitted_physics, "log_bayes": d.log_bayes,
+                                  "timing": result.timing}, default=float), flush=True)
         return 0
     name = class_name(study.switches, study.model)
     like = problem.make_likelihood(observations, study.switches)

@@ -6,25 +6,33 @@ Modules, in the order of the loop:
 - ``bands``: posterior predictive bands (`predictive_bands`); ``structure``: the structure tests and `segment`;
 - ``attribution``: which covariate explains the residual (`attribute`, `holm`; declared specs `split_spec`);
 - ``contrast``: few-test contrasts of 2-4 tests on a common abscissa (paired levels, trends);
+- ``records``: the records: `ModelClass` (a calibrated class), `DecisionRule` (what confirms an enrichment),
+  `MismatchRegion`, `SignatureItem`, `CandidateScore`, `Conclusion`, `Diagnosis` (with its JSON, `to_json`/`from_json`);
 - ``rank``: candidate physics scored by their residual signatures, the conclusion by the Bayes factor;
-- ``report``: `diagnose` (every class screened, candidates ranked, conclusion) as a dict and its Markdown report;
+- ``report``: `diagnose` (every class screened, candidates ranked, conclusion) as a `Diagnosis`, its Markdown report;
 - ``files``: the run-directory files (`write_input`, `read_input`, `diagnose_directory`);
-- ``loop``: `run_loop(problem)`, the calibrate -> diagnose loop in memory over a `LoopProblem`.
+- ``loop``: `run_loop(problem)`, the calibrate -> diagnose loop in memory over a `LoopProblem`;
+- ``__main__``: ``python -m inference.diagnosis DIR``, the diagnosis of a finished run directory;
+- ``bench``: ``python -m inference.diagnosis.bench``, the time of a screening.
 """
 from .attribution import KINDS, SCOPES, Attribution, attribute, expand_covariates, holm, per_curve, split_spec
 from .bands import PredictiveBand, predictive_bands
-from .files import diagnose_directory, read_input, write_diagnosis, write_input
-from .loop import ENRICH, LoopProblem, LoopResult, ModelClass, run_loop
-from .rank import STRONG_LOG_BAYES, conclude, rank_candidates
-from .report import diagnose, markdown, to_json
+from .files import diagnose_directory, read_input, recorded_rule, write_diagnosis, write_input
+from .loop import ENRICH, LoopProblem, LoopResult, run_loop
+from .rank import conclude, rank_candidates
+from .records import (STRONG_LOG_BAYES, CandidateDecision, CandidateScore, ClassSummary, Conclusion, DecisionRule,
+                      DiagnosedCandidate, Diagnosis, MismatchRegion, ModelClass, NextTest, SignatureItem)
+from .report import diagnose, markdown
 from .screening import (POSITION, CurveStatistics, ScreenReport, curve_statistics, relative_residuals, screen,
                      simulate_samples)
 from .structure import Region, lag1_test, runs_test, scale_test, scan_test, segment
 
 __all__ = [
     "KINDS", "SCOPES", "Attribution", "attribute", "expand_covariates", "holm", "per_curve", "split_spec", "PredictiveBand", "predictive_bands",
-    "diagnose_directory", "read_input", "write_diagnosis", "write_input", "ENRICH", "LoopProblem", "LoopResult", "ModelClass",
-    "run_loop", "STRONG_LOG_BAYES", "conclude", "rank_candidates", "diagnose", "markdown", "to_json", "POSITION",
+    "diagnose_directory", "read_input", "recorded_rule", "write_diagnosis", "write_input", "ENRICH", "LoopProblem",
+    "LoopResult", "run_loop", "conclude", "rank_candidates", "STRONG_LOG_BAYES", "CandidateDecision", "CandidateScore",
+    "ClassSummary", "Conclusion", "DecisionRule", "DiagnosedCandidate", "Diagnosis", "MismatchRegion", "ModelClass",
+    "NextTest", "SignatureItem", "diagnose", "markdown", "POSITION",
     "CurveStatistics", "ScreenReport", "curve_statistics", "relative_residuals", "screen", "simulate_samples",
     "Region", "lag1_test", "runs_test", "scale_test", "scan_test", "segment",
 ]

@@ -31,17 +31,18 @@ ln Z_base (the classes' log-evidences; the soil studies' loop refines them at th
 2. the chosen candidate is confirmed when its ln B >= ``threshold``, no primary item of its signature points the
    other way ("opposite direction" on the base class), and its enriched class explains its own predicted pattern:
    every primary item that supports it on the base class no longer supports it on the enriched class's screening,
-   or its effect size fell to at most PATTERN_REDUCTION = 0.5 of the base's (`pattern_explained`), and the misfit
-   the base's screening located (its mismatch regions) falls to at most MISFIT_REDUCTION = 0.6 of the base's in the
-   median region (`misfit_explained`).
+   or its effect size fell to at most ``pattern_reduction`` (default PATTERN_REDUCTION = 0.5) of the base's
+   (`pattern_explained`), and the misfit the base's screening located (its mismatch regions) falls to at most
+   ``misfit_reduction`` (default MISFIT_REDUCTION = 0.6) of the base's in the median region (`misfit_explained`).
+The threshold, margin and the two reductions are the fields of one `records.DecisionRule`.
 A candidate is *named by its signature* (`rank_candidates`) or *named by the evidence*: a contender with ln B >=
 ``threshold`` whose signature does not point the other way. The omitted physics is the confirmed candidate, or
 "none"; every other candidate's decision gives the reason (below the threshold, its signature contradicted, beaten
 by the leader by the margin, its pattern left, not separated from another). A named candidate without an
 implemented enrichment is "candidate named, enrichment not available".
 
-Threshold and margin. Default 3 for both (STRONG_LOG_BAYES: 2 ln B > 6, "strong" on the Kass & Raftery 1995
-scale). Under a misspecified error model (independent errors where the residuals are autocorrelated, one sigma for
+Threshold and margin. Default 3 for both (``DecisionRule()``, STRONG_LOG_BAYES: 2 ln B > 6, "strong" on the Kass &
+Raftery 1995 scale). Under a misspecified error model (independent errors where the residuals are autocorrelated, one sigma for
 curves of different scatter) Bayes factors are over-confident (Brynjarsdottir & O'Hagan 2014; docs/reference.md
 section 9), so the threshold must be calibrated on negative controls: run the loop on control programmes of each
 kind (the same tests, logging and noise, no hidden effect, >= 3 noise seeds each), record the largest ln B of any
@@ -56,20 +57,13 @@ from scipy import stats
 
 from . import contrast
 from .attribution import per_curve
+from .records import (MISFIT_REDUCTION, PATTERN_REDUCTION, STRONG_LOG_BAYES, CandidateDecision, CandidateScore,
+                      Conclusion, DecisionRule, SignatureItem)
+from .screening import ScreenReport
 
 __all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "rank_candidates", "pattern_explained",
            "misfit_explained", "conclude"]
 
-#: ln B at and above which the evidence for the enriched class is "strong" (B >= 20, Kass & Raftery 1995)
-STRONG_LOG_BAYES = 3.0
-#: an enriched class explains a primary item when its effect size falls to at most this fraction of the base's
-PATTERN_REDUCTION = 0.5
-#: an enriched class explains the misfit the screening located when it falls to at most this fraction of the base's
-#: (median region). Set between the two groups of the independent generator's programmes: the hidden effects'
-#: classes left 0.00-0.51 of it (ck0u destructuration 0.51, anisotropy 0.35-0.47); classes past the ln B threshold on
-#: the controls left 0.79-0.89 (swelling +26.7 on ciu_D_s3; swelling and destructuration on the CIU control with 0.4 %
-#: noise; notes/independent-diagnosis.md)
-MISFIT_REDUCTION = 0.6
 ROLES = ("primary", "supporting")
 
 
@@ -120,12 +114,11 @@ def _contrast_p(a, item, want):
     """(one-sided or two-sided p of the item on its curves' few-test contrasts, two-sided p, sign of the strongest
     z, effect |mean b|), or None when the covariate has no contrast on the item's curves. Bonferroni over those
     curves, then the covariate's Holm factor p_adjusted / p_value."""
-    details = {c: d for c, d in (a.get("contrast") or {}).items()
-               if names_curve(item.get("curves"), c)}
+    details = {c: d for c, d in (a.contrast or {}).items() if names_curve(item.get("curves"), c)}
     if not details:
         return None
     m = len(details)
-    holm_factor = a["p_adjusted"] / a["p_value"] if a["p_value"] > 0 else 1.0
+    holm_factor = a.p_adjusted / a.p_value if a.p_value > 0 else 1.0
     two = min(1.0, m * min(d["p"] for d in details.values()) * holm_factor)
     strongest = min(details.values(), key=lambda d: d["p"])
     if want == 0:
@@ -136,12 +129,12 @@ def _contrast_p(a, item, want):
 
 
 def _item(item, a, rho, alpha):
-    """(status, item p, effect size) of one signature item against one covariate attribution ``a`` (dict or None):
-    the module docstring's rules."""
+    """(status, item p, effect size) of one signature item against one covariate attribution ``a`` (Attribution or
+    None): the module docstring's rules."""
     want = int(item["direction"])
     if a is None:
         return "not reported", None, None
-    effect = a.get("explained_rms")
+    effect = a.explained_rms
     few = _contrast_p(a, item, want)
     if few is not None:
         one, two, sign, effect = few
@@ -149,23 +142,23 @@ def _item(item, a, rho, alpha):
             return "supports", one, effect
         return ("opposite direction" if two <= alpha and want != 0 and sign != want else "not significant"), one, \
             effect
-    if a["p_adjusted"] > alpha:
-        return "not significant", a["p_adjusted"], effect
+    if a.p_adjusted > alpha:
+        return "not significant", a.p_adjusted, effect
     if want != 0 and (rho is None or np.sign(rho) != want):
-        return ("opposite direction" if rho is not None else "direction not measurable"), a["p_adjusted"], effect
-    return "supports", a["p_adjusted"], effect
+        return ("opposite direction" if rho is not None else "direction not measurable"), a.p_adjusted, effect
+    return "supports", a.p_adjusted, effect
 
 
 def rank_candidates(report, residuals: dict, covariates: dict, candidates: list, alpha=None) -> list:
     """Score and rank candidate physics against a screening (module docstring: the score, when a candidate is named
     and when it is plausible). report: ScreenReport or its dict; residuals: {(test, curve): r} of the screened class;
     covariates: the per-point covariates given to ``screen``; candidates: plain-data catalog entries (each with
-    ``signature``, optional ``in_base``, ``enrichment``, ``unavailable``). Returns dicts by decreasing score, named
-    first."""
-    rep = report if isinstance(report, dict) else report.to_dict()
-    alpha = rep["alpha"] if alpha is None else float(alpha)
-    structured = rep["verdict"] == "structured mismatch"
-    attribution = {a["name"]: a for a in rep["attribution"]}
+    ``signature``, optional ``in_base``, ``enrichment``, ``unavailable``). Returns [CandidateScore] by decreasing
+    score, named first."""
+    rep = ScreenReport.from_dict(report) if isinstance(report, dict) else report
+    alpha = rep.alpha if alpha is None else float(alpha)
+    structured = rep.verdict == "structured mismatch"
+    attribution = {a.name: a for a in rep.attribution}
     expanded = {name: per_curve(name, spec, residuals) for name, spec in covariates.items()}
     ranked = []
     for c in candidates:
@@ -176,26 +169,25 @@ def rank_candidates(report, residuals: dict, covariates: dict, candidates: list,
             a = attribution.get(name)
             rho = _rank_correlation(residuals, expanded[name], item.get("curves")) if name in expanded else None
             status, p_item, effect = _item(item, a, rho, alpha)
-            evidence = a["r2"] if status == "supports" else 0.0
+            evidence = a.r2 if status == "supports" else 0.0
             num += item["weight"] * evidence
             den += item["weight"]
             primary |= status == "supports" and item["role"] == "primary"
             against |= status == "opposite direction" and item["role"] == "primary"
-            items.append({**{k: item.get(k) for k in ("covariate", "role", "weight", "direction", "meaning")},
-                          "curves": item.get("curves"), "r2": None if a is None else a["r2"],
-                          "p_adjusted": None if a is None else a["p_adjusted"], "p_item": p_item, "effect": effect,
-                          "rank_correlation": rho, "status": status, "evidence": evidence})
+            items.append(SignatureItem(item["covariate"], item["role"], item["weight"], item["direction"],
+                                       item.get("meaning"), item.get("curves"), None if a is None else a.r2,
+                                       None if a is None else a.p_adjusted, p_item, effect, rho, status, evidence))
         in_base = bool(c.get("in_base", False))
         score = num / den if den else 0.0
         named = structured and primary and not in_base
         plausible = named or (structured and not in_base and score > 0 and not against)
-        ranked.append({"name": c["name"], "physics": c.get("physics", ""), "score": score, "named": named,
-                       "plausible": plausible, "in_base": in_base, "enrichment": c.get("enrichment"),
-                       "unavailable": c.get("unavailable", ""), "items": items})
-    return sorted(ranked, key=lambda d: (-d["named"], -d["score"]))
+        ranked.append(CandidateScore(c["name"], c.get("physics", ""), score, named, plausible, in_base,
+                                     c.get("enrichment"), c.get("unavailable", ""), tuple(items)))
+    return sorted(ranked, key=lambda d: (-d.named, -d.score))
 
 
-def pattern_explained(base_entry: dict, enriched_entry: dict | None, reduction=PATTERN_REDUCTION) -> tuple:
+def pattern_explained(base_entry: CandidateScore, enriched_entry: CandidateScore | None,
+                      reduction=PATTERN_REDUCTION) -> tuple:
     """(explained, reasons): does the enriched class explain the candidate's own residual pattern?
 
     base_entry: the candidate ranked on the base class's screening; enriched_entry: the same candidate ranked on the
@@ -205,37 +197,36 @@ def pattern_explained(base_entry: dict, enriched_entry: dict | None, reduction=P
     to at most ``reduction`` times the base's. reasons: the items left, in words."""
     if enriched_entry is None:
         return True, []
-    after = {(i["covariate"], tuple(i["curves"] or ()), i["direction"]): i for i in enriched_entry["items"]}
+    after = {(i.covariate, tuple(i.curves or ()), i.direction): i for i in enriched_entry.items}
     left = []
-    for i in base_entry["items"]:
-        if i["role"] != "primary" or i["status"] != "supports":
+    for i in base_entry.items:
+        if i.role != "primary" or i.status != "supports":
             continue
-        j = after.get((i["covariate"], tuple(i["curves"] or ()), i["direction"]))
-        if j is None or j["status"] != "supports":
+        j = after.get((i.covariate, tuple(i.curves or ()), i.direction))
+        if j is None or j.status != "supports":
             continue
-        if i["effect"] is not None and j["effect"] is not None and j["effect"] <= reduction * i["effect"]:
+        if i.effect is not None and j.effect is not None and j.effect <= reduction * i.effect:
             continue
-        size = "" if i["effect"] is None or j["effect"] is None else \
-            f" (size {100 * i['effect']:.2g} % -> {100 * j['effect']:.2g} %)"
-        left.append(f"{i['covariate']}: {i['meaning']}{size}")
+        size = "" if i.effect is None or j.effect is None else \
+            f" (size {100 * i.effect:.2g} % -> {100 * j.effect:.2g} %)"
+        left.append(f"{i.covariate}: {i.meaning}{size}")
     return not left, left
 
 
 def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, reduction=MISFIT_REDUCTION) -> tuple:
     """(explained, reasons): does an enriched class remove the misfit the base class's screening located?
 
-    regions: the base class's mismatch regions (``structure.Region`` or their dicts: test, curve, i_start, i_stop);
+    regions: the base class's mismatch regions (``structure.Region``: test, curve, i_start, i_stop);
     base_residuals, enriched_residuals: {(test, curve): r} relative residuals of the two classes at the records.
     For each region the ratio |mean r_enriched| / |mean r_base| over its points; explained when the median ratio over
     the regions is at most ``reduction`` (no region: explained). The median, not a weighted mean: a region where the
     simulated value passes near zero (a deviator stress turning from compression to extension) has relative
     residuals of any size and must not decide alone. reasons: the regions left, in words."""
-    regions = [r if isinstance(r, dict) else r.to_dict() for r in regions]
     if not regions:
         return True, []
     ratios = []
     for g in regions:
-        key, sl = (g["test"], g["curve"]), slice(g["i_start"], g["i_stop"])
+        key, sl = (g.test, g.curve), slice(g.i_start, g.i_stop)
         before = abs(float(np.nanmean(base_residuals[key][sl])))
         after = abs(float(np.nanmean(enriched_residuals[key][sl])))
         ratios.append(after / before if before > 0 else 1.0)
@@ -246,47 +237,44 @@ def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, re
                    f"base's (median over the regions; needs <= {100 * reduction:.0f} %)"]
 
 
-def conclude(ranked: list, classes: list, threshold=STRONG_LOG_BAYES, margin=None, explained=None) -> dict:
-    """The omitted physics from ranked candidates and model classes [{name, role, candidate, log_evidence, ...}]
-    (module docstring: confirmation). margin: ln B by which the leading enriched class must beat the runner-up
-    (default: threshold); explained: {candidate: (explained, reasons)} of `pattern_explained` and the located-misfit
-    check (missing: explained).
-
-    Returns {omitted_physics, log_bayes: {class: ln Z - ln Z_base}, candidates: [{name, decision, confirmed,
-    named_by_evidence}], threshold, margin}."""
-    margin = float(threshold if margin is None else margin)
+def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None) -> Conclusion:
+    """The omitted physics from ranked candidates [CandidateScore] and model classes [ModelClass] (module docstring:
+    confirmation) under ``rule`` (its threshold and margin; the reductions are applied by `pattern_explained` and
+    `misfit_explained`, whose verdicts come in ``explained``: {candidate: (explained, reasons)}, missing: explained).
+    """
+    threshold, margin = float(rule.threshold), rule.lead
     explained = explained or {}
-    base = [c for c in classes if c["role"] == "base"]
+    base = [c for c in classes if c.role == "base"]
     if len(base) != 1:
-        raise ValueError(f"classes need exactly one with role 'base', got {[c['name'] for c in base]}")
-    lnz0 = base[0]["log_evidence"]
-    enriched = {c["candidate"]: c for c in classes if c["role"] == "enriched"}
-    log_bayes = {c["name"]: c["log_evidence"] - lnz0 for c in classes if c["role"] == "enriched"}
-    by_candidate = {cand: log_bayes[c["name"]] for cand, c in enriched.items()}
-    entry = {r["name"]: r for r in ranked}
+        raise ValueError(f"classes need exactly one with role 'base', got {[c.name for c in base]}")
+    lnz0 = base[0].log_evidence
+    enriched = {c.candidate: c for c in classes if c.role == "enriched"}
+    log_bayes = {c.name: c.log_evidence - lnz0 for c in classes if c.role == "enriched"}
+    by_candidate = {cand: log_bayes[c.name] for cand, c in enriched.items()}
+    entry = {r.name: r for r in ranked}
     order = sorted(by_candidate, key=lambda k: -by_candidate[k])
     leader = order[0] if order else None
     against = {name: _against(entry.get(name)) for name in by_candidate}
     # the candidates within the margin of the best ln B; among several, the best-ranked one named by its signature
     contenders = [k for k in order if by_candidate[k] > by_candidate[leader] - margin] if order else []
     chosen = contenders[0] if len(contenders) == 1 else next(
-        (r["name"] for r in ranked if r["named"] and r["name"] in contenders), None)
+        (r.name for r in ranked if r.named and r.name in contenders), None)
     omitted = "none"
     if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] \
             and explained.get(chosen, (True, []))[0]:
         omitted = chosen
     decisions = []
     for r in ranked:
-        name, lnb = r["name"], by_candidate.get(r["name"])
-        named = bool(r["named"])
+        name, lnb = r.name, by_candidate.get(r.name)
+        named = bool(r.named)
         by_evidence = lnb is not None and lnb >= threshold and not against[name] and name in contenders
         confirmed = name == omitted
         ok, left = explained.get(name, (True, []))
         prefix = "named, not confirmed" if named else "not confirmed"
-        if r["in_base"]:
+        if r.in_base:
             decision = "already in the base model"
-        elif r["enrichment"] is None:
-            decision = (f"candidate named, enrichment not available ({r['unavailable']})" if named else "not named")
+        elif r.enrichment is None:
+            decision = (f"candidate named, enrichment not available ({r.unavailable})" if named else "not named")
         elif lnb is None:
             decision = "candidate named, enriched class not calibrated" if named else "not named"
         elif confirmed:
@@ -308,15 +296,13 @@ def conclude(ranked: list, classes: list, threshold=STRONG_LOG_BAYES, margin=Non
             others = ", ".join(f"{k} (ln B = {by_candidate[k]:.2f})" for k in contenders if k != name)
             decision = (f"{prefix}: ln B = {lnb:.2f} is not separated by the margin {margin:g} from the enriched "
                         f"class of {others}" + ("" if chosen is None else f", and {chosen} ranks above it"))
-        decisions.append({"name": name, "decision": decision, "confirmed": confirmed,
-                          "named_by_evidence": by_evidence and not named})
-    return {"omitted_physics": omitted, "log_bayes": log_bayes, "threshold": float(threshold), "margin": margin,
-            "candidates": decisions}
+        decisions.append(CandidateDecision(name, decision, confirmed, by_evidence and not named))
+    return Conclusion(omitted, log_bayes, tuple(decisions), rule)
 
 
 def _against(entry) -> str:
     """The meanings of the candidate's primary signature items that point the other way ("" when none)."""
     if not entry:
         return ""
-    return "; ".join(f"{i['covariate']}: {i['meaning']}" for i in entry.get("items", ())
-                     if i["role"] == "primary" and i["status"] == "opposite direction")
+    return "; ".join(f"{i.covariate}: {i.meaning}" for i in entry.items
+                     if i.role == "primary" and i.status == "opposite direction")

@@ -1,8 +1,9 @@
 """The diagnosis of a calibrate -> diagnose loop: every model class screened, the candidates ranked on the base
-class, the conclusion by the Bayes factor; as a dict (JSON) and as a report an engineer reads (Markdown).
+class, the conclusion by the Bayes factor; as a record (`records.Diagnosis`, JSON by its ``to_json``) and as a report
+an engineer reads (Markdown).
 
 `diagnose` works in memory on the recorded curves' Likelihood, the model-class records, the base class's covariates
-and the candidates (plain data, `rank.rank_candidates`). Its dict holds: the screening verdict of the base class,
+and the candidates (plain data, `rank.rank_candidates`). Its record (`records.Diagnosis`) holds: the screening verdict of the base class,
 the mismatch regions, the covariate attribution, the ranked candidates with their decisions, per class the
 log-evidence, ln B against the base, J_g at the MAP, parameters and residual-structure statistics (before/after),
 the full screening of every class, the omitted physics ("none" when nothing is confirmed, by ln B, the margin and
@@ -14,26 +15,19 @@ structure, where (test, curve, abscissa range), how (sign and size) and which co
 """
 from __future__ import annotations
 
-import json
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
-from .attribution import Attribution, expand_covariates, split_spec
-from .rank import STRONG_LOG_BAYES, conclude, misfit_explained, names_curve, pattern_explained, rank_candidates
-from .screening import POSITION, CurveStatistics, ScreenReport, relative_residuals, screen
-from .structure import Region
+from .attribution import expand_covariates, split_spec
+from .rank import conclude, misfit_explained, names_curve, pattern_explained, rank_candidates
+from .records import (ClassSummary, DecisionRule, Diagnosis, DiagnosedCandidate, MismatchRegion, ModelClass,
+                      NextTest)
+from .screening import POSITION, relative_residuals, screen
 
-__all__ = ["diagnose", "markdown", "to_json"]
-
-#: the fields of a model class reported in the diagnosis (the arrays stay out)
-CLASS_FIELDS = ("name", "role", "candidate", "log_evidence", "J_g", "parameters", "sigma_eps", "wall_s", "warnings")
-
-
-def _class_dict(model_class) -> dict:
-    """A model class as the dict `diagnose` reads: a ``ModelClass`` (its ``to_dict()``) or such a dict itself."""
-    return model_class.to_dict() if hasattr(model_class, "to_dict") else model_class
+__all__ = ["diagnose", "markdown", "next_tests"]
 
 
 def _declared(covariates: dict, likelihood) -> dict:
@@ -50,73 +44,72 @@ def _declared(covariates: dict, likelihood) -> dict:
 
 
 def diagnose(likelihood, classes: list, covariates: dict, candidates: list, description="", alpha=0.05, level=0.95,
-             threshold=STRONG_LOG_BAYES, n_shifts=1000, margin=None) -> dict:
-    """Screen every model class, rank the candidates on the base class, conclude; returns the diagnosis dict.
+             rule=DecisionRule(), n_shifts=1000) -> Diagnosis:
+    """Screen every model class, rank the candidates on the base class, conclude; returns the `records.Diagnosis`.
 
     likelihood: an inference.Likelihood of the recorded curves (observations and near-zero floor; its forward model
-    is not called); classes: model classes (``ModelClass`` or its dict: name, role "base" | "enriched", candidate,
-    log_evidence, J_g, parameters, sigma_eps, wall_s, map_simulated {(test, curve): values}, sample_simulated
-    {(test, curve): (n_s, n)}, sample_sigma (n_s,), optional warnings [str]), exactly one with role "base";
-    covariates: per-point covariates of the base class in the form of ``screen`` (plain or declared specs,
+    is not called); classes: model classes (``records.ModelClass`` or its dict: name, role "base" | "enriched",
+    candidate, log_evidence, J_g, parameters, sigma_eps, wall_s, map_simulated {(test, curve): values},
+    sample_simulated {(test, curve): (n_s, n)}, sample_sigma (n_s,), optional warnings [str]), exactly one with role
+    "base"; covariates: per-point covariates of the base class in the form of ``screen`` (plain or declared specs,
     `attribution.split_spec`); candidates: plain-data catalog entries (``rank.rank_candidates``); alpha: family-wise
-    false-alarm level of each screening; level: predictive band level; threshold: ln B that confirms an enrichment
-    (module docstring: calibration); n_shifts: null draws of the attribution; margin: ln B by which a candidate
-    must beat the other enriched classes (`rank.conclude`, default threshold). Deterministic (fixed seeds).
+    false-alarm level of each screening; level: predictive band level; rule: the `records.DecisionRule` that confirms
+    an enrichment (module docstring: calibration); n_shifts: null draws of the attribution. Deterministic (fixed
+    seeds).
     """
     t0 = time.perf_counter()
     alpha, level = float(alpha), float(level)
-    classes = [_class_dict(cl) for cl in classes]
+    classes = [ModelClass.of(cl) for cl in classes]
     screened = _declared(covariates, likelihood)
     screens, structure, ranked_by_class = {}, {}, {}
     for cl in classes:
-        rep = screen(likelihood, cl["map_simulated"], cl["sigma_eps"], cl["sample_simulated"], cl["sample_sigma"],
-                     screened, alpha=alpha, level=level, n_shifts=n_shifts)
-        screens[cl["name"]], structure[cl["name"]] = rep, _structure(rep)
-        ranked_by_class[cl["name"]] = rank_candidates(rep, relative_residuals(likelihood, cl["map_simulated"]),
-                                                      screened, candidates, alpha)
-    base = next(cl for cl in classes if cl["role"] == "base")
-    ranked = ranked_by_class[base["name"]]
+        rep = screen(likelihood, cl.map_simulated, cl.sigma_eps, cl.sample_simulated, cl.sample_sigma, screened,
+                     alpha=alpha, level=level, n_shifts=n_shifts)
+        screens[cl.name], structure[cl.name] = rep, _structure(rep)
+        ranked_by_class[cl.name] = rank_candidates(rep, relative_residuals(likelihood, cl.map_simulated), screened,
+                                                   candidates, alpha)
+    base = next(cl for cl in classes if cl.role == "base")
+    ranked, base_screen = ranked_by_class[base.name], screens[base.name]
     explained = {}
-    base_r = relative_residuals(likelihood, base["map_simulated"])
+    base_r = relative_residuals(likelihood, base.map_simulated)
     for cl in classes:
-        if cl["role"] == "enriched":
-            own = {r["name"]: r for r in ranked_by_class[cl["name"]]}
-            entry = next((r for r in ranked if r["name"] == cl["candidate"]), None)
+        if cl.role == "enriched":
+            own = {r.name: r for r in ranked_by_class[cl.name]}
+            entry = next((r for r in ranked if r.name == cl.candidate), None)
             if entry is not None:
-                ok, left = pattern_explained(entry, own.get(cl["candidate"]))
-                ok2, left2 = misfit_explained(screens[base["name"]].regions, base_r,
-                                              relative_residuals(likelihood, cl["map_simulated"]))
-                explained[cl["candidate"]] = (ok and ok2, left + left2)
-    verdict = conclude(ranked, classes, threshold, margin, explained)
+                ok, left = pattern_explained(entry, own.get(cl.candidate), rule.pattern_reduction)
+                ok2, left2 = misfit_explained(base_screen.regions, base_r,
+                                              relative_residuals(likelihood, cl.map_simulated), rule.misfit_reduction)
+                explained[cl.candidate] = (ok and ok2, left + left2)
+    verdict = conclude(ranked, classes, rule, explained)
     recorded = sorted({c for t in likelihood.observations for c in t.curves})
-    warnings = {cl["name"]: list(cl.get("warnings") or []) for cl in classes if cl.get("warnings")}
-    out = {"description": description, "alpha": alpha, "verdict": screens[base["name"]].verdict,
-           "omitted_physics": verdict["omitted_physics"],
-           "recommendation": _recommendation(verdict, ranked, screens[base["name"]], warnings.get(base["name"])),
-           "mismatch_regions": [{**r.to_dict(), "x_unit": likelihood.observations[r.test].curves[r.curve].x_unit}
-                                for r in screens[base["name"]].regions],
-           "attribution": [a.to_dict() for a in screens[base["name"]].attribution],
-           "candidates": [{**r, "named": r["named"] or d["named_by_evidence"] or d["confirmed"],
-                           "named_by": ("signature" if r["named"] else "evidence" if d["named_by_evidence"]
-                                        or d["confirmed"] else None),
-                           "decision": d["decision"], "confirmed": d["confirmed"],
-                           "pattern_explained": explained.get(r["name"], (None, []))[0],
-                           "pattern_left": explained.get(r["name"], (None, []))[1]}
-                          for r, d in zip(ranked, verdict["candidates"])],
-           "classes": [{k: cl.get(k) for k in CLASS_FIELDS}
-                       | {"log_bayes_vs_base": verdict["log_bayes"].get(cl["name"], 0.0 if cl["role"] == "base"
-                                                                         else None),
-                          "structure": structure[cl["name"]]} for cl in classes],
-           "log_bayes": verdict["log_bayes"], "threshold_log_bayes": verdict["threshold"],
-           "margin_log_bayes": verdict["margin"], "warnings": warnings,
-           "next_tests": next_tests(ranked, [a.to_dict() for a in screens[base["name"]].attribution], recorded),
-           "screens": {name: rep.to_dict() for name, rep in screens.items()}}
-    out["wall_s"] = time.perf_counter() - t0
-    return out
+    warnings = {cl.name: list(cl.warnings) for cl in classes if cl.warnings}
+    candidates_out = []
+    for r, d in zip(ranked, verdict.candidates):
+        by_evidence = d.named_by_evidence or d.confirmed
+        candidates_out.append(DiagnosedCandidate(
+            **{**vars(r), "named": r.named or by_evidence},
+            named_by="signature" if r.named else "evidence" if by_evidence else None, decision=d.decision,
+            confirmed=d.confirmed, pattern_explained=explained.get(r.name, (None, []))[0],
+            pattern_left=tuple(explained.get(r.name, (None, []))[1])))
+    summaries = tuple(ClassSummary(cl.name, cl.role, cl.candidate, cl.log_evidence, cl.J_g, cl.parameters,
+                                   cl.sigma_eps, cl.wall_s, cl.warnings,
+                                   verdict.log_bayes.get(cl.name, 0.0 if cl.role == "base" else None),
+                                   structure[cl.name]) for cl in classes)
+    regions = tuple(MismatchRegion(**vars(r), x_unit=likelihood.observations[r.test].curves[r.curve].x_unit)
+                    for r in base_screen.regions)
+    out = Diagnosis(description, alpha, base_screen.verdict, verdict.omitted_physics,
+                    _recommendation(verdict.omitted_physics, ranked, base_screen, warnings.get(base.name)), regions,
+                    tuple(base_screen.attribution), tuple(candidates_out), summaries, verdict.log_bayes, rule,
+                    warnings, next_tests(ranked, base_screen.attribution, recorded), screens)
+    return replace(out, wall_s=time.perf_counter() - t0)
 
 
 def _structure(report) -> dict:
-    """Residual-structure statistics of one screening, summarized for a before/after table."""
+    """Residual-structure statistics of one screening, summarized for a before/after table: the verdict, curves and
+    structured curves, regions, the smallest adjusted p, the mean lag-1 autocorrelation, the mean |mean r|, the
+    predictive coverage (fraction, None without samples), points outside the band, points, the screening's wall
+    time (s)."""
     curves = report.curves
     covs = [c.coverage for c in curves if c.coverage is not None]
     return {"verdict": report.verdict, "structured_curves": sum(c.structured for c in curves),
@@ -129,45 +122,45 @@ def _structure(report) -> dict:
             "points": int(sum(c.n_points for c in curves)), "screen_wall_s": report.wall_s}
 
 
-def next_tests(ranked: list, attribution: list, recorded: list) -> list:
+def next_tests(ranked: list, attribution: list, recorded: list) -> tuple:
     """What the records lack to test each candidate that is not already in the base model and not named: for each
     primary signature item, the covariate it needs when the records do not report it ("not reported": no test
     varies that condition, or the forward model does not report it), the curves it is measured on when none of them
     is recorded, and more tests at other levels when a between-test condition could not be tested by a few-test
-    contrast. attribution: the base class's attribution dicts. Returns [{candidate, needs: [words]}] for the
+    contrast. ranked: [CandidateScore]; attribution: the base class's [Attribution]. Returns (NextTest) for the
     candidates that need something."""
-    attribution = {a["name"]: a for a in attribution}
+    attribution = {a.name: a for a in attribution}
     out = []
     for r in ranked:
-        if r["in_base"] or r["named"]:
+        if r.in_base or r.named:
             continue
         needs = []
-        for i in r["items"]:
-            if i["role"] != "primary":
+        for i in r.items:
+            if i.role != "primary":
                 continue
-            if not any(names_curve(i["curves"], c) for c in recorded):
-                needs.append(f"record {' or '.join(i['curves'])} (its pattern: {i['meaning']})")
-            elif i["status"] == "not reported":
-                needs.append(f"tests that differ in {i['covariate']}, reported as a covariate (its pattern: "
-                             f"{i['meaning']})")
-            elif i["status"] == "not significant" and attribution.get(i["covariate"], {}).get("kind") == "between" \
-                    and not attribution[i["covariate"]].get("contrast"):
-                needs.append(f"more tests at other levels of {i['covariate']} (the tests cannot be compared on a "
-                             f"common abscissa and too few for a permutation test: p = {i['p_adjusted']:.2g})")
+            a = attribution.get(i.covariate)
+            if not any(names_curve(i.curves, c) for c in recorded):
+                needs.append(f"record {' or '.join(i.curves)} (its pattern: {i.meaning})")
+            elif i.status == "not reported":
+                needs.append(f"tests that differ in {i.covariate}, reported as a covariate (its pattern: "
+                             f"{i.meaning})")
+            elif i.status == "not significant" and a is not None and a.kind == "between" and not a.contrast:
+                needs.append(f"more tests at other levels of {i.covariate} (the tests cannot be compared on a "
+                             f"common abscissa and too few for a permutation test: p = {i.p_adjusted:.2g})")
         if needs:
-            out.append({"candidate": r["name"], "needs": list(dict.fromkeys(needs))})
-    return out
+            out.append(NextTest(r.name, tuple(dict.fromkeys(needs))))
+    return tuple(out)
 
 
-def _recommendation(verdict, ranked, report, warnings=None) -> str:
-    """The recommendation in one line, from the conclusion, the ranked candidates, the base class's screening and
+def _recommendation(omitted, ranked, report, warnings=None) -> str:
+    """The recommendation in one line, from the omitted physics, the ranked candidates, the base class's screening and
     its poor-fit warnings."""
     poor = f"; the base model fits poorly ({'; '.join(warnings)})" if warnings else ""
     if report.verdict != "structured mismatch":
         return "no structured mismatch: no enrichment recommended" + poor
-    if verdict["omitted_physics"] != "none":
-        return f"adopt the enriched class that adds {verdict['omitted_physics']}" + poor
-    named = [r["name"] for r in ranked if r["named"]]
+    if omitted != "none":
+        return f"adopt the enriched class that adds {omitted}" + poor
+    named = [r.name for r in ranked if r.named]
     if not named:
         return "structured mismatch that no catalog signature explains: no enrichment recommended" + poor
     return (f"candidates named ({', '.join(named)}) but none confirmed by the Bayes factor and its own residual "
@@ -176,8 +169,8 @@ def _recommendation(verdict, ranked, report, warnings=None) -> str:
 
 def _follows(a) -> str:
     """How the residual follows one significant covariate attribution, in words."""
-    text = f"{a['name']} ({a['kind']}-test, R^2 = {a['r2']:.2f}, p = {a['p_adjusted']:.2g}"
-    for curve, d in (a.get("contrast") or {}).items():
+    text = f"{a.name} ({a.kind}-test, R^2 = {a.r2:.2f}, p = {a.p_adjusted:.2g}"
+    for curve, d in (a.contrast or {}).items():
         if "levels" in d:
             lo, hi = d["levels"]
             text += f"; {curve}: {hi} {100 * d['mean']:+.1f} % relative to {lo}"
@@ -192,114 +185,92 @@ def _fmt(v, spec=".3g"):
     return "-" if v is None else format(v, spec)
 
 
-def _engineer_summary(d) -> list:
-    """The conclusion in words, from the diagnosis dict."""
-    poor = [f"Poor fit of {name}: {'; '.join(w)}." for name, w in (d.get("warnings") or {}).items()]
-    if d["verdict"] != "structured mismatch":
+def _region_words(r) -> str:
+    where = "above" if r.sign == "+" else "below"
+    unit = "" if r.x_unit == "-" else f" {r.x_unit}"
+    return (f"{r.curve} at {r.x_start:.3g}-{r.x_end:.3g}{unit}: recorded {where} simulated by "
+            f"{abs(100 * r.mean_relative):.1f} %")
+
+
+def _engineer_summary(d: Diagnosis) -> list:
+    """The conclusion in words, from the diagnosis."""
+    poor = [f"Poor fit of {name}: {'; '.join(w)}." for name, w in d.warnings.items()]
+    if d.verdict != "structured mismatch":
         return ["The base model's residuals are consistent with the measurement noise (no test, curve or strain "
                 "range misfits beyond the false-alarm level): nothing is missing that these records can reveal, and "
                 "no enrichment is recommended."] + poor
     lines = poor
     by_test = {}
-    for r in d["mismatch_regions"]:
-        by_test.setdefault(r["test"], []).append(r)
-    def region_words(r):
-        where = "above" if r["sign"] == "+" else "below"
-        unit = "" if r.get("x_unit", "-") == "-" else f" {r['x_unit']}"
-        return (f"{r['curve']} at {r['x_start']:.3g}-{r['x_end']:.3g}{unit}: recorded {where} simulated by "
-                f"{abs(100 * r['mean_relative']):.1f} %")
-
-    parts = [f"{t} ({', '.join(region_words(r) for r in rs)})" for t, rs in by_test.items()]
+    for r in d.mismatch_regions:
+        by_test.setdefault(r.test, []).append(r)
+    parts = [f"{t} ({', '.join(_region_words(r) for r in rs)})" for t, rs in by_test.items()]
     lines.append("Misfit located in " + ("; ".join(parts) if parts else "the curves' overall scatter or trend "
                                           "(no single contiguous region)") + ".")
-    sig = [a for a in d["attribution"] if a["p_adjusted"] <= d["alpha"] and a["name"] != POSITION]
+    sig = [a for a in d.attribution if a.p_adjusted <= d.alpha and a.name != POSITION]
     if sig:
         lines.append("The structured residual follows " + ", ".join(_follows(a) for a in sig) + ".")
     else:
         lines.append("No reported covariate explains it beyond the false-alarm level.")
-    top = next((c for c in d["candidates"] if c.get("named_by", "signature" if c["named"] else None)
-                == "signature"), None)
+    top = next((c for c in d.candidates if c.named_by == "signature"), None)
     if top is not None:
-        said = [i["meaning"] + ("" if i["rank_correlation"] is None else
-                                f" (rank correlation {i['rank_correlation']:+.2f})")
-                for i in top["items"] if i["status"] == "supports"]
-        lines.append(f"This is the signature of {top['name']}: " + "; ".join(said) + ".")
+        said = [i.meaning + ("" if i.rank_correlation is None else f" (rank correlation {i.rank_correlation:+.2f})")
+                for i in top.items if i.status == "supports"]
+        lines.append(f"This is the signature of {top.name}: " + "; ".join(said) + ".")
     else:
         lines.append("No catalog entry's signature explains this structure.")
-    by_evidence = [c["name"] for c in d["candidates"] if c.get("named_by") == "evidence"]
+    by_evidence = [c.name for c in d.candidates if c.named_by == "evidence"]
     if by_evidence:
         lines.append(f"The evidence points at {', '.join(by_evidence)}: the enriched class raises ln Z beyond the "
-                     f"threshold {d['threshold_log_bayes']:g} and no primary item of the signature contradicts it.")
-    for c in d["candidates"]:
-        if c["named"] and not c.get("confirmed", c["name"] == d["omitted_physics"]):
-            lines.append(f"{c['name']}: {c['decision']}.")
-    if d["omitted_physics"] == "none" and d.get("next_tests"):
+                     f"threshold {d.rule.threshold:g} and no primary item of the signature contradicts it.")
+    for c in d.candidates:
+        if c.named and not c.confirmed:
+            lines.append(f"{c.name}: {c.decision}.")
+    if d.omitted_physics == "none" and d.next_tests:
         lines.append("To separate the remaining hypotheses: " + "; ".join(
-            f"{n['candidate']} needs {', '.join(n['needs'])}" for n in d["next_tests"]) + ".")
-    if d["omitted_physics"] != "none":
-        cl = next(c for c in d["classes"] if c["role"] == "enriched" and c["candidate"] == d["omitted_physics"])
-        lnb = d["log_bayes"][cl["name"]]
+            f"{n.candidate} needs {', '.join(n.needs)}" for n in d.next_tests) + ".")
+    if d.omitted_physics != "none":
+        cl = next(c for c in d.classes if c.role == "enriched" and c.candidate == d.omitted_physics)
+        lnb = d.log_bayes[cl.name]
         bf = f"{math.exp(lnb):.3g}" if lnb < 700 else f"e^{lnb:.0f}"
-        lines.append(f"The omitted physics is {d['omitted_physics']}: the evidence favours {cl['name']} over the "
+        lines.append(f"The omitted physics is {d.omitted_physics}: the evidence favours {cl.name} over the "
                      f"base model by ln B = {lnb:.1f} (Bayes factor {bf}).")
     else:
-        lines.append(f"Conclusion: {d['recommendation']}.")
+        lines.append(f"Conclusion: {d.recommendation}.")
     return lines
 
 
-def markdown(d) -> str:
-    """The diagnosis dict of `diagnose` as a Markdown report: the conclusion in words, the model classes before and
-    after, the enriched parameters, the ranked candidates and the screening of every class."""
+def markdown(d: Diagnosis) -> str:
+    """A `records.Diagnosis` as a Markdown report: the conclusion in words, the model classes before and after, the
+    enriched parameters, the ranked candidates and the screening of every class."""
     lines = ["# Missing-physics diagnosis", ""]
-    if d["description"]:
-        lines += [d["description"], ""]
-    lines += ["## Conclusion", ""] + _engineer_summary(d) + ["", f"Omitted physics: **{d['omitted_physics']}**. "
-                                                              f"Recommendation: {d['recommendation']}.", ""]
+    if d.description:
+        lines += [d.description, ""]
+    lines += ["## Conclusion", ""] + _engineer_summary(d) + ["", f"Omitted physics: **{d.omitted_physics}**. "
+                                                              f"Recommendation: {d.recommendation}.", ""]
     lines += ["## Model classes (before / after)", "",
               "| class | role | ln Z | ln B vs base | J_g at MAP (per test) | sigma_eps | verdict | structured curves | "
               "regions | mean lag-1 | coverage (95 %) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for c in d["classes"]:
-        s = c["structure"]
-        jg = ", ".join(f"{t} {v:.3g}" for t, v in (c["J_g"] or {}).items() if isinstance(v, float))
-        lines.append(f"| {c['name']} | {c['role']} | {_fmt(c['log_evidence'], '.2f')} | "
-                     f"{_fmt(c['log_bayes_vs_base'], '+.2f')} | {jg} | {_fmt(c['sigma_eps'], '.4f')} | {s['verdict']} | "
+    for c in d.classes:
+        s = c.structure
+        jg = ", ".join(f"{t} {v:.3g}" for t, v in (c.J_g or {}).items() if isinstance(v, float))
+        lines.append(f"| {c.name} | {c.role} | {_fmt(c.log_evidence, '.2f')} | "
+                     f"{_fmt(c.log_bayes_vs_base, '+.2f')} | {jg} | {_fmt(c.sigma_eps, '.4f')} | {s['verdict']} | "
                      f"{s['structured_curves']}/{s['curves']} | {s['regions']} | {s['mean_lag1']:+.2f} | "
                      f"{_fmt(None if s['coverage'] is None else 100 * s['coverage'], '.0f')} % |")
-    for c in d["classes"]:
-        if c["role"] == "enriched" and c.get("parameters"):
-            lines += ["", f"Parameters of {c['name']} (posterior):", "", "| parameter | MAP | mean | std | 95 % interval |",
+    for c in d.classes:
+        if c.role == "enriched" and c.parameters:
+            lines += ["", f"Parameters of {c.name} (posterior):", "", "| parameter | MAP | mean | std | 95 % interval |",
                       "|---|---|---|---|---|"]
-            for n, p in c["parameters"].items():
+            for n, p in c.parameters.items():
                 lines.append(f"| {n} | {p['map']:.4g} | {p['mean']:.4g} | {p['std']:.3g} | "
                              f"[{p.get('q2.5', float('nan')):.4g}, {p.get('q97.5', float('nan')):.4g}] |")
     lines += ["", "## Candidate physics ranked by signature score", "",
               "Score = sum of weight x R^2 over the signature items the screening supports (significant after Holm and "
               "in the expected direction), divided by the sum of the weights (inference.diagnosis.rank).", "",
               "| rank | candidate | score | named | decision | items (covariate: status) |", "|---|---|---|---|---|---|"]
-    for k, c in enumerate(d["candidates"], 1):
-        items = "; ".join(f"{i['covariate']}: {i['status']}" for i in c["items"])
-        lines.append(f"| {k} | {c['name']} | {c['score']:.3f} | {'yes' if c['named'] else 'no'} | {c['decision']} | "
-                     f"{items} |")
-    for name, rep in d["screens"].items():
-        lines += ["", f"# Screening of {name}", "", _screen_report(rep).to_markdown()]
+    for k, c in enumerate(d.candidates, 1):
+        items = "; ".join(f"{i.covariate}: {i.status}" for i in c.items)
+        lines.append(f"| {k} | {c.name} | {c.score:.3f} | {'yes' if c.named else 'no'} | {c.decision} | {items} |")
+    for name, rep in d.screens.items():
+        lines += ["", f"# Screening of {name}", "", rep.to_markdown()]
     return "\n".join(lines) + "\n"
-
-
-def _screen_report(d) -> ScreenReport:
-    """A ScreenReport back from its ``to_dict()``."""
-    return ScreenReport(**{**d, "curves": [CurveStatistics(**c) for c in d["curves"]],
-                           "regions": [Region(**r) for r in d["regions"]],
-                           "attribution": [Attribution(**a) for a in d["attribution"]]})
-
-
-def to_json(d) -> str:
-    """The diagnosis dict as JSON text (numpy scalars and arrays as plain numbers and lists)."""
-    return json.dumps(d, indent=1, default=_json_default)
-
-
-def _json_default(obj):
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    raise TypeError(f"not JSON-serializable: {type(obj).__name__}")

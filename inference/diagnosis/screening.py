@@ -31,9 +31,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .attribution import attribute, holm
+from .attribution import Attribution, attribute, holm
 from .bands import predictive_bands
-from .structure import _finite, lag1_test, runs_test, scale_test, scan_test, segment
+from .structure import Region, _finite, lag1_test, runs_test, scale_test, scan_test, segment
 
 __all__ = ["TESTS", "POSITION", "CurveStatistics", "ScreenReport", "relative_residuals", "simulate_samples",
            "curve_statistics", "screen"]
@@ -157,6 +157,13 @@ class ScreenReport:
         d["regions"] = [r.to_dict() for r in self.regions]
         d["attribution"] = [a.to_dict() for a in self.attribution]
         return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ScreenReport":
+        """A ScreenReport back from its ``to_dict()``."""
+        return cls(**{**d, "curves": [CurveStatistics(**c) for c in d["curves"]],
+                      "regions": [Region(**r) for r in d["regions"]],
+                      "attribution": [Attribution(**a) for a in d["attribution"]]})
 
     def to_json(self, path=None) -> str:
         text = json.dumps(self.to_dict(), indent=2)

@@ -464,7 +464,8 @@ def test_concealed_viscosity_study_reproduces_the_case_loop(tmp_path):
 
     settings = Settings(24, 5, 60)  # the study file's [sampler.quick] with --samples 24
     args = arguments("", ["--samples", "24", "--processes", "1"])
-    ref = cv.run_loop(cv.load_data(cv.DATASETS["concealed"]), args, tmp_path / "case", 3, settings, "test")
+    ref = cv.run_loop(cv.load_data(cv.DATASETS["concealed"]), args, tmp_path / "case", 3, settings,
+                      "test").final.to_dict()
     argv = [str(VALIDATION_STUDIES / "concealed_viscosity.toml"), "--quick", "--samples", "24", "--seed", "3",
             "--processes", "1", "--out", str(tmp_path / "study"), "--diagnose"]
     assert cal.main(argv) == 0

@@ -5,6 +5,8 @@ decision by evidence together with the signature (rank.conclude, run_loop's enri
 structure no candidate explains. Oracles: the null hypothesis itself (a rate at most alpha plus 3 binomial standard
 errors) and the planted patterns."""
 import math
+from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -126,7 +128,7 @@ def named(like, sim, cov):
                                    "J_g": {}, "parameters": {}, "sigma_eps": SIGMA, "map_simulated": sim,
                                    "sample_simulated": {k: np.vstack([v, v]) for k, v in sim.items()},
                                    "sample_sigma": np.array([SIGMA, SIGMA])}], cov, DIRECTION, n_shifts=200)
-    return d, [c["name"] for c in d["candidates"] if c["named"]]
+    return d, d.named
 
 
 def test_opposite_offsets_in_compression_and_extension_are_named_on_two_tests():
@@ -135,9 +137,9 @@ def test_opposite_offsets_in_compression_and_extension_are_named_on_two_tests():
     draws (the permutation of 2 tests gives p = 1); the report says where and how."""
     for seed in range(20):
         d, names = named(*compression_extension(np.random.default_rng(seed), 0.09, -0.15))
-        assert d["verdict"] == "structured mismatch" and names == ["fabric"], seed
-        a = next(a for a in d["attribution"] if a["name"] == "direction")
-        c = a["contrast"]["q"]
+        assert d.verdict == "structured mismatch" and names == ["fabric"], seed
+        a = next(a for a in d.attribution if a.name == "direction")
+        c = a.contrast["q"]
         assert c["grid"] == "interpolated" and c["levels"] == ["compression", "extension"] and c["z"] < 0
         assert c["range"][0] >= X_EXT[0] and c["range"][1] <= X_EXT[-1]
     text = diagnosis.markdown(d)
@@ -151,70 +153,77 @@ def test_equal_offsets_are_not_named():
     not_named = 0
     for seed in range(20):
         d, names = named(*compression_extension(np.random.default_rng(seed), 0.09, 0.09))
-        assert d["verdict"] == "structured mismatch"
+        assert d.verdict == "structured mismatch"
         not_named += names == []
     assert not_named >= 18
     d, names = named(*compression_extension(np.random.default_rng(1), 0.09, 0.09))
     assert names == []
     text = diagnosis.markdown(d)
     assert "No catalog entry's signature explains this structure" in text
-    assert d["next_tests"] == [{"candidate": "softening", "needs": [
+    assert d.next_tests == (diagnosis.NextTest("softening", (
         "tests that differ in post-peak strain, reported as a covariate (its pattern: recorded falls below simulated "
-        "past the peak)"]}]
+        "past the peak)",)),)
     assert "softening needs tests that differ in post-peak strain" in text
 
 
 # ------------------------------------------------------------------------------------------------ deciding
 def _ranked(statuses):
     """Ranked candidates in the given order: {name: named}; all with an enrichment."""
-    return [{"name": n, "named": named_, "in_base": False, "enrichment": {}, "unavailable": ""}
-            for n, named_ in statuses.items()]
+    return [diagnosis.CandidateScore(n, "", 0.0, named_, named_, False, {}, "") for n, named_ in statuses.items()]
+
+
+def _model_class(name, role, candidate, log_evidence):
+    return ModelClass(name, role, candidate, log_evidence, {}, {}, SIGMA, {}, {}, np.empty(0))
+
+
+def _item(covariate, status, effect, meaning="m"):
+    return diagnosis.SignatureItem(covariate, "primary", 1.0, 1, meaning, None, None, None, None, effect, None, status,
+                                   0.0)
 
 
 def _classes(lnb):
-    return [{"name": "base", "role": "base", "log_evidence": 0.0}] + [
-        {"name": f"base + {n}", "role": "enriched", "candidate": n, "log_evidence": v} for n, v in lnb.items()]
+    return [_model_class("base", "base", None, 0.0)] + [
+        _model_class(f"base + {n}", "enriched", n, v) for n, v in lnb.items()]
 
 
 def test_conclude_by_evidence_with_the_signature():
     ranked = _ranked({"A": True, "B": True, "C": False})
     # two signature-named contenders within the margin: the better-ranked one is confirmed, the other reported
     d = diagnosis.conclude(ranked, _classes({"A": 10.0, "B": 11.0}))
-    assert d["omitted_physics"] == "A" and d["candidates"][1]["decision"].startswith("also raises the evidence")
+    assert d.omitted_physics == "A" and d.candidates[1].decision.startswith("also raises the evidence")
     # a class beyond the margin wins
     d = diagnosis.conclude(ranked, _classes({"A": 10.0, "B": 14.0}))
-    assert d["omitted_physics"] == "B" and d["candidates"][0]["decision"].startswith("also raises the evidence")
+    assert d.omitted_physics == "B" and d.candidates[0].decision.startswith("also raises the evidence")
     # a candidate the signature does not name wins the evidence by the margin: confirmed, named by the evidence
     d = diagnosis.conclude(ranked, _classes({"A": 10.0, "C": 20.0}))
-    assert d["omitted_physics"] == "C" and d["candidates"][2]["named_by_evidence"]
-    assert "named by the evidence" in d["candidates"][2]["decision"]
+    assert d.omitted_physics == "C" and d.candidates[2].named_by_evidence
+    assert "named by the evidence" in d.candidates[2].decision
     # two contenders, neither named by its signature: the evidence does not separate them, nothing confirmed
     d = diagnosis.conclude(_ranked({"A": False, "B": False}), _classes({"A": 10.0, "B": 11.0}))
-    assert d["omitted_physics"] == "none" and "not separated by the margin 3" in d["candidates"][0]["decision"]
-    assert all(c["named_by_evidence"] for c in d["candidates"])
+    assert d.omitted_physics == "none" and "not separated by the margin 3" in d.candidates[0].decision
+    assert all(c.named_by_evidence for c in d.candidates)
     # below the threshold, or the own pattern left: not confirmed, with the reason
     d = diagnosis.conclude(ranked, _classes({"A": 2.0}))
-    assert d["omitted_physics"] == "none" and d["candidates"][0]["decision"].startswith("named, not confirmed")
+    assert d.omitted_physics == "none" and d.candidates[0].decision.startswith("named, not confirmed")
     d = diagnosis.conclude(ranked, _classes({"A": 50.0}), explained={"A": (False, ["x: the pattern"])})
-    assert d["omitted_physics"] == "none" and "leaves its own residual pattern: x: the pattern" in \
-        d["candidates"][0]["decision"]
+    assert d.omitted_physics == "none" and "leaves its own residual pattern: x: the pattern" in \
+        d.candidates[0].decision
     # the leader fails its pattern: a lower contender is not promoted over it
     d = diagnosis.conclude(ranked, _classes({"A": 5.0, "B": 6.0}), explained={"A": (False, ["x"])})
-    assert d["omitted_physics"] == "none" and "leaves its own residual pattern" in d["candidates"][0]["decision"]
-    assert "A ranks above it" in d["candidates"][1]["decision"]
+    assert d.omitted_physics == "none" and "leaves its own residual pattern" in d.candidates[0].decision
+    assert "A ranks above it" in d.candidates[1].decision
     # a class beaten by the margin
-    d = diagnosis.conclude(ranked, _classes({"A": 0.5, "B": 4.0}), threshold=3.0, margin=3.0)
-    assert d["omitted_physics"] == "B" and "< 3" in d["candidates"][0]["decision"]
+    d = diagnosis.conclude(ranked, _classes({"A": 0.5, "B": 4.0}), diagnosis.DecisionRule(threshold=3.0, margin=3.0))
+    assert d.omitted_physics == "B" and "< 3" in d.candidates[0].decision
     # a primary item pointing the other way vetoes the evidence
-    contra = [{**ranked[2], "items": [{"covariate": "rate", "role": "primary", "status": "opposite direction",
-                                       "meaning": "faster is stronger"}]}]
+    contra = [replace(ranked[2], items=(_item("rate", "opposite direction", None, meaning="faster is stronger"),))]
     d = diagnosis.conclude(contra, _classes({"C": 30.0}))
-    assert d["omitted_physics"] == "none" and "points the other way: rate: faster is stronger" in \
-        d["candidates"][0]["decision"]
+    assert d.omitted_physics == "none" and "points the other way: rate: faster is stronger" in \
+        d.candidates[0].decision
 
 
 def test_misfit_explained_by_the_located_regions():
-    regions = [{"test": "T", "curve": "y", "i_start": 2, "i_stop": 6}]
+    regions = [SimpleNamespace(test="T", curve="y", i_start=2, i_stop=6)]
     base = {("T", "y"): np.array([0.0, 0.0, 0.1, 0.1, 0.1, 0.1, 0.0])}
     assert diagnosis.rank.misfit_explained(regions, base, {("T", "y"): np.array([0.0] * 2 + [0.04] * 4 + [0.0])})[0]
     ok, left = diagnosis.rank.misfit_explained(regions, base, {("T", "y"): np.array([0.0] * 2 + [0.07] * 4 + [0.0])})
@@ -224,20 +233,21 @@ def test_misfit_explained_by_the_located_regions():
     assert not diagnosis.rank.misfit_explained(regions, base, {("T", "y"): np.array([0.0] * 2 + [0.065] * 4 + [0.0])})[0]
     assert diagnosis.rank.misfit_explained([], base, base) == (True, [])
     # the median over regions: one region where the simulated value passes near zero does not decide alone
-    three = regions + [{"test": "T", "curve": "z", "i_start": 0, "i_stop": 3},
-                       {"test": "T", "curve": "w", "i_start": 0, "i_stop": 3}]
+    three = regions + [SimpleNamespace(test="T", curve="z", i_start=0, i_stop=3),
+                       SimpleNamespace(test="T", curve="w", i_start=0, i_stop=3)]
     base3 = {**base, ("T", "z"): np.full(3, -2.0), ("T", "w"): np.full(3, 0.3)}
     after = {("T", "y"): np.full(7, 0.02), ("T", "z"): np.full(3, 18.0), ("T", "w"): np.full(3, 0.05)}
     assert diagnosis.rank.misfit_explained(three, base3, after)[0]
 
 
 def test_pattern_explained_by_effect_size():
-    item = {"covariate": "x", "curves": None, "direction": 1, "role": "primary", "meaning": "m"}
-    base = {"items": [{**item, "status": "supports", "effect": 0.04}]}
-    assert diagnosis.rank.pattern_explained(base, {"items": [{**item, "status": "not significant",
-                                                              "effect": 0.03}]}) == (True, [])
-    assert diagnosis.rank.pattern_explained(base, {"items": [{**item, "status": "supports", "effect": 0.02}]})[0]
-    ok, left = diagnosis.rank.pattern_explained(base, {"items": [{**item, "status": "supports", "effect": 0.03}]})
+    def scored(status, effect):
+        return diagnosis.CandidateScore("c", "", 0.0, True, True, False, {}, "", (_item("x", status, effect),))
+
+    base = scored("supports", 0.04)
+    assert diagnosis.rank.pattern_explained(base, scored("not significant", 0.03)) == (True, [])
+    assert diagnosis.rank.pattern_explained(base, scored("supports", 0.02))[0]
+    ok, left = diagnosis.rank.pattern_explained(base, scored("supports", 0.03))
     assert not ok and left == ["x: m (size 4 % -> 3 %)"]
 
 
@@ -285,13 +295,13 @@ def test_loop_enriches_every_enrichable_candidate_and_decides():
     result = run_loop(problem, n_shifts=200)
     assert problem.calibrated == [None, "step", "slope", "never"]      # structure found: every enrichment tried
     final = result.final
-    assert final["omitted_physics"] == "step"
-    decisions = {c["name"]: c for c in final["candidates"]}
-    assert decisions["step"]["confirmed"] and decisions["step"]["pattern_explained"]
-    assert decisions["slope"]["plausible"] and not decisions["slope"]["named"]
-    assert decisions["never"]["decision"].startswith("not confirmed: ln B = -5.00 < 3")
-    assert final["warnings"] == {"None": ["sigma_eps near its upper bound"]}
-    assert "fits poorly (sigma_eps near its upper bound)" in final["recommendation"]
+    assert final.omitted_physics == "step"
+    decisions = {c.name: c for c in final.candidates}
+    assert decisions["step"].confirmed and decisions["step"].pattern_explained
+    assert decisions["slope"].plausible and not decisions["slope"].named
+    assert decisions["never"].decision.startswith("not confirmed: ln B = -5.00 < 3")
+    assert final.warnings == {"None": ["sigma_eps near its upper bound"]}
+    assert "fits poorly (sigma_eps near its upper bound)" in final.recommendation
     assert "Poor fit of None: sigma_eps near its upper bound." in diagnosis.markdown(final)
     named_only = Fixed(enrich="named")
     run_loop(named_only, n_shifts=200)

@@ -125,24 +125,25 @@ def _base_log_evidence_by_quadrature(observations):
 
 def test_the_loop_names_and_confirms_the_curvature(curved):
     problem, result = curved
-    assert result.first["verdict"] == "structured mismatch"
+    assert result.first.verdict == "structured mismatch"
     assert result.named == ["offset", "curvature"] and result.named_without_enrichment == ["offset"]
     assert [c.name for c in result.classes] == ["y = a x", "y = a x + curvature", "y = a x + saturation"]
     assert [(c.role, c.candidate) for c in result.classes] == [("base", None), ("enriched", "curvature"),
                                                                 ("enriched", "saturation")]
     final = result.final
-    assert final["omitted_physics"] == "curvature"
-    decisions = {c["name"]: c["decision"] for c in final["candidates"]}
+    assert final.omitted_physics == "curvature"
+    decisions = {c.name: c.decision for c in final.candidates}
     assert decisions["offset"] == "candidate named, enrichment not available (not implemented in this toy)"
     assert decisions["curvature"].startswith("confirmed") and decisions["saturation"].startswith("not confirmed: ln B = -")
     # the enriched class explains the curvature's own residual pattern (its x item no longer supports it)
-    curvature = next(c for c in final["candidates"] if c["name"] == "curvature")
-    assert curvature["confirmed"] and curvature["pattern_explained"] and curvature["pattern_left"] == []
-    assert final["margin_log_bayes"] == final["threshold_log_bayes"] == diagnosis.STRONG_LOG_BAYES
-    assert final["log_bayes"]["y = a x + curvature"] > 50 > final["log_bayes"]["y = a x + saturation"]
+    curvature = next(c for c in final.candidates if c.name == "curvature")
+    assert curvature.confirmed and curvature.pattern_explained and curvature.pattern_left == ()
+    assert final.rule == diagnosis.DecisionRule() and final.rule.lead == final.rule.threshold == \
+        diagnosis.STRONG_LOG_BAYES
+    assert final.log_bayes["y = a x + curvature"] > 50 > final.log_bayes["y = a x + saturation"]
     # the enriched MAP recovers the generating b (1 % noise on 60 points: b within a few per cent)
     assert result.classes[1].parameters["b"]["map"] == pytest.approx(B, rel=0.05)
-    after = next(c for c in final["classes"] if c["name"] == "y = a x + curvature")["structure"]
+    after = next(c for c in final.classes if c.name == "y = a x + curvature").structure
     assert after["verdict"] == "consistent with noise"
     assert set(result.timing) == {"screen_and_rank_s", "diagnose_final_s", "calibration_s", "loop_s"}
     assert set(result.timing["calibration_s"]) == {c.name for c in result.classes}
@@ -150,11 +151,11 @@ def test_the_loop_names_and_confirms_the_curvature(curved):
 
 def test_the_loop_names_nothing_without_curvature(straight):
     problem, result = straight
-    assert result.first["verdict"] == "consistent with noise"
+    assert result.first.verdict == "consistent with noise"
     assert result.named == [] and result.named_without_enrichment == []
     assert [c.name for c in result.classes] == ["y = a x"]
-    assert result.final is result.first and result.final["omitted_physics"] == "none"
-    assert result.final["log_bayes"] == {} and result.timing["diagnose_final_s"] == 0.0
+    assert result.final is result.first and result.final.omitted_physics == "none"
+    assert result.final.log_bayes == {} and result.timing["diagnose_final_s"] == 0.0
     assert result.classes[0].parameters["a"]["map"] == pytest.approx(A, rel=0.01)
 
 
@@ -178,11 +179,13 @@ def _without_wall_times(d):
 def test_in_memory_diagnosis_equals_the_run_directory_route(curved, tmp_path):
     problem, result = curved
     diagnosis.write_input(tmp_path, problem.likelihood, result.classes, result.covariates, CANDIDATES,
-                          description=problem.description)
+                          description=problem.description, **result.settings)
     from_files = diagnosis.diagnose_directory(tmp_path)
-    assert diagnosis.to_json(_without_wall_times(from_files)) == diagnosis.to_json(_without_wall_times(result.final))
-    written = json.loads((tmp_path / "diagnosis.json").read_text())
+    assert _without_wall_times(from_files.to_dict()) == _without_wall_times(result.final.to_dict())
+    text = (tmp_path / "diagnosis.json").read_text()
+    written = json.loads(text)
     assert written["omitted_physics"] == "curvature"
+    assert diagnosis.Diagnosis.from_json(text).to_json() + "\n" == text
     text = (tmp_path / "diagnosis.md").read_text()
     assert "Omitted physics: **curvature**" in text and "# Screening of y = a x + curvature" in text
     assert diagnosis.markdown(result.final) == text
@@ -200,7 +203,7 @@ def test_run_loop_writes_no_files_and_needs_no_also_enrich(tmp_path, monkeypatch
 
     monkeypatch.chdir(tmp_path)
     result = run_loop(Minimal(), n_shifts=200)
-    assert result.final["description"] == "minimal" and result.named == []
+    assert result.final.description == "minimal" and result.named == []
     assert list(tmp_path.iterdir()) == []
 
 
@@ -210,3 +213,34 @@ def test_model_class_role_is_checked_and_to_dict_leaves_extra_out(curved):
     assert "extra" not in d and d["name"] == "y = a x" and d["candidate"] is None
     with pytest.raises(ValueError, match="role 'other'"):
         ModelClass(**{**d, "role": "other"})
+
+
+def test_the_directory_is_rediagnosed_under_the_loops_decision_rule(tmp_path):
+    """A loop run under a strict rule (ln B >= 1000: the curvature's ln B of about 60-100 does not confirm it), its
+    directory written as a study's loop writes it (inputs with the loop's settings, then the diagnosis): ``python -m
+    inference.diagnosis DIR`` and its alias ``inference.diagnose`` reproduce the loop's conclusion and threshold, not
+    the default rule's (which confirms the curvature); an explicit --threshold replaces the recorded one."""
+    from inference.diagnose import main as alias
+    from inference.diagnosis.__main__ import main
+
+    problem = Polynomial(B, also=["saturation", "curvature"])
+    strict = diagnosis.DecisionRule(threshold=1000.0, margin=5.0)
+    result = run_loop(problem, rule=strict, n_shifts=200)
+    assert result.final.omitted_physics == "none" and result.final.rule == strict
+    assert result.settings == {"alpha": 0.05, "level": 0.95, "rule": strict, "n_shifts": 200}
+    diagnosis.write_input(tmp_path, problem.likelihood, result.classes, result.covariates, CANDIDATES,
+                          description=problem.description, **result.settings)
+    diagnosis.write_diagnosis(tmp_path, result.final)
+    loop_json = json.loads((tmp_path / "diagnosis.json").read_text())
+    recorded = json.loads((tmp_path / "diagnosis_input.json").read_text())
+    assert recorded["decision_rule"] == strict.to_dict() and recorded["n_shifts"] == 200
+    for command in (main, alias):
+        assert command([str(tmp_path)]) == 0
+        again = json.loads((tmp_path / "diagnosis.json").read_text())
+        assert _without_wall_times(again) == _without_wall_times(loop_json)
+        assert again["omitted_physics"] == "none" and again["threshold_log_bayes"] == 1000.0
+        assert again["margin_log_bayes"] == 5.0
+    assert main([str(tmp_path), "--threshold", "3"]) == 0
+    relaxed = json.loads((tmp_path / "diagnosis.json").read_text())
+    assert relaxed["omitted_physics"] == "curvature" and relaxed["threshold_log_bayes"] == 3.0
+    assert relaxed["margin_log_bayes"] == 5.0

@@ -10,7 +10,7 @@ import pytest
 from scipy import stats
 
 from inference import Bound, Prior, mode_evidence
-from inference.benchmarks import linear_gaussian, reference_evidence_by_quadrature, rosenbrock
+from inference.bench import linear_gaussian, reference_evidence_by_quadrature, rosenbrock
 
 
 def _poor_sample(center, spread, d, seed=0, n=64):

@@ -16,7 +16,7 @@ import pytest
 
 from inference import (EXIT_CHECKPOINTED, Checkpointed, RunStopped, SamplerError, SerialExecutor, UniformPrior, tmcmc,
                        write_failures)
-from inference.benchmarks import PROBLEMS
+from inference.bench import PROBLEMS
 from inference.tmcmc.run import remaining_evaluations
 from inference.tmcmc.state import StageRecord
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from inference import (CheckpointError, PoolExecutor, SamplerError, SerialExecutor, UniformPrior, tmcmc)
-from inference.benchmarks import PROBLEMS, reference_evidence_by_quadrature
+from inference.bench import PROBLEMS, reference_evidence_by_quadrature
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(ROOT, "tests", "scripts", "small_run.py")

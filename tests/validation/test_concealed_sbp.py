@@ -1,6 +1,8 @@
 """validation.proofs.sbp: SYNTHETIC two-rate SBP data with a hidden effect, the partial-drainage enrichment (coupled FE
 with the permeability free) and the loop (slow)."""
 import os
+from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -114,8 +116,9 @@ def _diagnosed(like, simulated, cov):
     switches = cs.SBPProblem(1e-9, True).catalog_switches(cs.BASE_SWITCHES)
     ranked = diagnosis.rank_candidates(report, relative_residuals(like, simulated), cov,
                                       physics_catalog.signatures(switches))
-    return {"verdict": report.verdict, "candidates": ranked, "classes": [], "omitted_physics": "none",
-            "attribution": report.to_dict()["attribution"], "recommendation": "-"}
+    return diagnosis.Diagnosis("", 0.05, report.verdict, "none", "-", (), tuple(report.attribution),
+                               tuple(diagnosis.DiagnosedCandidate(**vars(r)) for r in ranked), (), {},
+                               diagnosis.DecisionRule(), {}, (), {})
 
 
 @pytest.mark.parametrize("effect, cavity, pore", [
@@ -130,17 +133,17 @@ def test_two_rate_signatures_name_the_effect_only_with_the_pore_pressure(effect,
     named and the case says it cannot tell viscosity from partial drainage apart and needs the pore pressure."""
     for like, sim, cov, pp in _planted_sbp(cavity, pore):
         diag = _diagnosed(like, sim, cov)
-        named = [c["name"] for c in diag["candidates"] if c["named"]]
+        named = diag.named
         limits, answer = cs.design_limits(diag, pp)
-        rate = next(a for a in diag["attribution"] if a["name"] == "strain rate")
+        rate = next(a for a in diag.attribution if a.name == "strain rate")
         if effect == "none":
-            assert diag["verdict"] == "consistent with noise" and named == []
+            assert diag.verdict == "consistent with noise" and named == []
             assert "cannot tell" not in answer
             continue
-        assert rate["contrast"] and rate["p_adjusted"] <= 0.05
-        assert rate["contrast"]["cavity_pressure"]["z"] > 0
+        assert rate.contrast and rate.p_adjusted <= 0.05
+        assert rate.contrast["cavity_pressure"]["z"] > 0
         if pp:
-            assert diag["verdict"] == "structured mismatch" and named == [effect], (named, limits)
+            assert diag.verdict == "structured mismatch" and named == [effect], (named, limits)
         else:
             assert named == []
             assert answer.startswith("cannot tell viscosity from partial drainage apart") and "pore pressure" in answer
@@ -162,8 +165,9 @@ def test_answer_without_pore_pressure_mentions_the_evidence_only_when_it_separat
     noise seeds 1 and 2: ln B 20.0 / 5.4 and 3.3 / 1.9)."""
     like, sim, cov, pp = _planted_sbp({"fast": 0.03, "slow": -0.03}, {"fast": -0.05, "slow": 0.05})[1]
     diag = _diagnosed(like, sim, cov)
-    diag["classes"] = [{"role": "enriched", "candidate": "viscosity", "log_bayes_vs_base": visc},
-                       {"role": "enriched", "candidate": "partial drainage", "log_bayes_vs_base": drain}]
+    diag = replace(diag, classes=(
+        SimpleNamespace(role="enriched", candidate="viscosity", log_bayes_vs_base=visc),
+        SimpleNamespace(role="enriched", candidate="partial drainage", log_bayes_vs_base=drain)))
     limits, answer = cs.design_limits(diag, pp)
     assert not pp and answer.startswith("cannot tell viscosity from partial drainage apart")
     assert ("favours viscosity" in answer) == favours

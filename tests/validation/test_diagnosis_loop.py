@@ -113,30 +113,30 @@ def test_scoring_ranks_the_planted_rate_signature_first(seed):
     # recorded stronger than simulated in faster tests: 3 % per decade of rate
     report, ranked = _ranked(lambda rate, x: 0.03 * np.log10(rate / 1.0), seed)
     assert report.verdict == "structured mismatch"
-    assert ranked[0]["name"] == "viscosity" and ranked[0]["named"] and ranked[0]["score"] > 0
-    item = next(i for i in ranked[0]["items"] if i["covariate"] == "strain rate")
-    assert item["status"] == "supports" and item["rank_correlation"] > 0.5
-    assert [r["name"] for r in ranked if r["named"]] == ["viscosity"]
+    assert ranked[0].name == "viscosity" and ranked[0].named and ranked[0].score > 0
+    item = next(i for i in ranked[0].items if i.covariate == "strain rate")
+    assert item.status == "supports" and item.rank_correlation > 0.5
+    assert [r.name for r in ranked if r.named] == ["viscosity"]
 
 
 def test_scoring_respects_the_direction_of_the_signature():
     # slower tests stronger: the opposite rate trend (partial drainage's supporting item), not viscosity's
     _, ranked = _ranked(lambda rate, x: -0.03 * np.log10(rate / 1.0))
-    by = {r["name"]: r for r in ranked}
-    visc = next(i for i in by["viscosity"]["items"] if i["covariate"] == "strain rate")
-    assert visc["status"] == "opposite direction" and not by["viscosity"]["named"]
-    drain = next(i for i in by["partial drainage"]["items"] if i["covariate"] == "strain rate")
-    assert drain["status"] == "supports"
+    by = {r.name: r for r in ranked}
+    visc = next(i for i in by["viscosity"].items if i.covariate == "strain rate")
+    assert visc.status == "opposite direction" and not by["viscosity"].named
+    drain = next(i for i in by["partial drainage"].items if i.covariate == "strain rate")
+    assert drain.status == "supports"
     # its primary covariate (drainage time factor) was not reported: not named, the score says how much was seen
-    assert not by["partial drainage"]["named"] and by["partial drainage"]["score"] > 0
+    assert not by["partial drainage"].named and by["partial drainage"].score > 0
 
 
 def test_scoring_names_a_post_peak_softening_signature_as_destructuration():
     # recorded falls below simulated as strain accumulates (past a peak at 5 %), in every test alike
     report, ranked = _ranked(lambda rate, x: -0.06 * (x / 10.0) ** 2)
     assert report.verdict == "structured mismatch"
-    assert ranked[0]["name"] == "destructuration" and ranked[0]["named"]
-    assert ranked[0]["enrichment"]["switches"]["destructuration"] is True
+    assert ranked[0].name == "destructuration" and ranked[0].named
+    assert ranked[0].enrichment["switches"]["destructuration"] is True
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
@@ -146,29 +146,32 @@ def test_scoring_credits_nothing_on_noise(seed):
     report, ranked = _ranked(lambda rate, x: 0.0 * x, seed)
     assert all(a.p_adjusted > 0.05 for a in report.attribution)
     for r in ranked:
-        assert r["score"] == 0.0 and not r["named"]
-        assert {i["status"] for i in r["items"]} <= {"not reported", "not significant"}
+        assert r.score == 0.0 and not r.named
+        assert {i.status for i in r.items} <= {"not reported", "not significant"}
 
 
 def test_conclude_confirms_by_bayes_factor_and_reports_unavailable_enrichments():
     _, ranked = _ranked(lambda rate, x: 0.03 * np.log10(rate))
-    base = {"name": "base", "role": "base", "log_evidence": 100.0}
-    strong = {"name": "visc", "role": "enriched", "candidate": "viscosity", "log_evidence": 110.0}
-    weak = {**strong, "log_evidence": 101.0}
-    assert diagnosis.conclude(ranked, [base, strong])["omitted_physics"] == "viscosity"
+    def model_class(name, role, candidate, log_evidence):
+        return diagnosis.ModelClass(name, role, candidate, log_evidence, {}, {}, SIGMA, {}, {}, np.empty(0))
+
+    base = model_class("base", "base", None, 100.0)
+    strong = model_class("visc", "enriched", "viscosity", 110.0)
+    weak = model_class("visc", "enriched", "viscosity", 101.0)
+    assert diagnosis.conclude(ranked, [base, strong]).omitted_physics == "viscosity"
     weak_verdict = diagnosis.conclude(ranked, [base, weak])
-    assert weak_verdict["omitted_physics"] == "none" and weak_verdict["log_bayes"] == {"visc": 1.0}
-    assert diagnosis.conclude(ranked, [base])["omitted_physics"] == "none"
+    assert weak_verdict.omitted_physics == "none" and weak_verdict.log_bayes == {"visc": 1.0}
+    assert diagnosis.conclude(ranked, [base]).omitted_physics == "none"
     _, destr = _ranked(lambda rate, x: -0.06 * (x / 10.0) ** 2)
-    decision = diagnosis.conclude(destr, [base])["candidates"][0]
-    assert decision["name"] == "destructuration"
-    assert decision["decision"] == "candidate named, enriched class not calibrated"
+    decision = diagnosis.conclude(destr, [base]).candidates[0]
+    assert decision.name == "destructuration"
+    assert decision.decision == "candidate named, enriched class not calibrated"
     # a named candidate whose enrichment is not implemented (here: destructuration with its enrichment removed)
     stripped = [dict(c, enrichment=None, unavailable="not implemented in this test") if c["name"] == "destructuration"
                 else c for c in catalog.signatures(BASE)]
     _, destr = _ranked(lambda rate, x: -0.06 * (x / 10.0) ** 2, candidates=stripped)
-    decision = diagnosis.conclude(destr, [base])["candidates"][0]
-    assert decision["decision"] == "candidate named, enrichment not available (not implemented in this test)"
+    decision = diagnosis.conclude(destr, [base]).candidates[0]
+    assert decision.decision == "candidate named, enrichment not available (not implemented in this test)"
     with pytest.raises(ValueError, match="exactly one with role 'base'"):
         diagnosis.conclude(ranked, [strong])
 
@@ -255,16 +258,16 @@ def _loop(tmp_path, control):
 
 @pytest.mark.slow
 def test_case_loop_names_viscosity_on_concealed_data(tmp_path):
-    d = _loop(tmp_path, control=False)
-    assert d["verdict"] == "structured mismatch" and d["omitted_physics"] == "viscosity"
-    assert list(d["log_bayes"].values())[0] > diagnosis.STRONG_LOG_BAYES
+    d = _loop(tmp_path, control=False).final
+    assert d.verdict == "structured mismatch" and d.omitted_physics == "viscosity"
+    assert list(d.log_bayes.values())[0] > diagnosis.STRONG_LOG_BAYES
     assert (tmp_path / "diagnosis.json").exists() and (tmp_path / "diagnosis.png").exists()
 
 
 @pytest.mark.slow
 def test_case_loop_names_nothing_on_the_control(tmp_path):
-    d = _loop(tmp_path, control=True)
-    assert d["omitted_physics"] == "none" and d["log_bayes"] == {}
+    d = _loop(tmp_path, control=True).final
+    assert d.omitted_physics == "none" and d.log_bayes == {}
 
 
 # ------------------------------------------------------------------------------------------------ concealed_lab
@@ -331,7 +334,7 @@ def _named_at_best_fit(effect):
     report = screen(like, sim, float(np.sqrt(np.mean(fit.fun**2))), covariates=cov)  # the loop's 1000 draws
     ranked = diagnosis.rank_candidates(report, relative_residuals(like, sim), cov,
                                       catalog.signatures(lab.BASE_SWITCHES, lab.PROBLEM.model))
-    return report.verdict, [r["name"] for r in ranked if r["named"] and r["enrichment"]]
+    return report.verdict, [r.name for r in ranked if r.named and r.enrichment]
 
 
 @pytest.mark.parametrize("effect, expected", [("anisotropy", ["anisotropy"]), ("destructuration", ["destructuration"]),
@@ -351,7 +354,7 @@ def test_lab_case_tiny_loop_names_anisotropy(tmp_path):
     shared 2-core machine at load 7, hence slow)."""
     obs = lab.load_data(lab.DATA / lab.EFFECTS["anisotropy"]["dataset"])
     args = arguments("", ["--samples", "20"])
-    d = lab.run_loop(obs, args, tmp_path, 1, lab.Settings(20, 2, 8), "test", lab.PROBLEM)
-    assert d["verdict"] == "structured mismatch" and d["omitted_physics"] == "anisotropy"
-    assert list(d["log_bayes"].values())[0] > diagnosis.STRONG_LOG_BAYES
+    d = lab.run_loop(obs, args, tmp_path, 1, lab.Settings(20, 2, 8), "test", lab.PROBLEM).final
+    assert d.verdict == "structured mismatch" and d.omitted_physics == "anisotropy"
+    assert list(d.log_bayes.values())[0] > diagnosis.STRONG_LOG_BAYES
     assert (tmp_path / "diagnosis.json").exists() and (tmp_path / "diagnosis.png").exists()

@@ -144,17 +144,17 @@ def load_data(directory):
     return proofs.load_data(PROGRAMME, directory)
 
 
-def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str, problem=PROBLEM) -> dict:
+def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str, problem=PROBLEM):
     """Calibrate, locate, explain, enrich, recalibrate, compare; writes everything into ``out``."""
     return loop(problem, obs, args, out, seed, settings, label)
 
 
 # ------------------------------------------------------------------------------------------------ confusion table
-def row_of(effect: str, seed: int, d: dict) -> dict:
-    return {"hidden": effect, "seed": seed, "verdict": d["verdict"], "named": [c["name"] for c in d["candidates"]
-                                                                                if c["named"]],
-            "omitted_physics": d["omitted_physics"], "log_bayes": d["log_bayes"], "loop_s": d["timing"]["loop_s"],
-            "calibration_s": d["timing"]["calibration_s"]}
+def row_of(effect: str, seed: int, result) -> dict:
+    d = result.final
+    return {"hidden": effect, "seed": seed, "verdict": d.verdict, "named": d.named,
+            "omitted_physics": d.omitted_physics, "log_bayes": d.log_bayes, "loop_s": result.timing["loop_s"],
+            "calibration_s": result.timing["calibration_s"]}
 
 
 def confusion_markdown(rows) -> str:
@@ -210,9 +210,10 @@ def run(args) -> int:
     obs = load_data(DATA / dataset)
     t0 = time.perf_counter()
     if args.diagnose:
-        d = run_loop(obs, args, out / dataset, args.seed, settings, f"{dataset}, shipped data")
-        print(json.dumps({"case": CASE, "data": dataset, "verdict": d["verdict"], "omitted_physics":
-                          d["omitted_physics"], "log_bayes": d["log_bayes"], "timing": d["timing"]}, default=float))
+        result = run_loop(obs, args, out / dataset, args.seed, settings, f"{dataset}, shipped data")
+        d = result.final
+        print(json.dumps({"case": CASE, "data": dataset, "verdict": d.verdict, "omitted_physics": d.omitted_physics,
+                          "log_bayes": d.log_bayes, "timing": result.timing}, default=float))
     else:
         cls, post, _ = PROBLEM.calibrate_class(obs, class_name(BASE_SWITCHES, "ANICREEP"), BASE_SWITCHES,
                                                BASE_BOUNDS, (), args, out / dataset, args.seed, settings)

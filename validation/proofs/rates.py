@@ -98,8 +98,9 @@ def load_data(directory):
     return proofs.load_data(PROGRAMME, directory)
 
 
-def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str) -> dict:
-    """Calibrate, locate, explain, enrich, recalibrate, compare; writes everything into ``out``."""
+def run_loop(obs, args, out: Path, seed: int, settings: Settings, label: str):
+    """Calibrate, locate, explain, enrich, recalibrate, compare; writes everything into ``out``; returns the loop's
+    records (``inference.diagnosis.LoopResult``)."""
     return loop(PROBLEM, obs, args, out, seed, settings, label)
 
 
@@ -134,10 +135,11 @@ def run(args) -> int:
         for seed in range(args.seed, args.seed + args.seeds):
             for label in ("concealed", "control"):
                 obs = observations_from(synthetic_curves(label == "control", seed), f"synthetic, {label}")
-                d = run_loop(obs, args, out / f"{label}_seed{seed}", seed, settings, f"{label}, noise seed {seed}")
-                rows.append({"seed": seed, "label": label, "verdict": d["verdict"], "omitted_physics":
-                             d["omitted_physics"], "named": [c["name"] for c in d["candidates"] if c["named"]],
-                             "log_bayes": d["log_bayes"], "loop_s": d["timing"]["loop_s"]})
+                result = run_loop(obs, args, out / f"{label}_seed{seed}", seed, settings,
+                                  f"{label}, noise seed {seed}")
+                d = result.final
+                rows.append({"seed": seed, "label": label, "verdict": d.verdict, "omitted_physics": d.omitted_physics,
+                             "named": d.named, "log_bayes": d.log_bayes, "loop_s": result.timing["loop_s"]})
                 (out / "seeds.md").write_text("# Concealed-physics loop over noise seeds (SYNTHETIC data)\n\n"
                                               + seeds_table(rows))
         print((out / "seeds.md").read_text())
@@ -145,9 +147,10 @@ def run(args) -> int:
     label = "control" if args.control else "concealed"
     obs = load_data(DATASETS[label])
     if args.diagnose:
-        d = run_loop(obs, args, out / label, args.seed, settings, f"{label}, shipped data")
-        print(json.dumps({"case": CASE, "data": label, "verdict": d["verdict"], "omitted_physics": d["omitted_physics"],
-                          "log_bayes": d["log_bayes"], "timing": d["timing"]}, default=float))
+        result = run_loop(obs, args, out / label, args.seed, settings, f"{label}, shipped data")
+        d = result.final
+        print(json.dumps({"case": CASE, "data": label, "verdict": d.verdict, "omitted_physics": d.omitted_physics,
+                          "log_bayes": d.log_bayes, "timing": result.timing}, default=float))
     else:
         cls, post, _ = PROBLEM.calibrate_class(obs, class_name(BASE_SWITCHES, "ANICREEP"), BASE_SWITCHES, BASE_BOUNDS,
                                                (), args, out / label, args.seed, settings)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -173,8 +174,8 @@ class SBPProblem(LoopProblem):
 
     def also_enrich(self, diag):
         """Every other enrichable candidate that is named or, with ``all_enrichments``, whenever the base misfits."""
-        return [c["name"] for c in diag["candidates"] if c["name"] in ENRICHABLE
-                and (c["named"] or (self.all_enrichments and diag["verdict"] == "structured mismatch"))]
+        return [c.name for c in diag.candidates if c.name in ENRICHABLE
+                and (c.named or (self.all_enrichments and diag.verdict == "structured mismatch"))]
 
     def executor(self):
         return inference.default_executor("dynamic", self.processes)
@@ -210,17 +211,17 @@ class SBPProblem(LoopProblem):
 ENRICHABLE = ("viscosity", "partial drainage")
 
 
-def _with_curves(candidate: dict) -> list:
+def _with_curves(candidate) -> list:
     """The diagnosis' items of ``candidate`` with the curves each is measured on (from the catalog, same order)."""
-    return [{**i, "curves": s["curves"]}
-            for i, s in zip(candidate["items"], physics_catalog.candidate(candidate["name"]).signature)]
+    return [replace(i, curves=s["curves"])
+            for i, s in zip(candidate.items, physics_catalog.candidate(candidate.name).signature)]
 
 
 def _recorded(item, curves) -> bool:
-    return item["curves"] is None or bool(set(item["curves"]) & set(curves))
+    return item.curves is None or bool(set(item.curves) & set(curves))
 
 
-def design_limits(diag: dict, pore_pressure: bool) -> tuple:
+def design_limits(diag, pore_pressure: bool) -> tuple:
     """(What these records cannot decide, in words or "", the tool's answer in one line), from the diagnosis'
     candidate items, attribution and Bayes factors.
 
@@ -231,51 +232,51 @@ def design_limits(diag: dict, pore_pressure: bool) -> tuple:
     tell them apart (the answer then says so, and adds which one the Bayes factors favour only when they separate the
     classes by ln B >= 3)."""
     curves = CURVES if pore_pressure else CURVES[:1]
-    enrichable = [{**c, "items": _with_curves(c)} for c in diag["candidates"] if c["name"] in ENRICHABLE]
-    lnb = {c["candidate"]: c["log_bayes_vs_base"] for c in diag["classes"] if c["role"] == "enriched"}
-    attribution = {a["name"]: a for a in diag["attribution"]}
+    enrichable = [replace(c, items=tuple(_with_curves(c))) for c in diag.candidates if c.name in ENRICHABLE]
+    lnb = {c.candidate: c.log_bayes_vs_base for c in diag.classes if c.role == "enriched"}
+    attribution = {a.name: a for a in diag.attribution}
     notes = []
     for c in enrichable:
-        for i in c["items"]:
-            a = attribution.get(i["covariate"])
-            if (i["role"] == "primary" and i["status"] == "not significant" and a is not None and a["kind"] ==
-                    "between" and not a.get("contrast") and _recorded(i, curves)):
-                notes.append(f"{c['name']}: a between-test trend of {i['covariate']} cannot be significant with "
+        for i in c.items:
+            a = attribution.get(i.covariate)
+            if (i.role == "primary" and i.status == "not significant" and a is not None and a.kind == "between"
+                    and not a.contrast and _recorded(i, curves)):
+                notes.append(f"{c.name}: a between-test trend of {i.covariate} cannot be significant with "
                              f"{len(RATES)} tests under the permutation null; more tests are needed")
-    blind = [c for c in enrichable if not any(_recorded(i, curves) for i in c["items"] if i["role"] == "primary")]
-    shared = [i for c in blind for i in c["items"] if i["status"] == "supports"]
+    blind = [c for c in enrichable if not any(_recorded(i, curves) for i in c.items if i.role == "primary")]
+    shared = [i for c in blind for i in c.items if i.status == "supports"]
     for c in blind:
-        missing = {k for i in c["items"] if i["role"] == "primary" for k in i["curves"] or ()} - set(curves)
-        notes.append(f"{c['name']}: its primary signature needs curves that are not recorded here "
+        missing = {k for i in c.items if i.role == "primary" for k in i.curves or ()} - set(curves)
+        notes.append(f"{c.name}: its primary signature needs curves that are not recorded here "
                      f"({', '.join(sorted(missing & set(CURVES)) or sorted(missing))})")
     if len(blind) > 1 and shared:
-        a = attribution[shared[0]["covariate"]]
-        notes.append(f"the records show a significant effect of {a['name']} (p = {a['p_adjusted']:.2g}; "
-                     f"{shared[0]['meaning']}; rank correlation {shared[0]['rank_correlation']:+.2f}) that "
-                     f"{' and '.join(c['name'] for c in blind)} both produce: without the wall pore pressure the "
+        a = attribution[shared[0].covariate]
+        notes.append(f"the records show a significant effect of {a.name} (p = {a.p_adjusted:.2g}; "
+                     f"{shared[0].meaning}; rank correlation {shared[0].rank_correlation:+.2f}) that "
+                     f"{' and '.join(c.name for c in blind)} both produce: without the wall pore pressure the "
                      "records cannot tell them apart; record the wall pore pressure")
     ranked = sorted(((v, n) for n, v in lnb.items() if v is not None), reverse=True)
     top = ranked[0] if ranked and ranked[0][0] >= diagnosis.STRONG_LOG_BAYES else None
     separated = top is not None and (len(ranked) == 1 or top[0] - ranked[1][0] >= diagnosis.STRONG_LOG_BAYES)
-    named = [c for c in diag["candidates"] if c["named"]]
-    if diag["verdict"] == "structured mismatch" and len(named) != 1 and top is not None:
+    named = diag.named
+    if diag.verdict == "structured mismatch" and len(named) != 1 and top is not None:
         if not separated:
             notes.append(f"the evidence does not separate {top[1]} and {ranked[1][1]} (ln B {top[0]:.1f} and "
                          f"{ranked[1][0]:.1f}, difference below {diagnosis.STRONG_LOG_BAYES:g})")
         else:
             notes.append(f"the signatures name no candidate; the evidence favours {top[1]} (ln B {top[0]:.1f}" +
                          ("" if len(ranked) == 1 else f"; next {ranked[1][0]:.1f}") + ")")
-    undecidable = len(blind) > 1 and (shared or diag["verdict"] == "structured mismatch")
+    undecidable = len(blind) > 1 and (shared or diag.verdict == "structured mismatch")
     if undecidable:
-        answer = (f"cannot tell {' from '.join(c['name'] for c in blind)} apart: record the wall pore pressure" +
+        answer = (f"cannot tell {' from '.join(c.name for c in blind)} apart: record the wall pore pressure" +
                   (f" (the evidence alone favours {top[1]}, ln B {top[0]:.1f}, but the signatures cannot check it)"
                    if separated else ""))
-    elif diag["omitted_physics"] != "none":
-        answer = f"{diag['omitted_physics']} (named by its signature, ln B {lnb[diag['omitted_physics']]:.1f})"
+    elif diag.omitted_physics != "none":
+        answer = f"{diag.omitted_physics} (named by its signature, ln B {lnb[diag.omitted_physics]:.1f})"
     elif named:
-        answer = f"{', '.join(c['name'] for c in named)} named; enriched class not calibrated or not confirmed"
+        answer = f"{', '.join(named)} named; enriched class not calibrated or not confirmed"
     else:
-        answer = diag["recommendation"]
+        answer = diag.recommendation
     return "; ".join(notes), answer
 
 
@@ -294,18 +295,18 @@ def run_case(effect: str, seed: int, out: Path, pore_pressure=True, settings=SET
     obs = (observations_from(generated, pore_pressure, "yes") if generated is not None
            else load_data(effect, pore_pressure))
     problem = SBPProblem(EFFECTS[effect]["k_assumed"], pore_pressure, processes, all_enrichments)
-    diag = run_loop(problem, obs, args or arguments(__doc__, []), out, seed, settings, label)
+    diag = run_loop(problem, obs, args or arguments(__doc__, []), out, seed, settings, label).final
     limits, answer = design_limits(diag, pore_pressure)
     row = {"effect": effect, "dataset": EFFECTS[effect]["dataset"], "seed": seed, "data_seed": data_seed,
            "pore_pressure": pore_pressure,
-           "verdict": diag["verdict"], "named": [c["name"] for c in diag["candidates"] if c["named"]],
-           "omitted_physics": diag["omitted_physics"], "log_bayes": diag["log_bayes"],
-           "log_evidence": {c["name"]: c["log_evidence"] for c in diag["classes"]},
-           "regions": [f"{r['test']} {r['curve']} {r['x_start']:.3g}-{r['x_end']:.3g} % ({r['sign']}, "
-                       f"{100 * r['mean_relative']:+.1f} %)" for r in diag["mismatch_regions"]],
-           "scores": {c["name"]: round(c["score"], 3) for c in diag["candidates"]},
-           "parameters": {c["name"]: c["parameters"] for c in diag["classes"]},
-           "design_limits": limits, "recommendation": diag["recommendation"], "answer": answer,
+           "verdict": diag.verdict, "named": diag.named,
+           "omitted_physics": diag.omitted_physics, "log_bayes": diag.log_bayes,
+           "log_evidence": {c.name: c.log_evidence for c in diag.classes},
+           "regions": [f"{r.test} {r.curve} {r.x_start:.3g}-{r.x_end:.3g} % ({r.sign}, "
+                       f"{100 * r.mean_relative:+.1f} %)" for r in diag.mismatch_regions],
+           "scores": {c.name: round(c.score, 3) for c in diag.candidates},
+           "parameters": {c.name: c.parameters for c in diag.classes},
+           "design_limits": limits, "recommendation": diag.recommendation, "answer": answer,
            "wall_s": time.perf_counter() - t0}
     (out / "case.json").write_text(json.dumps(row, indent=1, default=float))
     return row

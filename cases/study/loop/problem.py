@@ -36,7 +36,7 @@ from cases.study.reading.records import generating_values
 from cases.study.reading.schema import Settings, Study
 from cases.study.outputs.calibration_warnings import calibration_warnings
 
-__all__ = ["LoopProblem", "StudyProblem", "run_loop", "CASE", "LOG_BAYES_THRESHOLD"]
+__all__ = ["LoopProblem", "StudyProblem", "run_loop", "CASE", "LOG_BAYES_THRESHOLD", "DECISION_RULE"]
 
 CASE = "calibrate"
 #: ln B that confirms an enrichment in a soil study's loop (and the margin by which it must lead the others),
@@ -45,6 +45,9 @@ CASE = "calibrate"
 #: CRS destructuration). A later CIU control's swelling class reached +26.7 (the generator's model and the drivers'
 #: discretization differ from the calibrated one): the located-misfit check (rank.MISFIT_REDUCTION) refused it
 LOG_BAYES_THRESHOLD = 20.0
+#: the decision rule of a soil study's loop (threshold and margin LOG_BAYES_THRESHOLD), recorded in its directory's
+#: diagnosis_input.json so that ``python -m inference.diagnosis DIR`` reaches the loop's conclusion
+DECISION_RULE = diagnosis.DecisionRule(threshold=LOG_BAYES_THRESHOLD)
 
 
 class LoopProblem:
@@ -98,7 +101,7 @@ class LoopProblem:
         """The switches the catalog's ``present_when`` is compared with."""
         return switches
 
-    def also_enrich(self, first_diagnosis: dict) -> list:
+    def also_enrich(self, first_diagnosis: diagnosis.Diagnosis) -> list:
         """Further candidates (names, in this order) whose enriched class the loop calibrates after the best-ranked
         named one, from the first diagnosis; none by default."""
         return []
@@ -126,11 +129,11 @@ class LoopProblem:
         return inference.Likelihood(observations, self.forward(switches), weights=self.weights or None, batch=True,
                                     groups=self.error_groups)
 
-    def outputs(self, run, seed, out, post, like, cls: dict, map_curves):
-        """Figures and reports of one calibrated class (after summary.json)."""
+    def outputs(self, run, seed, out, post, like, cls: dict, map_curves, summary: dict):
+        """Figures and reports of one calibrated class (after summary.json, whose content is ``summary``)."""
 
-    def plot(self, path, like, classes: list, diag: dict, label: str):
-        """The loop's figure (diagnosis.png); ``classes`` as class dicts, the base class first."""
+    def plot(self, path, like, classes: list, diag: diagnosis.Diagnosis, label: str):
+        """The loop's figure (diagnosis.png); ``classes`` the [ModelClass], the base class first."""
 
     # ---------------------------------------------------------------------------------------- one class
     def calibrate_class(self, observations, name, switches, bounds, log_uniform, run, out, seed,
@@ -180,7 +183,7 @@ class LoopProblem:
             "model_class": name, "switches": switches, **self.summary_extra(switches), "calibration_wall_s": wall_s,
             **({"evidence": evidence.to_dict()} if evidence is not None else {})})
         cls = self.class_record(post, like, name, switches, seed, draws, summary, evidence)
-        self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"])
+        self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"], summary)
         return cls, summary
 
     def class_record(self, post, like, name, switches, seed, draws, summary, evidence=None) -> ModelClass:
@@ -246,23 +249,25 @@ class LoopProblem:
         return self.curve_covariates(self.likelihood, base.extra["map_curves"])
 
 
-def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: Settings, label: str) -> dict:
-    """Calibrate, locate, explain, enrich, recalibrate, compare (``inference.diagnosis.run_loop``), then write the
-    loop's files into ``out``. Returns the final diagnosis with the loop's ``timing``."""
+def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: Settings,
+             label: str) -> diagnosis.LoopResult:
+    """Calibrate, locate, explain, enrich, recalibrate, compare (``inference.diagnosis.run_loop`` under
+    DECISION_RULE), then write the loop's files into ``out`` (the rule and settings in diagnosis_input.json).
+    Returns the loop's records (the final `Diagnosis` in ``.final``, the ``timing``)."""
     out = Path(out)
     problem.start(observations, run, out, seed, settings, label)
-    result = diagnosis.run_loop(problem, threshold=LOG_BAYES_THRESHOLD)
+    result = diagnosis.run_loop(problem, rule=DECISION_RULE)
     like, final = problem.likelihood, result.final
     diagnosis.write_input(out, like, result.classes, result.covariates, problem.candidates(),
-                          description=problem.description)
+                          description=problem.description, **result.settings)
     diagnosis.write_diagnosis(out, final)
-    problem.plot(out / "diagnosis.png", like, [c.to_dict() for c in result.classes], final, label)
+    problem.plot(out / "diagnosis.png", like, result.classes, final, label)
     (out / "loop.json").write_text(json.dumps({
-        "label": label, "seed": seed, "verdict": final["verdict"], "omitted_physics": final["omitted_physics"],
+        "label": label, "seed": seed, "verdict": final.verdict, "omitted_physics": final.omitted_physics,
         "named": result.named, "named_without_enrichment": result.named_without_enrichment,
-        "not_calibrated": result.not_calibrated, "log_bayes": final["log_bayes"], "timing": result.timing, "settings": vars(settings)},
+        "not_calibrated": result.not_calibrated, "log_bayes": final.log_bayes, "timing": result.timing, "settings": vars(settings)},
         indent=1, default=float))
-    return {**final, "timing": result.timing}
+    return result
 
 
 class StudyProblem(LoopProblem):
@@ -345,8 +350,8 @@ class StudyProblem(LoopProblem):
         return programme_covariates(self.study.tests, like.observations, map_curves, times=self.times,
                                     within_test=True)
 
-    def outputs(self, run, seed, out, post, like, cls, map_curves):
-        write_outputs(out, run.method, post, like, cls, self.study, self.synthetic, self.generating)
+    def outputs(self, run, seed, out, post, like, cls, map_curves, summary):
+        write_outputs(out, run.method, post, like, cls, self.study, self.synthetic, self.generating, summary)
 
     def plot(self, path, like, classes, diag, label):
         plot_loop(path, like, classes, diag, label, self.synthetic)

@@ -125,11 +125,11 @@ def plot_stages(post, path):
     plt.close(fig)
 
 
-def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, truth: dict | None):
+def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, truth: dict | None, summary: dict):
     """report.md (with the calibration warnings of :mod:`cases.study.outputs.calibration_warnings`, also printed on stdout as
-    ``warning: ...``), curves.png, marginals.png, stages.png of one calibrated class of ``study`` (its summary.json is
-    written); ``cls`` the class record (MAP and posterior-sample curves), ``truth`` the values synthetic
-    recordings were made from (or None)."""
+    ``warning: ...``), curves.png, marginals.png, stages.png of one calibrated class of ``study``; ``cls`` the class
+    record (MAP and posterior-sample curves), ``truth`` the values synthetic recordings were made from (or None),
+    ``summary`` the class's summary.json content (``runner.write_summary``)."""
     out = Path(out)
     tag = "SYNTHETIC recordings" if synthetic else "recordings"
     bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
@@ -140,7 +140,6 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
                     else study.error_model.parameter_bounds())
     plot_marginals(post, out / "marginals.png", marks=marks, bounds={**study.free, **sigma_bounds}, title=title)
     plot_stages(post, out / "stages.png")
-    summary = json.loads((out / "summary.json").read_text())
     lines = [f"# {study.name}: {method_name(method)} calibration of {cls['name']}", ""]
     if synthetic:
         lines += ["**The recordings are SYNTHETIC** (their `# synthetic` header lines say how they were made); they "
@@ -204,7 +203,7 @@ def plot_curves(path, like, map_simulated, bands, title):
 def plot_loop(path, like, classes, diag, label, synthetic):
     """Per recorded curve: data with the base (dashed) and enriched (solid) MAP, and below it the base class's
     relative residual with the mismatch regions shaded. The enriched class drawn is the confirmed one, else the one
-    of largest ln Z."""
+    of largest ln Z. ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis."""
     plt = pyplot()
     panels = _panels(like)
     ncol = min(4, len(panels))
@@ -215,27 +214,27 @@ def plot_loop(path, like, classes, diag, label, synthetic):
         axes[2 * (j // ncol) + 1, j % ncol].axis("off")
     base, enriched = classes[0], None
     if len(classes) > 1:
-        confirmed = [c for c in classes[1:] if c["candidate"] == diag["omitted_physics"]]
-        enriched = confirmed[0] if confirmed else max(classes[1:], key=lambda c: c["log_evidence"])
+        confirmed = [c for c in classes[1:] if c.candidate == diag.omitted_physics]
+        enriched = confirmed[0] if confirmed else max(classes[1:], key=lambda c: c.log_evidence)
     for j, (t, c) in enumerate(panels):
         row, col = 2 * (j // ncol), j % ncol
         curve, top, bottom = like.observations[t].curves[c], axes[row, col], axes[row + 1, col]
         top.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
-        top.plot(curve.x, base["map_simulated"][t, c], "k--", lw=1, label="base MAP")
+        top.plot(curve.x, base.map_simulated[t, c], "k--", lw=1, label="base MAP")
         if enriched is not None:
-            top.plot(curve.x, enriched["map_simulated"][t, c], "C0-", lw=1.3, label=f"{enriched['candidate']} MAP")
+            top.plot(curve.x, enriched.map_simulated[t, c], "C0-", lw=1.3, label=f"{enriched.candidate} MAP")
         top.set_title(f"{t}: {c}", fontsize=9)
         top.set_ylabel(LABELS.get(c, c))
         top.legend(fontsize=7)
-        bottom.plot(curve.x, 100 * (curve.y / base["map_simulated"][t, c] - 1.0), "o-", ms=3, lw=0.6, color="C3")
-        for reg in diag["mismatch_regions"]:
-            if reg["test"] == t and reg["curve"] == c:
-                bottom.axvspan(reg["x_start"], reg["x_end"], color="C3", alpha=0.15)
+        bottom.plot(curve.x, 100 * (curve.y / base.map_simulated[t, c] - 1.0), "o-", ms=3, lw=0.6, color="C3")
+        for reg in diag.mismatch_regions:
+            if reg.test == t and reg.curve == c:
+                bottom.axvspan(reg.x_start, reg.x_end, color="C3", alpha=0.15)
         bottom.axhline(0, color="k", lw=0.6)
         bottom.set_xlabel(X_LABELS.get(curve.x_name, curve.x_name))
         bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")
     tag = "SYNTHETIC data" if synthetic else "recordings"
-    fig.suptitle(f"{tag} ({label}): {diag['verdict']}; omitted physics: {diag['omitted_physics']}", fontsize=10)
+    fig.suptitle(f"{tag} ({label}): {diag.verdict}; omitted physics: {diag.omitted_physics}", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()))
     fig.savefig(path, dpi=100)
     plt.close(fig)

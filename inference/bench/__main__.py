@@ -1,4 +1,5 @@
-"""Sampler benchmarks with known evidence (docs/reference.md section 8) and dispatch overheads, as JSON lines.
+"""Sampler benchmarks with known evidence (docs/reference.md section 8, the problems of `inference.bench`) and
+dispatch overheads, as JSON lines.
 
     python -m inference.bench [--quick] [--seeds 10] [--samples 1000] [--problems B1,B2] [--methods ...]
         [--set max_steps=12 --set corr_threshold=0.3 ...]   # tmcmc keyword overrides
@@ -18,9 +19,9 @@ import time
 
 import numpy as np
 
-from .benchmarks import PROBLEMS
-from .executors import SerialExecutor
-from .tmcmc import tmcmc
+from ..executors import SerialExecutor
+from ..tmcmc import tmcmc
+from . import PROBLEMS
 
 #: named sampler configurations: the paper's rules and the variants measured against them
 METHODS = {

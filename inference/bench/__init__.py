@@ -1,7 +1,9 @@
-"""Posteriors with known log-evidence (docs/reference.md section 8, B1-B6), as vectorized log-likelihoods.
+"""Sampler benchmarks: posteriors with known log-evidence (docs/reference.md section 8, B1-B6), as vectorized
+log-likelihoods, used by the evidence tests; ``python -m inference.bench`` (``__main__``) runs the samplers on them
+and measures the dispatch overheads.
 
 Each problem gives a prior, a log-likelihood over (m, d) arrays, the exact ln Z and, where known, the exact
-posterior mean and standard deviation. Used by ``python -m inference.bench`` and the evidence tests.
+posterior mean and standard deviation.
 """
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import logsumexp
 
-from .priors import Prior, UniformPrior
+from ..priors import Prior, UniformPrior
 
 __all__ = ["Problem", "linear_gaussian", "gaussian_mixture", "twin_gaussian", "gaussian_shells", "eggbox",
            "rosenbrock", "PROBLEMS"]
