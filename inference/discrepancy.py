@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Discrepancy", "CurveDiscrepancy"]
+__all__ = ["Discrepancy", "CurveDiscrepancy", "normalized_abscissa", "where_it_lies"]
 
 #: rows of a batch whose covariance matrices are built at once (memory: rows x n^2 floats per curve)
 _ROWS_PER_BLOCK = 64
@@ -83,9 +83,9 @@ class Discrepancy:
         """The parameter names for discrepancy groups ``groups`` (in order): amplitudes, then the length scale."""
         return tuple(f"{self.prefix}_{g}" for g in groups) + (f"{self.prefix}_length",)
 
-    def bounds(self, groups) -> dict:
-        """{parameter: (lower, upper)} of the log-uniform priors."""
-        names = self.parameter_names(groups)
+    def bounds(self, names) -> dict:
+        """{parameter: (lower, upper)} of the log-uniform priors of the parameters ``names`` (a likelihood's
+        ``discrepancy_names``: the amplitudes, then the length scale)."""
         return {**{n: tuple(self.amplitude) for n in names[:-1]}, names[-1]: tuple(self.length)}
 
 
@@ -152,3 +152,23 @@ class CurveDiscrepancy:
         c = self.covariance(noise_sd, np.array([amplitude]), np.array([length]))[0]
         k = c - np.diag(np.full(self.n, noise_sd[0] ** 2 + 1e-10 * amplitude**2))
         return k @ np.linalg.solve(c, np.asarray(residuals, dtype=float))
+
+
+def where_it_lies(likelihood, theta, top=None) -> list:
+    """Where the discrepancy of a model-form class lies at ``theta``: per curve, the RMS and the largest |delta| of
+    its posterior mean (relative, as the residuals: 0.03 is 3 %) and the range of the abscissa (x_name, in the
+    curve's unit) where |delta| is at least half its largest value; the curves by decreasing RMS (the first ``top``).
+    ``likelihood``: an :class:`inference.Likelihood` with a discrepancy."""
+    out = []
+    for (test, curve), mean in likelihood.discrepancy_mean(theta).items():
+        used = np.isfinite(mean)
+        if not used.any():
+            continue
+        c = likelihood.observations[test].curves[curve]
+        d = np.abs(mean[used])
+        x = c.x[used][d >= 0.5 * d.max()]
+        out.append({"test": test, "curve": curve, "x_name": c.x_name, "x_unit": c.x_unit,
+                    "x_start": float(x.min()), "x_end": float(x.max()), "rms": float(np.sqrt(np.mean(d**2))),
+                    "max": float(d.max())})
+    out.sort(key=lambda r: -r["rms"])
+    return out if top is None else out[:top]

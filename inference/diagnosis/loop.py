@@ -8,6 +8,7 @@ directory, `files.write_input` and `files.write_diagnosis`).
 
 Steps of `run_loop`:
 1. candidates = problem.candidates(); base = problem.calibrate(None); covariates = problem.covariates(base);
+   the model-form class (the base with a discrepancy, ``problem.calibrate_model_form()``, optional) beside it;
 2. first diagnosis (`report.diagnose`) of the base class alone;
 3. the candidates to enrich, by the problem's ``enrich`` (optional attribute, or `run_loop`'s argument):
    "named": the first candidate in ranked order that is named and has an enrichment (named candidates before it
@@ -46,7 +47,8 @@ class LoopProblem(Protocol):
 
     likelihood: an inference.Likelihood of the recorded curves (the screening reads its observations and near-zero
     floor); description: one line for the diagnosis report, read after the base class is calibrated.
-    ``also_enrich`` and ``enrich`` ("all" or "named", module docstring step 3) are optional.
+    ``also_enrich``, ``calibrate_model_form`` and ``enrich`` ("all" or "named", module docstring step 3) are
+    optional.
     """
 
     likelihood: object
@@ -60,6 +62,10 @@ class LoopProblem(Protocol):
 
     def covariates(self, base: ModelClass) -> dict:
         """Per-point covariates of the calibrated base class, in the form of ``screen``."""
+
+    def calibrate_model_form(self) -> ModelClass:
+        """Calibrate the base class with a model-form discrepancy (``inference.Discrepancy``): the physics-free
+        alternative every enrichment must beat (`rank.conclude`)."""
 
     def also_enrich(self, first_diagnosis: Diagnosis) -> list:
         """Further candidates (names, in this order) to enrich after the best-ranked named one, from the first
@@ -127,6 +133,9 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), 
     base = replace(problem.calibrate(None), role="base", candidate=None)
     covariates = problem.covariates(base)
     classes = [base]
+    model_form = getattr(problem, "calibrate_model_form", None)
+    if model_form is not None:
+        classes.append(replace(model_form(), role="model form", candidate=None))
     t0 = time.perf_counter()
     first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
     screen_s = time.perf_counter() - t0

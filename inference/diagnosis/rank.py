@@ -57,6 +57,7 @@ from scipy import stats
 
 from . import contrast
 from .attribution import per_curve
+from .trust import confirmation_blocks, sampler_disagrees
 from .records import (MISFIT_REDUCTION, PATTERN_REDUCTION, STRONG_LOG_BAYES, CandidateDecision, CandidateScore,
                       Conclusion, DecisionRule, SignatureItem)
 from .screening import ScreenReport
@@ -219,11 +220,11 @@ def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, re
     regions: the base class's mismatch regions (``structure.Region``: test, curve, i_start, i_stop);
     base_residuals, enriched_residuals: {(test, curve): r} relative residuals of the two classes at the records.
     For each region the ratio |mean r_enriched| / |mean r_base| over its points; explained when the median ratio over
-    the regions is at most ``reduction`` (no region: explained). The median, not a weighted mean: a region where the
+    the regions is at most ``reduction`` (no region: not explained, a check with nothing to check). The median, not a weighted mean: a region where the
     simulated value passes near zero (a deviator stress turning from compression to extension) has relative
     residuals of any size and must not decide alone. reasons: the regions left, in words."""
     if not regions:
-        return True, []
+        return False, ["the base's screening located no misfit, so none can be shown to be explained"]
     ratios = []
     for g in regions:
         key, sl = (g.test, g.curve), slice(g.i_start, g.i_stop)
@@ -240,28 +241,45 @@ def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, re
 def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None) -> Conclusion:
     """The omitted physics from ranked candidates [CandidateScore] and model classes [ModelClass] (module docstring:
     confirmation) under ``rule`` (its threshold and margin; the reductions are applied by `pattern_explained` and
-    `misfit_explained`, whose verdicts come in ``explained``: {candidate: (explained, reasons)}, missing: explained).
+    `misfit_explained`, whose verdicts come in ``explained``: {candidate: (explained, reasons)}, missing: explained;
+    the checks of `trust` block a class that cannot confirm). With a class of role "model form" (the base with a
+    model-form discrepancy), the chosen enrichment must also beat it by the threshold; when nothing is confirmed and
+    it beats the base by the threshold, the misfit is of model form (``Conclusion.model_form["prevails"]``).
     """
     threshold, margin = float(rule.threshold), rule.lead
     explained = explained or {}
     base = [c for c in classes if c.role == "base"]
     if len(base) != 1:
         raise ValueError(f"classes need exactly one with role 'base', got {[c.name for c in base]}")
-    lnz0 = base[0].log_evidence
+    base = base[0]
+    model_form = next((c for c in classes if c.role == "model form"), None)
+    lnz0 = base.log_evidence
     enriched = {c.candidate: c for c in classes if c.role == "enriched"}
     log_bayes = {c.name: c.log_evidence - lnz0 for c in classes if c.role == "enriched"}
     by_candidate = {cand: log_bayes[c.name] for cand, c in enriched.items()}
+    over_form = ({} if model_form is None else
+                 {cand: c.log_evidence - model_form.log_evidence for cand, c in enriched.items()})
     entry = {r.name: r for r in ranked}
     order = sorted(by_candidate, key=lambda k: -by_candidate[k])
     leader = order[0] if order else None
     against = {name: _against(entry.get(name)) for name in by_candidate}
+    blocks = {}
+    for name, cl in enriched.items():
+        reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule)
+        if rule.sampler_agrees:
+            for other in (base, model_form):
+                disagree = "" if other is None else sampler_disagrees(cl, other)
+                if disagree:
+                    reasons.append(disagree)
+        blocks[name] = reasons
     # the candidates within the margin of the best ln B; among several, the best-ranked one named by its signature
     contenders = [k for k in order if by_candidate[k] > by_candidate[leader] - margin] if order else []
     chosen = contenders[0] if len(contenders) == 1 else next(
         (r.name for r in ranked if r.named and r.name in contenders), None)
     omitted = "none"
     if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] \
-            and explained.get(chosen, (True, []))[0]:
+            and explained.get(chosen, (True, []))[0] and not blocks[chosen] \
+            and over_form.get(chosen, threshold) >= threshold:
         omitted = chosen
     decisions = []
     for r in ranked:
@@ -279,11 +297,17 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None) -
             decision = "candidate named, enriched class not calibrated" if named else "not named"
         elif confirmed:
             decision = f"confirmed: ln B = {lnb:.2f} >= {threshold:g}" + (
+                "" if model_form is None else f", {over_form[name]:.2f} over the model-form class") + (
                 "" if named else " (named by the evidence; its signature is not contradicted)")
         elif lnb < threshold:
             decision = f"{prefix}: ln B = {lnb:.2f} < {threshold:g}"
         elif against[name]:
             decision = f"{prefix}: ln B = {lnb:.2f} but its signature points the other way: {against[name]}"
+        elif blocks[name]:
+            decision = f"{prefix}: ln B = {lnb:.2f} but {'; '.join(blocks[name])}"
+        elif over_form.get(name, threshold) < threshold:
+            decision = (f"{prefix}: ln B = {lnb:.2f} over the base but {over_form[name]:.2f} < {threshold:g} over the "
+                        "model-form class (a smooth discrepancy without physics explains the misfit as well)")
         elif omitted != "none":
             decision = f"also raises the evidence: ln B = {lnb:.2f} (the omitted physics is {omitted})"
         elif name not in contenders:
@@ -297,7 +321,13 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None) -
             decision = (f"{prefix}: ln B = {lnb:.2f} is not separated by the margin {margin:g} from the enriched "
                         f"class of {others}" + ("" if chosen is None else f", and {chosen} ranks above it"))
         decisions.append(CandidateDecision(name, decision, confirmed, by_evidence and not named))
-    return Conclusion(omitted, log_bayes, tuple(decisions), rule)
+    form = None
+    if model_form is not None:
+        lnb_form = model_form.log_evidence - lnz0
+        form = {"class": model_form.name, "log_bayes": lnb_form,
+                "log_bayes_enriched": {enriched[k].name: v for k, v in over_form.items()},
+                "prevails": omitted == "none" and lnb_form >= threshold}
+    return Conclusion(omitted, log_bayes, tuple(decisions), rule, form)
 
 
 def _against(entry) -> str:

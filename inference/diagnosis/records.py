@@ -30,7 +30,17 @@ PATTERN_REDUCTION = 0.5
 #: the controls left 0.79-0.89 (swelling +26.7 on ciu_D_s3; swelling and destructuration on the CIU control with 0.4 %
 #: noise; notes/independent-diagnosis.md)
 MISFIT_REDUCTION = 0.6
-ROLES = ("base", "enriched")
+#: the roles of a model class: the base, a base enriched with a candidate physics, and the base with a model-form
+#: discrepancy (``inference.Discrepancy``), the physics-free alternative every enrichment must beat
+ROLES = ("base", "enriched", "model form")
+#: an added parameter within this fraction of its prior range (in log for a log-uniform prior) of the end where its
+#: physics vanishes sits at that end (`trust.confirmation_blocks`)
+INERT_FRACTION = 0.02
+#: an importance-sampling estimate of ln Z is trusted when its effective sample size is at least this fraction of
+#: its draws (docs/reference.md section 10: below about 10 % not trusted)
+ESS_FRACTION = 0.1
+#: a posterior has collapsed when every free parameter's standard deviation is below this fraction of its prior range
+COLLAPSE_FRACTION = 1e-6
 
 
 @dataclass(frozen=True)
@@ -40,15 +50,23 @@ class DecisionRule:
     threshold: ln B (natural log, >= 0) the chosen enriched class must reach over the base class; margin: ln B by
     which it must lead the other enriched classes (None: the threshold); pattern_reduction: the fraction of the
     base's effect size to which each supporting primary item must fall on the enriched class; misfit_reduction: the
-    fraction of the base's located misfit (median region of |mean r|) to which it must fall. A study calibrates the
-    threshold and margin on negative controls (`rank` module docstring) and passes its rule to the loop, which
-    records it in DIR/diagnosis_input.json (`to_dict`, `from_dict`) for the re-diagnosis of the directory.
+    fraction of the base's located misfit (median region of |mean r|) to which it must fall; inert_fraction,
+    ess_fraction, collapse_fraction: the checks of an enriched class's evidence and mode (`trust`); sampler_agrees:
+    the sampler's own ln Z must not favour the class compared with (the refined estimates decide the size of ln B,
+    not its sign alone). A study calibrates the threshold and margin on negative controls (`rank` module docstring)
+    and passes its rule to the loop, which records it in DIR/diagnosis_input.json (`to_dict`, `from_dict`) for the
+    re-diagnosis of the directory. With a model-form class among the classes, the chosen enrichment must beat it,
+    too, by the threshold.
     """
 
     threshold: float = STRONG_LOG_BAYES
     margin: float | None = None
     pattern_reduction: float = PATTERN_REDUCTION
     misfit_reduction: float = MISFIT_REDUCTION
+    inert_fraction: float = INERT_FRACTION
+    ess_fraction: float = ESS_FRACTION
+    collapse_fraction: float = COLLAPSE_FRACTION
+    sampler_agrees: bool = True
 
     def __post_init__(self):
         if not self.threshold >= 0 or (self.margin is not None and not self.margin >= 0):
@@ -56,6 +74,9 @@ class DecisionRule:
         if not (0 < self.pattern_reduction <= 1 and 0 < self.misfit_reduction <= 1):
             raise ValueError(f"decision rule: reductions {self.pattern_reduction}, {self.misfit_reduction} must be in "
                              "(0, 1]")
+        for name in ("inert_fraction", "ess_fraction", "collapse_fraction"):
+            if not 0 <= getattr(self, name) < 1:
+                raise ValueError(f"decision rule: {name} = {getattr(self, name)} must be in [0, 1)")
 
     @property
     def lead(self) -> float:
@@ -84,7 +105,11 @@ class ModelClass:
     calibration wall time (s); n_forward_solves: forward solves of the calibration; extra: the problem's own data
     (e.g. the MAP's raw curves for its covariates and figures), never read by the diagnosis; warnings: the
     calibration's own findings of a poor fit, in words (e.g. "sigma_eps at its prior's upper bound 0.3", "M on its
-    prior's lower bound"), named in the diagnosis' verdict.
+    prior's lower bound"), named in the diagnosis' verdict; sampler_log_evidence: the sampler's own ln Z when
+    ``log_evidence`` is a refined estimate (``inference.mode_evidence``), whose record is ``evidence`` (the
+    `EvidenceEstimate` as a dict); priors: {parameter: [lower, upper, kind]} of the class's free parameters (the
+    mode's checks, `trust`); discrepancy: for a model-form class, where its discrepancy lies at its mode
+    (``inference.discrepancy.where_it_lies``: [{test, curve, x_name, x_start, x_end, rms, max}], largest first).
     """
 
     name: str
@@ -101,6 +126,10 @@ class ModelClass:
     n_forward_solves: int = 0
     extra: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+    sampler_log_evidence: float | None = None
+    evidence: dict | None = None
+    priors: dict = field(default_factory=dict)
+    discrepancy: list = field(default_factory=list)
 
     def __post_init__(self):
         if self.role not in ROLES:
@@ -112,7 +141,9 @@ class ModelClass:
                 "log_evidence": self.log_evidence, "J_g": self.J_g, "parameters": self.parameters,
                 "sigma_eps": self.sigma_eps, "wall_s": self.wall_s, "n_forward_solves": self.n_forward_solves,
                 "map_simulated": self.map_simulated, "sample_simulated": self.sample_simulated,
-                "sample_sigma": self.sample_sigma, "warnings": list(self.warnings)}
+                "sample_sigma": self.sample_sigma, "warnings": list(self.warnings),
+                "sampler_log_evidence": self.sampler_log_evidence, "evidence": self.evidence,
+                "priors": self.priors, "discrepancy": self.discrepancy}
 
     @classmethod
     def of(cls, model_class) -> "ModelClass":
@@ -211,12 +242,16 @@ class CandidateDecision:
 @dataclass(frozen=True)
 class Conclusion:
     """The result of `rank.conclude`: the omitted physics ("none" when nothing is confirmed), ln B of every
-    enriched class over the base {class: ln Z - ln Z_base}, the decisions in ranked order and the rule applied."""
+    enriched class over the base {class: ln Z - ln Z_base}, the decisions in ranked order and the rule applied;
+    model_form: None without a model-form class, else {class, log_bayes (over the base), log_bayes_enriched
+    {enriched class: ln Z - ln Z_model_form}, prevails (no enrichment is confirmed and the model-form class beats the
+    base by the threshold: a misfit of model form)}."""
 
     omitted_physics: str
     log_bayes: dict
     candidates: tuple
     rule: DecisionRule
+    model_form: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -269,7 +304,8 @@ class Diagnosis:
     "none"; recommendation: in one line; mismatch_regions, attribution: the base class's; candidates: ranked on the
     base class, with their decisions; classes: every class; log_bayes: {enriched class: ln B}; rule: the decision
     rule applied; warnings: {class: poor-fit warnings}; next_tests: per candidate not named, what the records lack;
-    screens: {class: ScreenReport}; wall_s: the diagnosis' wall time (s).
+    screens: {class: ScreenReport}; wall_s: the diagnosis' wall time (s); model_form: the model-form verdict of
+    `Conclusion` with, when it prevails, where the discrepancy lies ({test, curve, x range, size}, largest first).
     """
 
     description: str
@@ -287,6 +323,7 @@ class Diagnosis:
     next_tests: tuple
     screens: dict
     wall_s: float = 0.0
+    model_form: dict | None = None
 
     @property
     def named(self) -> list:
@@ -305,7 +342,8 @@ class Diagnosis:
                 "threshold_log_bayes": float(self.rule.threshold), "margin_log_bayes": self.rule.lead,
                 "warnings": self.warnings, "next_tests": [{"candidate": n.candidate, "needs": list(n.needs)}
                                                           for n in self.next_tests],
-                "screens": {name: rep.to_dict() for name, rep in self.screens.items()}, "wall_s": self.wall_s}
+                "screens": {name: rep.to_dict() for name, rep in self.screens.items()}, "wall_s": self.wall_s,
+                "model_form": self.model_form}
 
     def to_json(self) -> str:
         """DIR/diagnosis.json's text (numpy scalars and arrays as plain numbers and lists)."""
@@ -322,7 +360,8 @@ class Diagnosis:
                    tuple(_candidate(c) for c in d["candidates"]), tuple(ClassSummary(**c) for c in d["classes"]),
                    d["log_bayes"], DecisionRule(d["threshold_log_bayes"], d["margin_log_bayes"]), d["warnings"],
                    tuple(NextTest(n["candidate"], tuple(n["needs"])) for n in d["next_tests"]),
-                   {name: ScreenReport.from_dict(rep) for name, rep in d["screens"].items()}, d["wall_s"])
+                   {name: ScreenReport.from_dict(rep) for name, rep in d["screens"].items()}, d["wall_s"],
+                   d.get("model_form"))
 
 
 def _candidate_dict(c: DiagnosedCandidate) -> dict:

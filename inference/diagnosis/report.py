@@ -94,14 +94,21 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
             pattern_left=tuple(explained.get(r.name, (None, []))[1])))
     summaries = tuple(ClassSummary(cl.name, cl.role, cl.candidate, cl.log_evidence, cl.J_g, cl.parameters,
                                    cl.sigma_eps, cl.wall_s, cl.warnings,
-                                   verdict.log_bayes.get(cl.name, 0.0 if cl.role == "base" else None),
+                                   verdict.log_bayes.get(cl.name, 0.0 if cl.role == "base" else
+                                                         (verdict.model_form or {}).get("log_bayes")
+                                                         if cl.role == "model form" else None),
                                    structure[cl.name]) for cl in classes)
     regions = tuple(MismatchRegion(**vars(r), x_unit=likelihood.observations[r.test].curves[r.curve].x_unit)
                     for r in base_screen.regions)
+    form = verdict.model_form
+    if form is not None and form["prevails"]:
+        model_form_class = next(cl for cl in classes if cl.role == "model form")
+        form = {**form, "where": list(model_form_class.discrepancy[:5])}
     out = Diagnosis(description, alpha, base_screen.verdict, verdict.omitted_physics,
-                    _recommendation(verdict.omitted_physics, ranked, base_screen, warnings.get(base.name)), regions,
+                    _recommendation(verdict.omitted_physics, ranked, base_screen, warnings.get(base.name), form),
+                    regions,
                     tuple(base_screen.attribution), tuple(candidates_out), summaries, verdict.log_bayes, rule,
-                    warnings, next_tests(ranked, base_screen.attribution, recorded), screens)
+                    warnings, next_tests(ranked, base_screen.attribution, recorded), screens, model_form=form)
     return replace(out, wall_s=time.perf_counter() - t0)
 
 
@@ -152,14 +159,18 @@ def next_tests(ranked: list, attribution: list, recorded: list) -> tuple:
     return tuple(out)
 
 
-def _recommendation(omitted, ranked, report, warnings=None) -> str:
-    """The recommendation in one line, from the omitted physics, the ranked candidates, the base class's screening and
-    its poor-fit warnings."""
+def _recommendation(omitted, ranked, report, warnings=None, model_form=None) -> str:
+    """The recommendation in one line, from the omitted physics, the ranked candidates, the base class's screening,
+    its poor-fit warnings and the model-form verdict (`rank.conclude`)."""
     poor = f"; the base model fits poorly ({'; '.join(warnings)})" if warnings else ""
     if report.verdict != "structured mismatch":
         return "no structured mismatch: no enrichment recommended" + poor
     if omitted != "none":
         return f"adopt the enriched class that adds {omitted}" + poor
+    if model_form is not None and model_form["prevails"]:
+        return ("a structured misfit of model form that none of the catalog's physics explains (a smooth discrepancy "
+                f"without physics raises ln Z by {model_form['log_bayes']:.1f} and no enrichment beats it by the "
+                "threshold): no enrichment adopted" + poor)
     named = [r.name for r in ranked if r.named]
     if not named:
         return "structured mismatch that no catalog signature explains: no enrichment recommended" + poor
@@ -228,6 +239,15 @@ def _engineer_summary(d: Diagnosis) -> list:
     if d.omitted_physics == "none" and d.next_tests:
         lines.append("To separate the remaining hypotheses: " + "; ".join(
             f"{n.candidate} needs {', '.join(n.needs)}" for n in d.next_tests) + ".")
+    if d.model_form is not None and d.model_form["prevails"]:
+        where = "; ".join(f"{w['test']} {w['curve']} at {w['x_start']:.3g}-{w['x_end']:.3g}"
+                          f"{'' if w['x_unit'] == '-' else ' ' + w['x_unit']} ({w['x_name']}): up to "
+                          f"{100 * w['max']:.1f} % (RMS {100 * w['rms']:.1f} %)" for w in d.model_form["where"])
+        lines.append("The misfit is of model form: a smooth discrepancy without physics (the base plus a Gaussian-"
+                     f"process discrepancy per curve) explains it with ln B = {d.model_form['log_bayes']:.1f} over the "
+                     "base, and no catalog physics beats that by the threshold. It lies in: " + where + ". Look for "
+                     "a convention of the model or the data (specific volume, elasticity, the compression law, the "
+                     "initial K0), the discretisation of the simulation, or an effect outside the catalog.")
     if d.omitted_physics != "none":
         cl = next(c for c in d.classes if c.role == "enriched" and c.candidate == d.omitted_physics)
         lnb = d.log_bayes[cl.name]

@@ -23,11 +23,13 @@ from constitutive.registry import class_name, enrichment_family
 from inference import diagnosis
 from inference.executors import mpi_world
 from inference.diagnosis import ModelClass
+from inference.discrepancy import where_it_lies
 from inference.priors import Bound
 
 from cases.study import runner
 
 from cases.study.loop.covariates import programme_covariates
+from cases.study.programme import split_key
 from cases.study.forward.family import FamilyForward
 from cases.study.forward.study import StudyForward
 from cases.study.outputs.report import plot_loop, write_outputs
@@ -124,10 +126,21 @@ class LoopProblem:
         entries += [Bound(k, *map(float, bounds[k]), "log-uniform") for k in log_uniform]
         return inference.Prior(entries, self.constraints)
 
-    def make_likelihood(self, observations, switches) -> inference.Likelihood:
-        """The likelihood of the class with ``switches``: Eqs. (3)-(6) with the study's weights and error groups."""
+    def make_likelihood(self, observations, switches, discrepancy=None) -> inference.Likelihood:
+        """The likelihood of the class with ``switches``: Eqs. (3)-(6) with the study's weights and error groups
+        (and a model-form ``discrepancy``, ``inference.Discrepancy``, when given)."""
         return inference.Likelihood(observations, self.forward(switches), weights=self.weights or None, batch=True,
-                                    groups=self.error_groups)
+                                    groups=self.error_groups, discrepancy=discrepancy)
+
+    def discrepancy(self, observations) -> inference.Discrepancy:
+        """The model-form discrepancy of the loop's model-form class: one amplitude per recorded quantity (q, p',
+        the pore pressure, the void ratio, ...; a staged test's curves of one quantity share it), the defaults of
+        ``inference.Discrepancy`` otherwise."""
+        groups = {}
+        for t in observations:
+            for curve in t.curves:
+                groups.setdefault(split_key(curve)[0], []).append((t.name, curve))
+        return inference.Discrepancy(groups=groups)
 
     def outputs(self, run, seed, out, post, like, cls: dict, map_curves, summary: dict):
         """Figures and reports of one calibrated class (after summary.json, whose content is ``summary``)."""
@@ -137,17 +150,21 @@ class LoopProblem:
 
     # ---------------------------------------------------------------------------------------- one class
     def calibrate_class(self, observations, name, switches, bounds, log_uniform, run, out, seed,
-                        settings: Settings, **sampler) -> tuple:
-        """Calibrate one model class in ``out`` (``sampler``: further inference.tmcmc settings); returns
-        (ModelClass, Posterior, Likelihood)."""
+                        settings: Settings, discrepancy=None, **sampler) -> tuple:
+        """Calibrate one model class in ``out`` (``discrepancy``: an ``inference.Discrepancy`` whose parameters join
+        the prior, log-uniform; ``sampler``: further inference.tmcmc settings); returns (ModelClass, Posterior,
+        Likelihood)."""
         t0 = time.perf_counter()
-        like = self.make_likelihood(observations, switches)
+        like = self.make_likelihood(observations, switches, discrepancy)
+        if discrepancy is not None:
+            bounds = {**bounds, **discrepancy.bounds(like.discrepancy_names)}
+            log_uniform = tuple(log_uniform) + like.discrepancy_names
         prior = self.prior(bounds, log_uniform)
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
                                 max_steps=settings.max_steps, progress=False, **sampler)
         evidence = self.refined_evidence(like, prior, post, seed)
         cls, _ = self.finish_class(post, like, name, switches, run, out, seed, settings.predictive_draws,
-                                   time.perf_counter() - t0, evidence)
+                                   time.perf_counter() - t0, evidence, prior)
         return cls, post, like
 
     def refined_evidence(self, like, prior, post, seed):
@@ -175,23 +192,27 @@ class LoopProblem:
                                            post.samples, log_values=post.log_like, starts=starts, climbs=climbs,
                                            seed=seed)
 
-    def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s, evidence=None) -> tuple:
+    def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s, evidence=None,
+                     prior=None) -> tuple:
         """After one class's calibration: summary.json (with the class, its switches, ``wall_s`` and the refined
-        evidence, :meth:`refined_evidence`), the class record (:meth:`class_record`) and the study's outputs.
-        Returns (ModelClass, summary)."""
+        evidence, :meth:`refined_evidence`), the class record (:meth:`class_record`, with the ``prior``'s ranges)
+        and the study's outputs. Returns (ModelClass, summary)."""
         summary = runner.write_summary(out, self.case, run, seed, post, like, extra={
             "model_class": name, "switches": switches, **self.summary_extra(switches), "calibration_wall_s": wall_s,
             **({"evidence": evidence.to_dict()} if evidence is not None else {})})
-        cls = self.class_record(post, like, name, switches, seed, draws, summary, evidence)
+        cls = self.class_record(post, like, name, switches, seed, draws, summary, evidence, prior)
         self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"], summary)
         return cls, summary
 
-    def class_record(self, post, like, name, switches, seed, draws, summary, evidence=None) -> ModelClass:
+    def class_record(self, post, like, name, switches, seed, draws, summary, evidence=None,
+                     prior=None) -> ModelClass:
         """The class as the diagnosis reads it: MAP curves, ``draws`` posterior-sample curves for the predictive
         band (rows drawn with ``seed``); the MAP's raw curves in ``extra["map_curves"]``; the calibration's warnings
         (:mod:`cases.study.outputs.calibration_warnings`). With error groups, sigma_eps is each curve's sigma at the MAP (a list in the
         likelihood's curve order). With a refined ``evidence`` (``inference.mode_evidence``) its ln Z and mode are
-        the class's log-evidence and MAP (TMCMC's ln Z stays in ``extra["log_evidence_tmcmc"]``)."""
+        the class's log-evidence and MAP (TMCMC's ln Z is its ``sampler_log_evidence``, also in
+        ``extra["log_evidence_tmcmc"]``); ``prior`` gives the ranges the diagnosis checks the mode against; a
+        model-form class (a likelihood with a discrepancy) records where its discrepancy lies."""
         map_theta = post.map_theta if evidence is None else np.array(evidence.mode)
         params, sigma = like.split(map_theta)
         if isinstance(sigma, dict):
@@ -213,7 +234,11 @@ class LoopProblem:
             n_forward_solves=summary["n_forward_solves"] + (0 if evidence is None else evidence.n_solves),
             extra={"map_curves": map_raw, "map_theta": [float(v) for v in map_theta],
                    "log_evidence_tmcmc": float(post.log_evidence)},
-            warnings=calibration_warnings(post, like, map_simulated))
+            warnings=calibration_warnings(post, like, map_simulated),
+            sampler_log_evidence=None if evidence is None else float(post.log_evidence),
+            evidence=None if evidence is None else evidence.to_dict(),
+            priors={} if prior is None else {b.name: [b.lower, b.upper, b.kind] for b in prior.bounds},
+            discrepancy=[] if like.discrepancy is None else where_it_lies(like, map_theta))
 
     # ---------------------------------------------------------------------------------------- the loop's protocol
     def start(self, observations, run, out, seed: int, settings: Settings, label: str):
@@ -243,6 +268,16 @@ class LoopProblem:
         if candidate is None:
             self.likelihood, self.description = like, self.describe(self.label, name)
             self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
+        return cls
+
+    def calibrate_model_form(self) -> ModelClass:
+        """The base class with a model-form discrepancy (:meth:`discrepancy`), in DIR/model_form: the alternative
+        without physics that an enrichment must beat (``inference.diagnosis.rank.conclude``)."""
+        switches = self.base_switches
+        name = class_name(switches, self.model) + " + model-form discrepancy"
+        cls, _, _ = self.calibrate_class(self.observations, name, switches, self.base_bounds,
+                                         tuple(self.base_log_uniform), self.run, self.out / "model_form", self.seed,
+                                         self.settings, discrepancy=self.discrepancy(self.observations))
         return cls
 
     def covariates(self, base: ModelClass) -> dict:

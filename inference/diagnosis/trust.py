@@ -1,0 +1,91 @@
+"""Whether a calibrated enriched class may confirm its candidate at all: checks of its posterior, its mode and its
+evidence that come before any Bayes factor (docs/reference.md section 10, "evidence estimates to trust").
+
+A class cannot confirm when
+1. its posterior collapsed: every free parameter's posterior standard deviation is below ``collapse_fraction`` of
+   its prior range (the sampler lost its population; its ln Z and mode say nothing of the evidence);
+2. an added parameter of its candidate sits at the end of its prior where the physics vanishes (the catalog's
+   ``inert_at``: within ``inert_fraction`` of the prior range from that end, measured in log for a log-uniform
+   prior): the enrichment then fits as the base class does, or as something other than the named physics (a
+   swelling time constant at its floor is an instantaneous compliance, not a time effect);
+3. its refined evidence is not trusted: an importance-sampling estimate whose effective sample size is below
+   ``ess_fraction`` of its draws, or a Laplace estimate, unless it agrees with the sampler's own ln Z within three
+   standard errors (and 1 nat);
+4. the sampler's own ln Z favours the class it is compared with (the base, or the model-form class), while the
+   refined estimates favour it: two estimates that disagree in sign are a warning, not a licence to take the
+   larger one (`sampler_disagrees`).
+Each check gives its reason in words; a check with nothing to check (no refined estimate, no added parameter with
+an inert end) passes.
+"""
+from __future__ import annotations
+
+import math
+
+from .records import DecisionRule, ModelClass
+
+__all__ = ["confirmation_blocks", "evidence_trusted", "sampler_disagrees"]
+
+
+def _position(value: float, lower: float, upper: float, kind: str) -> float:
+    """Where ``value`` lies in its prior range, 0 at the lower end and 1 at the upper (log scale when log-uniform)."""
+    if kind == "log-uniform" and lower > 0 and value > 0:
+        return (math.log(value) - math.log(lower)) / (math.log(upper) - math.log(lower))
+    return (value - lower) / (upper - lower)
+
+
+def evidence_trusted(cls: ModelClass, rule: DecisionRule) -> str:
+    """"" when the class's ln Z may be used to confirm, else why not (check 3 of the module docstring)."""
+    ev = cls.evidence
+    if not ev:
+        return ""
+    if ev.get("method") == "importance sampling" and ev.get("n_draws") and \
+            ev.get("ess", 0.0) >= rule.ess_fraction * ev["n_draws"]:
+        return ""
+    sampler = cls.sampler_log_evidence
+    tolerance = max(3.0 * float(ev.get("std_error") or 0.0), 1.0)
+    if sampler is not None and abs(ev["log_evidence"] - sampler) <= tolerance:
+        return ""
+    if ev.get("method") == "importance sampling":
+        why = (f"its importance-sampling estimate has an effective sample size of {ev.get('ess', 0.0):.0f} of "
+               f"{ev['n_draws']} draws (needs {100 * rule.ess_fraction:.0f} %)")
+    else:
+        why = f"its refined ln Z is a {ev.get('method', 'mode')} estimate without an importance-sampling check"
+    gap = "" if sampler is None else f", and the sampler's estimate differs by {ev['log_evidence'] - sampler:+.1f}"
+    return f"evidence not trusted: {why}{gap}"
+
+
+def sampler_disagrees(cls: ModelClass, other: ModelClass) -> str:
+    """"" unless the sampler's own ln Z favours ``other`` while the class's ln Z (refined) favours the class (check 4);
+    then the reason in words."""
+    if cls.sampler_log_evidence is None or other.sampler_log_evidence is None:
+        return ""
+    sampler = cls.sampler_log_evidence - other.sampler_log_evidence
+    if sampler < 0 <= cls.log_evidence - other.log_evidence:
+        return (f"the sampler's own estimate favours the {other.role} class (ln B = {sampler:+.1f} by the sampler, "
+                f"{cls.log_evidence - other.log_evidence:+.1f} refined)")
+    return ""
+
+
+def confirmation_blocks(cls: ModelClass, enrichment: dict | None, rule: DecisionRule) -> list:
+    """Why the enriched class ``cls`` cannot confirm its candidate (checks 1-3 of the module docstring), in words;
+    [] when nothing blocks it. ``enrichment``: the candidate's plain-data enrichment (its ``inert_at``)."""
+    blocks = []
+    free = [n for n in cls.parameters if n in cls.priors]
+    if free and all(cls.parameters[n]["std"] < rule.collapse_fraction * (cls.priors[n][1] - cls.priors[n][0])
+                    for n in free):
+        blocks.append(f"its posterior collapsed (every standard deviation below {rule.collapse_fraction:g} of its "
+                      "prior range)")
+    for name, end in ((enrichment or {}).get("inert_at") or {}).items():
+        if name not in cls.parameters or name not in cls.priors:
+            continue
+        lower, upper, kind = cls.priors[name]
+        value = cls.parameters[name]["map"]
+        at = _position(value, lower, upper, kind)
+        if (end == "lower" and at <= rule.inert_fraction) or (end == "upper" and at >= 1.0 - rule.inert_fraction):
+            bound = lower if end == "lower" else upper
+            blocks.append(f"its added parameter {name} = {value:.4g} sits at the {end} end of its prior ({bound:g}), "
+                          "where the effect vanishes")
+    reason = evidence_trusted(cls, rule)
+    if reason:
+        blocks.append(reason)
+    return blocks

@@ -1,0 +1,100 @@
+"""What may confirm an enrichment (inference.diagnosis.trust, rank.conclude): a model-form class it must beat, a
+posterior that did not collapse, an added parameter away from the end where its physics vanishes, an evidence
+estimate that passed its check, and a sampler that agrees in sign."""
+from dataclasses import replace
+
+import numpy as np
+
+from inference import diagnosis
+from inference.diagnosis import DecisionRule, ModelClass
+from inference.diagnosis.trust import confirmation_blocks, evidence_trusted, sampler_disagrees
+
+RULE = DecisionRule(threshold=20.0)
+ENRICHMENT = {"inert_at": {"xi": "lower", "tau": "lower"}}
+PRIORS = {"M": [0.8, 1.6, "uniform"], "xi": [1.0, 30.0, "log-uniform"], "tau": [1e2, 1e7, "log-uniform"]}
+
+
+def _class(name, role, candidate, lnz, parameters=None, sampler=None, evidence=None, discrepancy=()):
+    return ModelClass(name, role, candidate, lnz, {}, parameters or {}, 0.02, {}, {}, np.empty(0),
+                      sampler_log_evidence=sampler, evidence=evidence, priors=PRIORS, discrepancy=list(discrepancy))
+
+
+def _params(**maps):
+    return {n: {"map": v, "mean": v, "std": 0.1 * v} for n, v in maps.items()}
+
+
+def _ranked(*names):
+    return [diagnosis.CandidateScore(n, "", 0.0, True, True, False, ENRICHMENT, "") for n in names]
+
+
+def test_a_candidate_must_beat_the_model_form_class_too():
+    base = _class("base", "base", None, 0.0)
+    form = _class("base + delta", "model form", None, 40.0)
+    wins = _class("base + A", "enriched", "A", 65.0, _params(M=1.2, xi=8.0))
+    d = diagnosis.conclude(_ranked("A"), [base, form, wins], RULE)
+    assert d.omitted_physics == "A" and "25.00 over the model-form class" in d.candidates[0].decision
+    close = replace(wins, log_evidence=50.0)
+    d = diagnosis.conclude(_ranked("A"), [base, form, close], RULE)
+    assert d.omitted_physics == "none"
+    assert "10.00 < 20 over the model-form class" in d.candidates[0].decision
+    assert d.model_form["prevails"] and d.model_form["log_bayes"] == 40.0
+    assert d.model_form["log_bayes_enriched"] == {"base + A": 10.0}
+
+
+def test_the_model_form_class_does_not_prevail_below_the_threshold():
+    base = _class("base", "base", None, 0.0)
+    form = _class("base + delta", "model form", None, 5.0)
+    d = diagnosis.conclude(_ranked("A"), [base, form, _class("base + A", "enriched", "A", 8.0, _params(xi=8.0))],
+                           RULE)
+    assert d.omitted_physics == "none" and not d.model_form["prevails"]
+
+
+def test_an_added_parameter_at_its_inert_end_blocks():
+    at_floor = _class("e", "enriched", "A", 50.0, _params(M=1.2, xi=1.015))  # log position 0.0044 of [1, 30]
+    blocks = confirmation_blocks(at_floor, ENRICHMENT, RULE)
+    assert len(blocks) == 1 and "xi = 1.015 sits at the lower end of its prior (1)" in blocks[0]
+    assert confirmation_blocks(replace(at_floor, parameters=_params(M=1.2, xi=1.2)), ENRICHMENT, RULE) == []
+    # a swelling time constant at its floor: an instantaneous compliance, not a time effect
+    fast = _class("e", "enriched", "A", 50.0, _params(tau=106.0))
+    assert "tau = 106 sits at the lower end" in confirmation_blocks(fast, ENRICHMENT, RULE)[0]
+    d = diagnosis.conclude(_ranked("A"), [_class("base", "base", None, 0.0), at_floor], RULE)
+    assert d.omitted_physics == "none" and "where the effect vanishes" in d.candidates[0].decision
+
+
+def test_a_collapsed_posterior_blocks():
+    collapsed = _class("e", "enriched", "A", 1754.0,
+                       {n: {"map": v, "mean": v, "std": 1e-24} for n, v in (("M", 1.2), ("xi", 8.0))})
+    assert "posterior collapsed" in confirmation_blocks(collapsed, ENRICHMENT, RULE)[0]
+
+
+def test_refined_evidence_is_trusted_by_its_importance_check_or_the_sampler():
+    ev = {"log_evidence": 756.5, "method": "importance sampling", "ess": 300.0, "n_draws": 1000, "std_error": 0.2}
+    cls = _class("e", "enriched", "A", 756.5, sampler=584.9, evidence=ev)
+    assert evidence_trusted(cls, RULE) == ""
+    few = replace(cls, evidence={**ev, "ess": 30.0})
+    why = evidence_trusted(few, RULE)
+    assert "effective sample size of 30 of 1000 draws (needs 10 %)" in why and "differs by +171.6" in why
+    laplace = replace(cls, evidence={**ev, "method": "Laplace"})
+    assert "Laplace estimate" in evidence_trusted(laplace, RULE)
+    assert evidence_trusted(replace(laplace, sampler_log_evidence=756.0), RULE) == ""  # agrees within 1 nat
+
+
+def test_the_sampler_must_not_favour_the_class_compared_with():
+    """The control of the precision issue: the sampler said 584.9 against the base's 610.4, the refined estimates
+    756.5 against 624.6."""
+    base = _class("base", "base", None, 624.6, sampler=610.4)
+    enriched = _class("e", "enriched", "A", 756.5, _params(M=1.2, xi=8.0), sampler=584.9)
+    assert "sampler's own estimate favours the base class (ln B = -25.5 by the sampler, +131.9 refined)" in \
+        sampler_disagrees(enriched, base)
+    d = diagnosis.conclude(_ranked("A"), [base, enriched], RULE)
+    assert d.omitted_physics == "none" and "favours the base class" in d.candidates[0].decision
+    agrees = replace(enriched, sampler_log_evidence=780.0)
+    assert diagnosis.conclude(_ranked("A"), [base, agrees], RULE).omitted_physics == "A"
+    assert diagnosis.conclude(_ranked("A"), [base, agrees], replace(RULE, sampler_agrees=False)).omitted_physics == "A"
+    d = diagnosis.conclude(_ranked("A"), [base, enriched], replace(RULE, sampler_agrees=False))
+    assert d.omitted_physics == "A"
+
+
+def test_the_rule_round_trips_with_its_new_settings():
+    rule = DecisionRule(threshold=20.0, inert_fraction=0.05, ess_fraction=0.2, sampler_agrees=False)
+    assert DecisionRule.from_dict(rule.to_dict()) == rule
