@@ -142,7 +142,7 @@ def test_agreement_is_far_below_the_step_size_error(staged, monkeypatch):
     coarse = _curves(StudyForward(study, obs, {}), particle)
     for cls in (ModifiedCamClay, ANICREEP):
         monkeypatch.setattr(cls, "max_strain_step", cls.max_strain_step / 2.0)
-    monkeypatch.setattr(lab_stages, "STRESS_STEP", lab_stage_steps.STRESS_STEP / 2.0)
+    monkeypatch.setattr(lab_stage_steps, "STRESS_STEP", lab_stage_steps.STRESS_STEP / 2.0)
     fine = _curves(StudyForward(study, obs, {}), particle)
     step_error = _largest_difference(fine, coarse)
     assert max(step_error.values()) > 1e-3

@@ -101,7 +101,7 @@ def test_unreachable_target_fails_fast_with_its_reason(monkeypatch):
         if stop is not None and active[0]:
             chunks.append(int(steps[0]))
         return real(model, carried, rate, steps, size, active, stage, stop)
-    monkeypatch.setattr(lab_programme, "_strain_steps", counted)
+    monkeypatch.setattr(lab_staged, "_strain_steps", counted)
     (out, failed, why), = simulate_programmes(mcc(lambda_=np.array([0.5, 0.2]), kappa=0.01), [spec], [x], 2)
     assert list(failed) == [True, False]
     assert "void ratio" in why[0] and "crs2" in why[0] and why[1] == ""
