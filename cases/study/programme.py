@@ -3,8 +3,8 @@ stages in order (:class:`Stage`, :class:`InitialState`).
 
 Apparatus: ``triaxial`` (axial strain or axial stress controlled, radial total stress controlled), ``oedometer``
 (radial strain zero), ``sbp`` (self-boring pressuremeter, coupled FE). Stage kinds per apparatus:
-:data:`STAGE_KINDS`; each stage's fields are listed with :class:`Stage` (units kPa, s, 1/s; strains are fractions
-here and % in the files; compression positive).
+:data:`cases.study.stages.KINDS`, one module per kind in ``cases.study.stages``; each stage's fields are listed with
+:class:`Stage` (units kPa, s, 1/s; strains are fractions here and % in the files; compression positive).
 
 The flat test types of a study file (``triaxial``, ``oedometer_crs``, ``oedometer_creep``, ``sbp`` with their
 conditions) are shorthand for one- or few-stage programmes; :func:`programme_of` expands them (the flat fields stay
@@ -32,75 +32,19 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["TestSpec", "Stage", "InitialState", "TEST_TYPES", "APPARATUS", "STAGE_KINDS", "programme_of",
-           "curve_key", "split_key"]
+from cases.study.stages import KINDS, Stage
+from cases.study.stages.crs import ConstantRateOfStrain
+from cases.study.stages.load import Load
+from cases.study.stages.pressuremeter import MAX_CAVITY_STRAIN, Expansion
+from cases.study.stages.shear import Shear
+
+__all__ = ["TestSpec", "Stage", "InitialState", "TEST_TYPES", "APPARATUS", "programme_of", "curve_key",
+           "split_key"]
 
 TEST_TYPES = ("triaxial", "oedometer_crs", "oedometer_creep", "sbp")
-APPARATUS = ("triaxial", "oedometer", "sbp")
-#: stage kinds each apparatus runs
-STAGE_KINDS = {"triaxial": ("consolidation", "shear", "creep", "relaxation"),
-               "oedometer": ("consolidation", "creep", "relaxation", "crs", "load"),
-               "sbp": ("expansion", "hold", "unloading")}
+APPARATUS = tuple(KINDS)
 #: the apparatus of each flat test type
 APPARATUS_OF = {"triaxial": "triaxial", "oedometer_crs": "oedometer", "oedometer_creep": "oedometer", "sbp": "sbp"}
-#: cavity strain reached by the flat ``sbp`` type's expansion (fraction)
-SBP_EXPANSION_STRAIN = 0.10
-
-
-@dataclass(frozen=True)
-class Stage:
-    """One stage of a test (units kPa, s, 1/s; strains as fractions; compression positive).
-
-    kind: ``consolidation`` | ``shear`` | ``creep`` | ``relaxation`` | ``crs`` | ``load`` | ``expansion`` | ``hold``
-    | ``unloading``; name: unique within the test (default ``<kind><number>``, 1-based).
-    duration: consolidation ramp, creep, relaxation, load stage total (ramp included), sbp hold (s).
-    p: consolidation target mean effective stress (isotropic path); sigma_v: consolidation / load target vertical
-    effective stress; K0: consolidation in a triaxial cell along sigma'_h = K0 sigma'_v.
-    drainage: ``drained`` | ``undrained`` (shear, creep, relaxation); direction: shear ``compression`` |
-    ``extension``. strain_rate: shear (magnitude), crs (SIGNED: < 0 unloading), sbp cavity strain rate (magnitude).
-    to_strain: shear: the stage's own axial strain magnitude; crs: total axial strain of the test reached;
-    expansion / unloading: cavity strain reached. to_sigma_v: crs alternative end (kPa); to_pressure: sbp unloading
-    alternative end (total cavity pressure, kPa); ramp_time: load stage ramp (s).
-    abscissa: what the stage's records are plotted and simulated against: ``axial_strain``, ``time`` (since the stage
-    start), ``p``, ``sigma_v``, ``cavity_strain``; curves: the recorded quantities of this stage (from the records).
-    """
-
-    kind: str
-    name: str
-    duration: float | None = None
-    p: float | None = None
-    sigma_v: float | None = None
-    K0: float | None = None
-    drainage: str = "drained"
-    direction: str | None = None
-    strain_rate: float | None = None
-    to_strain: float | None = None
-    to_sigma_v: float | None = None
-    to_pressure: float | None = None
-    ramp_time: float | None = None
-    abscissa: str = "time"
-    curves: tuple = ()
-
-    def describe(self) -> str:
-        """One line, e.g. ``shear3: undrained compression at 1e-05 1/s``."""
-        parts = {"consolidation": lambda: (f"to p' {self.p:g} kPa" if self.p is not None else
-                                           f"to sigma'_v {self.sigma_v:g} kPa"
-                                           + ("" if self.K0 is None else f" (K0 {self.K0:g})")),
-                 "shear": lambda: f"{self.drainage} {self.direction} at {self.strain_rate:g} 1/s",
-                 "creep": lambda: f"{self.drainage}, stresses held {self.duration:g} s",
-                 "relaxation": lambda: f"{self.drainage}, strain held {self.duration:g} s",
-                 "crs": lambda: f"{self.strain_rate:g} 1/s to " + (f"{100 * self.to_strain:g} %" if self.to_strain
-                                                                   is not None else f"{self.to_sigma_v:g} kPa"),
-                 "load": lambda: f"sigma'_v {self.sigma_v:g} kPa, ramp {self.ramp_time:g} s, {self.duration:g} s",
-                 "expansion": lambda: f"{self.strain_rate:g} 1/s to {100 * self.to_strain:g} %",
-                 "hold": lambda: f"cavity strain held {self.duration:g} s",
-                 "unloading": lambda: f"{self.strain_rate:g} 1/s to " + (f"{100 * self.to_strain:g} %" if
-                                                                         self.to_strain is not None else
-                                                                         f"{self.to_pressure:g} kPa")}
-        try:
-            return f"{self.name}: {parts[self.kind]()}"
-        except (TypeError, KeyError):
-            return f"{self.name}: {self.kind}"
 
 
 @dataclass(frozen=True)
@@ -251,16 +195,17 @@ def programme_of(spec: TestSpec) -> TestSpec:
                            else None, sigma_v0=None if spec.consolidation == "isotropic" else spec.sigma_v0,
                            K0=1.0 if k0 is None else k0, u0=spec.u0 or 0.0)
     if kind == "triaxial":
-        stages = (Stage("shear", "shear1", drainage=spec.drainage or "drained", direction=spec.direction,
+        stages = (Stage(Shear.name, f"{Shear.name}1", drainage=spec.drainage or "drained", direction=spec.direction,
                         strain_rate=spec.strain_rate, abscissa="axial_strain"),)
     elif kind == "oedometer_crs":
-        stages = (Stage("crs", "crs1", strain_rate=spec.strain_rate, abscissa="axial_strain"),)
+        stages = (Stage(ConstantRateOfStrain.name, f"{ConstantRateOfStrain.name}1", strain_rate=spec.strain_rate,
+                        abscissa="axial_strain"),)
     elif kind == "oedometer_creep":
-        stages = tuple(Stage("load", f"load{k}", sigma_v=s, ramp_time=spec.load_time, duration=spec.stage_duration)
-                       for k, s in enumerate(spec.stage_stress, start=1))
+        stages = tuple(Stage(Load.name, f"{Load.name}{k}", sigma_v=s, ramp_time=spec.load_time,
+                             duration=spec.stage_duration) for k, s in enumerate(spec.stage_stress, start=1))
     else:
-        stages = (Stage("expansion", "expansion1", strain_rate=spec.strain_rate, to_strain=SBP_EXPANSION_STRAIN,
-                        abscissa="cavity_strain"),)
+        stages = (Stage(Expansion.name, f"{Expansion.name}1", strain_rate=spec.strain_rate,
+                        to_strain=MAX_CAVITY_STRAIN, abscissa="cavity_strain"),)
     if spec.curves is not None and len(stages) == 1:
         stages = (replace(stages[0], curves=tuple(spec.curves)),)
     return replace(spec, apparatus=APPARATUS_OF[kind], initial=initial, stages=stages)

@@ -3,7 +3,8 @@ times of the steps (knots) and the increments of ``constitutive.labtests.mixed_c
 at the stage start. Units kPa, s, 1/s; strains are fractions, compression positive; axial = Voigt 11, radial = 22
 and 33.
 
-Controls of each stage kind (one mixed_control call per stage, ``STRAIN``/``STRESS`` rows of the Voigt components):
+Controls of each stage kind (one mixed_control call per stage; the control rows of the Voigt components are the
+kind's ``controls`` and its ``plan`` calls the builder here, :mod:`cases.study.stages`):
 - ``consolidation``, drained, linear ramp in time over ``duration`` (default one day): triaxial cell: every normal
   effective stress ramped from the current value to the target (``p``: isotropic; ``sigma_v`` with ``K0``:
   sigma'_h = K0 sigma'_v; ``sigma_v`` alone: the current ratio sigma'_r/sigma'_a kept); oedometer: sigma'_v ramped,
@@ -25,10 +26,10 @@ its stress-controlled components (their effective stress rises by it; ``excess_p
 Stepping: every stage is stepped through its recorded points (values come out AT the records, no interpolation),
 with sub-steps between them: strain-controlled ramps in steps of at most the model's ``max_strain_step`` (0.25 %
 when the model leaves it to its own triaxial integrator), stress ramps in steps of at most ``STRESS_STEP`` in
-ln(stress). The holds of a rate-dependent model (the kinds ``ADAPTIVE_KINDS``: creep, relaxation and the hold of a
-load stage, whose ramp keeps its equal ln-stress steps) are stepped adaptively, per particle, by
-``constitutive.labtests.adaptive_control``: from a first step of ``HOLD_FIRST`` s, each step at most the fraction
-``HOLD_RATE_CHANGE`` of the time over which the particle's rates change, changing no strain or stress by more than
+ln(stress). The holds of a rate-dependent model (the kinds with ``StageKind.adaptive_hold``: creep, relaxation and
+the hold of a load stage, whose ramp keeps its equal ln-stress steps; while ``ADAPTIVE_HOLDS``) are stepped
+adaptively, per particle, by ``constitutive.labtests.adaptive_control``: from a first step of ``HOLD_FIRST`` s, each
+step at most the fraction ``HOLD_RATE_CHANGE`` of the time over which the particle's rates change, changing no strain or stress by more than
 that fraction of its change since the hold start (beyond a floor of 1e-4 strain, 1 % of the stress) and no strain
 by more than the strain step. A hold thus takes few steps where nothing moves yet (the early decades of a hold
 after a slow ramp) and about the steps of the geometric grid below where it moves (about 20 per decade of time
@@ -51,21 +52,12 @@ import numpy as np
 
 from constitutive import labtests
 
-__all__ = ["StageSteps", "STAGE_CONTROLS", "OEDOMETER_STRAIN", "STRESS_STEP", "HOLD_FIRST", "HOLD_STEPS_PER_DECADE",
-           "ADAPTIVE_KINDS", "HOLD_RATE_CHANGE", "FALLBACK_STRAIN_STEP", "DEFAULT_DURATION", "DEFAULT_SHEAR_RATE",
-           "DEFAULT_SHEAR_STRAIN", "DEFAULT_RAMP_TIME"]
+from cases.study.stages import KINDS
 
-STRAIN, STRESS = True, False
-TRIAXIAL_STRESS = np.array([STRESS, STRESS, STRESS, STRAIN, STRAIN, STRAIN])   # every normal stress controlled
-TRIAXIAL_AXIAL = np.array([STRAIN, STRESS, STRESS, STRAIN, STRAIN, STRAIN])    # axial strain, radial stress
-OEDOMETER_STRESS = np.array([STRESS, STRAIN, STRAIN, STRAIN, STRAIN, STRAIN])  # sigma'_v, radial strain zero
-OEDOMETER_STRAIN = np.ones(6, dtype=bool)                                      # every strain controlled
-#: (apparatus, kind) -> control rows
-STAGE_CONTROLS = {("triaxial", "consolidation"): TRIAXIAL_STRESS, ("triaxial", "shear"): TRIAXIAL_AXIAL,
-                  ("triaxial", "creep"): TRIAXIAL_STRESS, ("triaxial", "relaxation"): TRIAXIAL_AXIAL,
-                  ("oedometer", "consolidation"): OEDOMETER_STRESS, ("oedometer", "creep"): OEDOMETER_STRESS,
-                  ("oedometer", "relaxation"): OEDOMETER_STRAIN, ("oedometer", "crs"): OEDOMETER_STRAIN,
-                  ("oedometer", "load"): OEDOMETER_STRESS}
+__all__ = ["StageSteps", "STRESS_STEP", "HOLD_FIRST", "HOLD_STEPS_PER_DECADE", "ADAPTIVE_HOLDS",
+           "HOLD_RATE_CHANGE", "FALLBACK_STRAIN_STEP", "DEFAULT_DURATION", "DEFAULT_SHEAR_RATE", "DEFAULT_SHEAR_STRAIN",
+           "DEFAULT_RAMP_TIME"]
+
 #: largest change of ln(controlled stress) in one step of a stress ramp
 STRESS_STEP = 0.02
 #: first time step of a hold (s) and steps per decade of time since the hold start
@@ -73,10 +65,11 @@ HOLD_FIRST = 0.1
 HOLD_STEPS_PER_DECADE = 20
 #: strain step when the model leaves it to its own triaxial integrator (max_strain_step None)
 FALLBACK_STRAIN_STEP = 0.0025
-#: the stage kinds whose holds a rate-dependent model takes in adaptive steps (module docstring, "Stepping"), and
-#: the largest change of the rates over a step there as a fraction of the rates (``adaptive_control``'s rtol: 0.1 is
-#: as accurate as the geometric grid of HOLD_STEPS_PER_DECADE = 20 where a hold creeps as 1/t)
-ADAPTIVE_KINDS = ("creep", "relaxation", "load")
+#: whether a rate-dependent model takes the holds of the stage kinds that ask for it (``StageKind.adaptive_hold``:
+#: creep, relaxation, load) in adaptive steps (module docstring, "Stepping"; False: the step table), and the largest
+#: change of the rates over a step there as a fraction of the rates (``adaptive_control``'s rtol: 0.1 is as accurate
+#: as the geometric grid of HOLD_STEPS_PER_DECADE = 20 where a hold creeps as 1/t)
+ADAPTIVE_HOLDS = True
 HOLD_RATE_CHANGE = 0.1
 DEFAULT_DURATION = 86400.0
 DEFAULT_SHEAR_RATE = 1e-5
@@ -144,12 +137,12 @@ class StageSteps:
 
     def __init__(self, apparatus, stage, carried, record_x, strain_step, timed=True):
         self.stage, self.apparatus = stage, apparatus
-        kind = stage.kind
-        if (apparatus, kind) not in STAGE_CONTROLS:
-            raise ValueError(f"stage {stage.name}: kind {kind!r} is not run in a {apparatus} apparatus")
-        self.control = STAGE_CONTROLS[(apparatus, kind)]
-        if stage.drainage == "undrained" and kind not in ("shear", "creep", "relaxation"):
-            raise ValueError(f"stage {stage.name}: a {kind} stage is drained")
+        kind = KINDS.get(apparatus, {}).get(stage.kind)
+        if kind is None or apparatus not in kind.controls:
+            raise ValueError(f"stage {stage.name}: kind {stage.kind!r} is not run in a {apparatus} apparatus")
+        self.control = kind.controls[apparatus]
+        if stage.drainage == "undrained" and not kind.drainable:
+            raise ValueError(f"stage {stage.name}: a {stage.kind} stage is drained")
         # every strain held (oedometer relaxation): isochoric whatever the drainage, no pore pressure unknown
         self.undrained = stage.drainage == "undrained" and bool(np.any(~self.control & NORMAL))
         self.carried = carried
@@ -163,11 +156,14 @@ class StageSteps:
             self.start += np.where(~self.control & NORMAL, carried["u"][:, None], 0.0)
         self.x = np.asarray(record_x, dtype=float)
         self.outside = np.zeros(n, dtype=bool)
-        getattr(self, "_" + kind)()
-        self.adaptive = timed and kind in ADAPTIVE_KINDS
+        #: the sigma'_v a crs stage continues to past its last record (kPa; None: none)
+        self.to_sigma_v = None
+        kind.plan(self)
+        self.adaptive = ADAPTIVE_HOLDS and timed and kind.adaptive_hold
 
-    # each kind's builder sets knots (K, n), record_index (len(x),), strain_target (knots -> the controlled strains
-    # since the stage start, (K, n, 6)) and stress_target (knots -> the controlled effective stresses, (K, n, 6))
+    # each builder (called by the kind's ``plan``) sets knots (K, n), record_index (len(x),), strain_target (knots ->
+    # the controlled strains since the stage start, (K, n, 6)) and stress_target (knots -> the controlled effective
+    # stresses, (K, n, 6))
     def _tau_records(self, tau, end):
         """Record stage times (R, n) checked against [0, end] (n,): particles with a record outside are marked."""
         tol = 1e-9 * np.maximum(1.0, np.abs(end))
@@ -196,7 +192,8 @@ class StageSteps:
     def _zero_stress(self):
         return lambda knots: np.broadcast_to(self.start, knots.shape + (6,))
 
-    def _hold(self, duration):
+    def hold(self, duration):
+        """A hold of ``duration`` s (default one day): every controlled variable held, records against time."""
         duration = float(duration if duration is not None else DEFAULT_DURATION)
         if self.stage.abscissa != "time":
             raise ValueError(f"stage {self.stage.name}: records of a {self.stage.kind} stage are against time")
@@ -208,13 +205,8 @@ class StageSteps:
         self.stress_target = self._zero_stress()
         self.strain_target = lambda knots: np.zeros(knots.shape + (6,))
 
-    def _creep(self):
-        self._hold(self.stage.duration)
-
-    def _relaxation(self):
-        self._hold(self.stage.duration)
-
-    def _consolidation(self):
+    def consolidation_ramp(self):
+        """The effective stresses ramped linearly in time to the consolidation's target."""
         st = self.stage
         duration = float(st.duration if st.duration is not None else DEFAULT_DURATION)
         end = self.start.copy()
@@ -264,7 +256,8 @@ class StageSteps:
             return out
         self.strain_target = strain
 
-    def _shear(self):
+    def shear_ramp(self):
+        """The axial strain at the shear's rate, signed by its direction, to its end."""
         st = self.stage
         sign = -1.0 if st.direction == "extension" else 1.0
         rate = abs(st.strain_rate) if st.strain_rate else DEFAULT_SHEAR_RATE
@@ -280,7 +273,9 @@ class StageSteps:
             end = float(tau.max()) if tau.size else DEFAULT_SHEAR_STRAIN / rate
         self._strain_ramp(sign * rate, np.full(self.n, end), tau)
 
-    def _crs(self):
+    def crs_ramp(self):
+        """The axial strain at the crs stage's signed rate to its end (or its last record, continued to to_sigma_v
+        by the programme)."""
         st = self.stage
         if not st.strain_rate:
             raise ValueError(f"stage {st.name}: a crs stage needs a non-zero strain_rate")
@@ -302,7 +297,8 @@ class StageSteps:
         self.rate = rate
         self._strain_ramp(rate, np.maximum(end, 0.0), tau)
 
-    def _load(self):
+    def load_ramp_and_hold(self):
+        """sigma'_v ramped to the load stage's target over its ramp_time, then held to its duration."""
         st = self.stage
         if st.sigma_v is None:
             raise ValueError(f"stage {st.name}: a load stage needs sigma_v")

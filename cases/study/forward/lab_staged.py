@@ -38,8 +38,9 @@ import numpy as np
 from constitutive import labtests
 from constitutive.base import ParameterError
 
-from cases.study.forward.lab_stage_steps import FALLBACK_STRAIN_STEP, OEDOMETER_STRAIN, StageSteps
+from cases.study.forward.lab_stage_steps import FALLBACK_STRAIN_STEP, StageSteps
 from cases.study.programme import split_key
+from cases.study.stages.base import OEDOMETER_STRAIN
 
 __all__ = ["simulate_programme", "simulate_programmes", "stage_signature", "specimen_model", "QUANTITIES", "ALIASES",
            "CROSSING_ITERATIONS", "CROSSING_TOLERANCE", "CHUNKS", "CHUNK_STEPS"]
@@ -284,9 +285,8 @@ def _keys_by_stage(spec, keys):
 
 def stage_signature(stage) -> tuple:
     """What lets stages of several tests share one mixed_control call (with the apparatus): the kind, the drainage
-    and whether a crs stage continues to sigma'_v (the control rows and the drainage of every step)."""
-    return (stage.kind, stage.drainage, stage.kind == "crs" and stage.to_strain is None and
-            stage.to_sigma_v is not None)
+    and whether the stage continues to sigma'_v (a crs stage; the control rows and the drainage of every step)."""
+    return stage.kind, stage.drainage, stage.procedure.continues_to_stress(stage)
 
 
 def simulate_programme(model, spec, abscissae: dict, n: int, e0=None):
@@ -473,7 +473,7 @@ def _simulate_group(prepared, abscissae, n):
             outside = np.zeros(len(index), dtype=bool)
             outside[rows_j] = p.outside
             part = _fail(part, outside, f"stage {p.stage.name}: a record lies outside the stage")
-        if plan.stage.kind == "crs" and plan.to_sigma_v is not None:
+        if plan.to_sigma_v is not None:
             part = _to_sigma_v(round_model, part, np.repeat([p.rate for p in plans], n),
                                np.repeat([p.to_sigma_v for p in plans], n), step, plan.stage)
         carried = part if whole else _put(carried, index, part)

@@ -6,16 +6,12 @@ pressure is the total pore pressure; cavity strain is u_a/a0 in % (small strain,
 state), the cavity strain rate of each test, the fixed parameter values and the FE discretization are arguments:
 nothing is read from a case.
 
-A test is either the flat ``sbp`` type (one expansion at its rate to :data:`MAX_STRAIN`) or a stage programme
-(``cases.study.programme``, apparatus ``sbp``): stages ``expansion`` (cavity strain rate > 0 to a larger cavity
-strain), ``hold`` (cavity wall held for ``duration`` s: the pore pressure dissipates) and ``unloading`` (at its rate
-to a smaller cavity strain, or, as the last stage, to a cavity pressure), in any order after a first expansion. Each
-stage is one loading phase of the FE (:func:`stage_phases`): strain phases in equal increments, at most
-``preset.increments`` per :data:`MAX_STRAIN`; a hold in ``preset.increments`` time steps growing geometrically from
-:data:`HOLD_FIRST_STEP` of its duration (or its first record, when earlier). A stage's curves start at the stage's
-first point (the previous stage's last): cavity pressure and pore pressure against cavity strain (%) or against time
-since the stage start (s), as the stage's ``abscissa`` says; a record at zero cavity strain reads the in situ total
-stress and pore pressure.
+A test is either the flat ``sbp`` type (one expansion at its rate to :data:`MAX_CAVITY_STRAIN`) or a stage programme
+(``cases.study.programme``, apparatus ``sbp``; its stage kinds: :mod:`cases.study.stages.pressuremeter`). Each stage
+is one loading phase of the FE (:func:`stage_phases`), as its kind's ``fe_phase`` gives it. A stage's curves start at
+the stage's first point (the previous stage's last): cavity pressure and pore pressure against cavity strain (%) or
+against time since the stage start (s), as the stage's ``abscissa`` says; a record at zero cavity strain reads the in
+situ total stress and pore pressure.
 """
 from __future__ import annotations
 
@@ -31,20 +27,16 @@ from constitutive.registry import build_model, class_name
 from inference import ForwardModelError
 
 from cases.study.programme import curve_key, split_key
-from cases.study.reading.sbp_stages import MAX_STRAIN, SBP_QUANTITIES
+from cases.study.stages.pressuremeter import MAX_CAVITY_STRAIN, SBP_QUANTITIES
 
-__all__ = ["SBPForward", "pressuremeter_problem", "stage_phases", "hold_growth", "FE_ARGUMENTS", "HOLD_FIRST_STEP"]
+__all__ = ["SBPForward", "pressuremeter_problem", "stage_phases", "hold_growth", "FE_ARGUMENTS"]
 
 #: parameters and switches of a model class that go to the FE rather than the material (the catalog's partial
 #: drainage: ``coupled`` and the free ``permeability`` in m/s)
 FE_ARGUMENTS = tuple(physics_catalog.candidate("partial drainage").enrichment.forward_arguments)
-#: first time step of a hold, as a fraction of its duration (the steps then grow geometrically)
-HOLD_FIRST_STEP = 1e-4
-
-
 
 def pressuremeter_problem(rate: float, preset, site: dict, void_ratio0: float, save_fields="none", history=None):
-    """The fem.Problem of one SBP expansion at cavity strain rate ``rate`` (1/s) to :data:`MAX_STRAIN`, or of the
+    """The fem.Problem of one SBP expansion at cavity strain rate ``rate`` (1/s) to :data:`MAX_CAVITY_STRAIN`, or of the
     loading ``history`` (fem.Phase list, amplitude = cavity strain: :func:`stage_phases`) when given.
 
     preset: the FE discretization (``radial_cells``, ``layers``, ``increments``, ``outer``, ``outer_radius_a0``);
@@ -55,7 +47,7 @@ def pressuremeter_problem(rate: float, preset, site: dict, void_ratio0: float, s
     placeholder = constitutive.LinearElastic(E=5000.0, nu=0.3)
     problem = fem.pressuremeter(placeholder, mesh=mesh, a0=site["a0"], sigma_v0=site["sigma_v0"], K0=site["K0"],
                                 u0=site["u0"], permeability=site["permeability"], void_ratio0=void_ratio0,
-                                strain_rate=rate, max_strain=MAX_STRAIN, n_increments=preset.increments,
+                                strain_rate=rate, max_strain=MAX_CAVITY_STRAIN, n_increments=preset.increments,
                                 outer=preset.outer, save_fields=save_fields)
     return problem if history is None else replace(problem, history=list(history))
 
@@ -73,11 +65,9 @@ def stage_phases(stages, increments: int, abscissae=None) -> list:
     """The FE loading history of an SBP programme: one fem.Phase per stage (named after it; amplitude = cavity
     strain u_a/a0), from zero strain at t = 0.
 
-    expansion / unloading: to ``to_strain`` at ``strain_rate`` (1/s) in equal increments, ceil(``increments`` x
-    strain change / :data:`MAX_STRAIN`) of them; an unloading to ``to_pressure`` (the last stage) is simulated to
-    its last record (its smallest recorded cavity strain, or its latest record time at its rate: the records end
-    where the pressure was reached), and left out when it has no records. hold: ``duration`` s at the cavity strain reached, ``increments`` steps growing geometrically from
-    :data:`HOLD_FIRST_STEP` of the duration, or from its first record time (s since the stage start) when earlier.
+    Each stage's phase is its kind's ``fe_phase`` (:mod:`cases.study.stages.pressuremeter`: strain phases in equal
+    increments, at most ``increments`` per :data:`MAX_CAVITY_STRAIN`; a hold in ``increments`` time steps growing
+    geometrically, :func:`hold_growth`; an unloading to a pressure without records left out).
     abscissae: {curve key: recorded abscissae (cavity strain %, or s since the stage start)} of the test."""
     recorded = {}
     for key, x in (abscissae or {}).items():
@@ -86,20 +76,12 @@ def stage_phases(stages, increments: int, abscissae=None) -> list:
     phases, strain = [], 0.0
     for stage in stages:
         x = np.concatenate(recorded.get(None if one_stage else stage.name, [np.zeros(0)]))
-        if stage.kind == "hold":
-            first = min([HOLD_FIRST_STEP * stage.duration, *x[x > 0]])
-            phases.append(fem.Phase(stage.duration, strain, increments,
-                                    growth=hold_growth(increments, stage.duration / first), name=stage.name))
+        phase = stage.procedure.fe_phase(stage, strain, increments, x)
+        if phase is None:
             continue
-        target = stage.to_strain
-        if target is None:                       # unloading to a pressure: to its last record
-            if x.size == 0:
-                continue
-            target = (float(x.min()) / 100.0 if stage.abscissa == "cavity_strain"
-                      else strain - stage.strain_rate * float(x.max()))
-        n = max(1, int(np.ceil(increments * abs(target - strain) / MAX_STRAIN - 1e-9)))
-        phases.append(fem.Phase(abs(target - strain) / stage.strain_rate, target, n, name=stage.name))
-        strain = target
+        phases.append(fem.Phase(phase.duration, phase.cavity_strain, phase.increments,
+                                growth=hold_growth(phase.increments, phase.growth_ratio), name=stage.name))
+        strain = phase.cavity_strain
     return phases
 
 
@@ -107,10 +89,10 @@ class SBPForward:
     """params -> {test: {curve: (abscissae, values kPa)}} from one FE solve per test.
 
     preset: FE discretization; site: the in situ state of the tests (:func:`pressuremeter_problem`); rates:
-    {test: cavity strain rate (1/s)} of the flat tests (one expansion to :data:`MAX_STRAIN`, curves against cavity
-    strain %); programmes: {test: a stage programme (cases.study.programme.TestSpec, apparatus ``sbp``)}, its
-    stages checked by :func:`cases.study.reading.sbp_stages.check_sbp_stages`, curves :data:`SBP_QUANTITIES` of every stage under the keys of
-    ``cases.study.programme.curve_key`` (``pore_pressure@hold2``) against the stage's abscissa (cavity strain %, or
+    {test: cavity strain rate (1/s)} of the flat tests (one expansion to :data:`MAX_CAVITY_STRAIN`, curves against
+    cavity strain %); programmes: {test: a stage programme (cases.study.programme.TestSpec, apparatus ``sbp``)}, its
+    stages checked by :func:`cases.study.stages.sequence.check_sbp_stages`, curves :data:`SBP_QUANTITIES` of every
+    stage under the keys of ``cases.study.programme.curve_key`` (``pore_pressure@hold2``) against the stage's abscissa (cavity strain %, or
     s since the stage start); abscissae: {test: {curve key: recorded abscissae}} of the programmes (they set a hold's
     first time step and an unloading to a pressure's end: :func:`stage_phases`); fixed: the model's parameter values
     not identified (merged under each particle's); model, switches: the model class (``constitutive.registry``); a

@@ -33,7 +33,7 @@ import numpy as np
 from fem.oracles import consolidation_coefficient
 
 from cases.study.programme import split_key
-from cases.study.reading.staged_tests import stage_times
+from cases.study.stages.sequence import stage_times
 
 __all__ = ["programme_covariates", "BETWEEN", "post_peak_strain", "drainage_time_factor", "StagePhase",
            "stage_phases"]
@@ -43,9 +43,6 @@ BETWEEN = ("strain rate", "loading phase", "stress path direction", "consolidati
 ORDER = ("strain rate", "time", "strain level", "stress ratio", "mean effective stress", "loading phase",
          "stress path direction", "consolidation", "initial state parameter")
 WITHIN = ("post-peak strain", "hold time after loading", "hold time after unloading", "consolidation compression")
-HOLDS = ("creep", "relaxation", "hold")
-#: shear-like stages: strain-controlled monotonic loading at a rate
-RATED = ("shear", "crs", "expansion", "unloading")
 
 
 @dataclass(frozen=True)
@@ -74,18 +71,12 @@ def stage_phases(spec) -> list:
     times = stage_times(spec) if spec.stages else []
     for k, st in enumerate(spec.stages):
         ocr = max(pre, current) / current
-        target = st.p if st.p is not None else st.sigma_v
-        if st.kind in HOLDS:
-            phase = "hold"
-        elif st.kind in ("consolidation", "load") and target is not None:
-            phase = "loading" if target >= current else "unloading"
-            if st.kind == "consolidation":
-                consolidation = "isotropic" if st.p is not None else "K0"
+        kind = st.procedure
+        phase = kind.loading_phase(st, current)
+        target = kind.stress_target(st)
+        if target is not None:
+            consolidation = kind.consolidation_path(st) or consolidation
             pre, current = max(pre, current, target), target
-        elif st.kind == "crs":
-            phase = "loading" if (st.strain_rate or 0.0) >= 0.0 else "unloading"
-        else:
-            phase = "unloading" if st.kind == "unloading" else "loading"
         out.append(StagePhase(phase, after, ocr, consolidation, times[k][0] if k < len(times) else None))
         after = after if phase == "hold" else phase
     return out
@@ -107,9 +98,9 @@ def _stage_time(spec, stage, phase: StagePhase, curve, recorded):
     if recorded is not None:
         t = np.asarray(recorded, dtype=float)
         return t - (phase.start if phase.start is not None else t[0])
-    if stage.kind in RATED and stage.strain_rate:
+    if stage.procedure.rate_controlled and stage.strain_rate:
         x = np.asarray(curve.x, dtype=float) / 100.0
-        return np.abs(x - (0.0 if stage.kind == "shear" else x[0])) / abs(stage.strain_rate)
+        return np.abs(x - (0.0 if stage.procedure.shearing else x[0])) / abs(stage.strain_rate)
     return None
 
 
@@ -135,7 +126,7 @@ def _within_test(spec, test, map_curves, times, out):
         stages.setdefault(_stage_of(spec, key)[0], []).append(key)
     for k, keys in stages.items():
         stage, phase = spec.stages[k], phases[k]
-        if stage.kind == "shear":
+        if stage.procedure.shearing:
             peak = _deviator(test, keys)
             if peak is not None:
                 strain, q = peak
@@ -147,7 +138,7 @@ def _within_test(spec, test, map_curves, times, out):
             curve = test.curves[key]
             n = curve.y.size
             kind = np.full(n, phase.phase, dtype=object)
-            if stage.kind == "load":
+            if stage.procedure.ramped_hold:
                 t = np.asarray(curve.x, dtype=float) if curve.x_name == "time" else None
                 if t is not None and stage.ramp_time is not None:
                     kind = np.where(t > stage.ramp_time, "hold", phase.phase).astype(object)
@@ -160,7 +151,7 @@ def _within_test(spec, test, map_curves, times, out):
             out["loading phase"][spec.name, key] = kind.astype(str)
             out["overconsolidation"][spec.name, key] = phase.ocr
             quantity = split_key(key)[0]
-            if stage.kind == "consolidation" and quantity == "void_ratio" and curve.x_name in ("p", "sigma_v"):
+            if stage.procedure.consolidates and quantity == "void_ratio" and curve.x_name in ("p", "sigma_v"):
                 sim = np.asarray(map_curves.get(key, np.full(n, np.nan)), dtype=float)
                 ln_s = np.log(np.asarray(curve.x, dtype=float))
                 if n >= 3 and np.ptp(ln_s) > 0:
@@ -180,9 +171,9 @@ def _staged_along(spec, test, times, cov):
             cov["time"][spec.name, key] = t
         if curve.x_name in ("axial_strain", "cavity_strain"):
             cov["strain level"][spec.name, key] = np.abs(np.asarray(curve.x, dtype=float)) / 100.0
-        if stage.kind in RATED and stage.strain_rate:
+        if stage.procedure.rate_controlled and stage.strain_rate:
             cov["strain rate"][spec.name, key] = abs(stage.strain_rate)
-        if stage.kind == "shear":
+        if stage.procedure.shearing:
             cov["stress path direction"][spec.name, key] = stage.direction
             cov["consolidation"][spec.name, key] = phases[k].consolidation
 

@@ -19,7 +19,7 @@ from inference import DataError
 from inference.observations import converted, read_csv_rows, read_csv_table
 
 from cases.study.programme import TestSpec
-from cases.study.reading.sbp_stages import MAX_STRAIN
+from cases.study.stages.pressuremeter import MAX_CAVITY_STRAIN
 from cases.study.reading.stage_records import load_programme_test
 
 __all__ = ["COLUMNS", "X_COLUMN", "CURVE_OF", "DRAINED_ONLY", "UNDRAINED_ONLY", "SBP_MAX_STRAIN_PCT",
@@ -44,7 +44,7 @@ CURVE_OF = {"sigma_v": "axial_stress"}
 DRAINED_ONLY = ("volumetric_strain", "void_ratio")
 UNDRAINED_ONLY = ("excess_pore_pressure",)
 #: largest cavity strain of the pressuremeter FE expansion, %
-SBP_MAX_STRAIN_PCT = 100.0 * MAX_STRAIN
+SBP_MAX_STRAIN_PCT = 100.0 * MAX_CAVITY_STRAIN
 
 
 def column_name(quantity: str, test_type: str) -> str:

@@ -4,7 +4,7 @@ stage's curves against its abscissa.
 A programme's CSV has the columns of its apparatus (:data:`COLUMNS`, units as in the flat types' files, converted
 when the dimension agrees), an empty cell (or ``nan``) where a quantity was not recorded at that point, and:
 - ``stage``: the 1-based stage number or the stage's name; without it, records are assigned by ``time_s`` (s since
-  the start of the test) to the stage time ranges of the programme (:func:`cases.study.reading.staged_tests.stage_times`),
+  the start of the test) to the stage time ranges of the programme (:func:`cases.study.stages.sequence.stage_times`),
   a record at a boundary to the stage that ends there, a record at 0 to the first stage; a one-stage programme needs
   neither;
 - ``stage_time_s`` (optional): s since the start of the record's stage.
@@ -12,11 +12,12 @@ Any stage may be recorded, each at its own points. Strains: ``axial_strain`` is 
 the test, except in a shear stage where it is the strain since the stage start (zeroed at the start of shear, as
 triaxial reports give it); ``cavity_strain`` since the start of the test.
 
-The abscissa of a stage's records (:data:`CONTROL`): its control variable when recorded at every record of the
-stage and strictly monotone there (shear, crs: axial strain in %; consolidation: p' or sigma'_v in kPa; expansion,
-unloading: cavity strain in %), else the time since the stage start (``stage_time_s``, or ``time_s`` minus the
-stage's start; holds, creep, relaxation and load stages always use it). The other recorded quantities of the stage
-that it does not control (:data:`HELD`) are its curves, keyed by :func:`cases.study.programme.curve_key`.
+The abscissa of a stage's records: its control variable (``StageKind.control_variable`` of its kind,
+:mod:`cases.study.stages`) when recorded at every record of the stage and strictly monotone there (shear, crs: axial
+strain in %; consolidation: p' or sigma'_v in kPa; expansion, unloading: cavity strain in %), else the time since the
+stage start (``stage_time_s``, or ``time_s`` minus the stage's start; holds, creep, relaxation and load stages always
+use it). The other recorded quantities of the stage that its kind does not hold (``StageKind.held_quantities``) are
+its curves, keyed by :func:`cases.study.programme.curve_key`.
 """
 from __future__ import annotations
 
@@ -29,9 +30,9 @@ from inference import DataError
 from inference.observations import converted, read_csv_rows, split_unit
 
 from cases.study.programme import curve_key, split_key
-from cases.study.reading.staged_tests import stage_times
+from cases.study.stages.sequence import stage_times
 
-__all__ = ["COLUMNS", "CONTROL", "HELD", "load_programme_test", "recorded_programme"]
+__all__ = ["COLUMNS", "load_programme_test", "recorded_programme"]
 
 #: columns of a programme's CSV per apparatus: quantity -> unit (besides ``stage``)
 COLUMNS = {
@@ -42,18 +43,6 @@ COLUMNS = {
 }
 #: CSV quantity -> curve name (sigma'_v is the catalog's "axial_stress")
 CURVE_OF = {"sigma_v": "axial_stress"}
-#: the control variable of a stage kind (its abscissa when recorded and monotone)
-CONTROL = {"shear": "axial_strain", "crs": "axial_strain", "expansion": "cavity_strain", "unloading": "cavity_strain"}
-#: quantities a stage kind controls or that carry no information there (not made curves); "drained" / "undrained"
-#: entries apply by the stage's drainage
-HELD = {"consolidation": ("q", "p", "sigma_v", "excess_pore_pressure"),
-        "shear": ("axial_strain",),
-        "creep": ("q", "sigma_v"),
-        "relaxation": ("axial_strain",),
-        "crs": ("axial_strain", "void_ratio"),
-        "load": ("sigma_v",),
-        "expansion": ("cavity_strain",), "hold": ("cavity_strain",), "unloading": ("cavity_strain",),
-        "drained": ("excess_pore_pressure",), "undrained": ("volumetric_strain", "void_ratio")}
 
 
 def _column(path, col, apparatus):
@@ -144,7 +133,7 @@ def _assign(spec, values, stage_cells, lines):
 def _abscissa(spec, k, values, rows, lines):
     """(abscissa name, unit, values) of stage k's records ``rows`` (see the module docstring)."""
     s, path = spec.stages[k], spec.file
-    control = CONTROL.get(s.kind) or (s.abscissa if s.kind == "consolidation" else None)
+    control = s.procedure.control_variable(s)
     x = values[control][rows] if control in values else np.array([])
     if x.size and not np.any(np.isnan(x)) and (x.size == 1 or np.all(np.diff(x) > 0) or np.all(np.diff(x) < 0)):
         return control, COLUMNS[spec.apparatus][control], x
@@ -178,9 +167,7 @@ def load_programme_test(spec) -> tuple:
         if rows.size == 0:
             continue
         x_name, x_unit, x = _abscissa(spec, k, values, rows, lines)
-        held = HELD[s.kind] + HELD[s.drainage if s.kind in ("shear", "creep", "relaxation") else "drained"]
-        if s.kind == "creep" and s.drainage == "drained":
-            held += ("p",)
+        held = s.procedure.held_quantities(s)
         for q, v in values.items():
             if q in ("time", "stage_time", x_name) or q in held:
                 continue

@@ -8,16 +8,14 @@ record); compression positive.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 from constitutive.registry import SBP_MODELS
 
 from cases.study.reading.checks import StudyError
-from cases.study.programme import STAGE_KINDS, InitialState, Stage, TestSpec
-from cases.study.reading.sbp_stages import check_sbp_stages
+from cases.study.programme import InitialState, Stage, TestSpec
+from cases.study.stages import KINDS
+from cases.study.stages.sequence import check_sbp_stages, check_sequence
 
-__all__ = ["PROGRAMME_FIELDS", "STAGE_FIELDS", "INITIAL_FIELDS", "programme_spec", "stage_times",
-           "PRECONSOLIDATION_PARAMETERS"]
+__all__ = ["PROGRAMME_FIELDS", "INITIAL_FIELDS", "programme_spec", "PRECONSOLIDATION_PARAMETERS"]
 
 #: test-level fields of a programme entry besides the initial state (per apparatus)
 PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "initial", "stages"),
@@ -27,31 +25,12 @@ PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "initial
 INITIAL_FIELDS = ("e0", "p0", "sigma_v0", "K0", "ocr", "preconsolidation", "u0")
 #: the model parameters a per-test ``ocr`` / ``preconsolidation`` replaces
 PRECONSOLIDATION_PARAMETERS = ("ocr", "pc0", "sigma_p0")
-#: fields of a stage table per kind (required, optional); ``kind`` and ``name`` are common
-STAGE_FIELDS = {
-    "consolidation": ((), ("p", "sigma_v", "K0", "duration")),
-    "shear": (("drainage", "strain_rate"), ("direction", "to_axial_strain")),
-    "creep": (("duration",), ("drainage",)),
-    "relaxation": (("duration",), ("drainage",)),
-    "crs": (("strain_rate",), ("to_axial_strain", "to_sigma_v")),
-    "load": (("sigma_v", "duration"), ("ramp_time",)),
-    "expansion": (("strain_rate",), ("to_cavity_strain",)),
-    "hold": (("duration",), ()),
-    "unloading": (("strain_rate",), ("to_cavity_strain", "to_pressure")),
-}
-#: defaults: consolidation ramp (s), load ramp (s), expansion end (%)
-CONSOLIDATION_DURATION = 86400.0
-RAMP_TIME = 1.0
-EXPANSION_STRAIN_PCT = 10.0
-CHOICES = {"drainage": ("drained", "undrained"), "direction": ("compression", "extension")}
-#: TOML field -> Stage field, for the fields whose names differ (strains in % -> fractions)
-RENAMED = {"to_axial_strain": "to_strain", "to_cavity_strain": "to_strain"}
 
 
 def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
     """The TestSpec of the programme entry ``t`` (``tests[i]``) of a study of ``model`` (registry ``spec``)."""
     where = f"tests[{i}]"
-    apparatus = ck.text(t["apparatus"], f"{where}.apparatus", tuple(STAGE_KINDS))
+    apparatus = ck.text(t["apparatus"], f"{where}.apparatus", tuple(KINDS))
     if "type" in t:
         ck.fail(f"{where}.type", t["type"], "a test with an apparatus and [[tests.stages]] has no type (type is the "
                 "one-stage shorthand)")
@@ -76,7 +55,7 @@ def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
     stages_in = t["stages"]
     if not isinstance(stages_in, list) or not stages_in:
         ck.fail(f"{where}.stages", stages_in, "expected one or more [[tests.stages]] tables")
-    stages = tuple(stage(ck, s, f"{where}.stages[{k}]", k + 1, apparatus, initial)
+    stages = tuple(stage(ck, s, f"{where}.stages[{k}]", k + 1, apparatus)
                    for k, s in enumerate(stages_in))
     names = [s.name for s in stages]
     for k, n in enumerate(names):
@@ -84,7 +63,7 @@ def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
             ck.fail(f"{where}.stages[{k}].name", n, "stage names must be unique within a test")
     if apparatus == "sbp":
         check_sbp_stages(ck, stages, where, name)
-    check_ends(ck, stages, where)
+    check_sequence(ck, stages, where)
     mirror = {"e0": initial.e0, "p0": initial.p0, "sigma_v0": initial.sigma_v0,
               "K0": None if initial.p0 is not None else initial.K0, "u0": initial.u0 if apparatus == "sbp" else None,
               "consolidation": None if apparatus != "triaxial" else ("isotropic" if initial.p0 is not None else "K0"),
@@ -134,113 +113,18 @@ def initial_state(ck, t, where, apparatus, spec, model) -> InitialState:
     return InitialState(**v)
 
 
-def stage(ck, s, where, number, apparatus, initial) -> Stage:
-    """One checked stage table ``s`` at ``where`` (``number`` 1-based) of an ``apparatus`` programme."""
+def stage(ck, s, where, number, apparatus) -> Stage:
+    """One checked stage table ``s`` at ``where`` (``number`` 1-based) of an ``apparatus`` programme: its fields
+    and checks are its kind's (:mod:`cases.study.stages`)."""
     ck.table(s, where, None, ("kind",))
-    kind = s["kind"]
-    if kind not in STAGE_KINDS[apparatus]:
-        ck.fail(f"{where}.kind", kind, f"supported for apparatus {apparatus!r}: {', '.join(STAGE_KINDS[apparatus])}")
-    required, optional = STAGE_FIELDS[kind]
-    ck.table(s, where, ("kind", "name", *required, *optional), required)
-    name = ck.text(s.get("name", f"{kind}{number}"), f"{where}.name")
+    kind_name, kinds = s["kind"], KINDS[apparatus]
+    if kind_name not in tuple(kinds):
+        ck.fail(f"{where}.kind", kind_name, f"supported for apparatus {apparatus!r}: {', '.join(kinds)}")
+    kind = kinds[kind_name]
+    ck.table(s, where, ("kind", "name", *kind.required, *kind.optional), kind.required)
+    name = ck.text(s.get("name", f"{kind_name}{number}"), f"{where}.name")
     if "@" in name or name.strip().isdigit():
         ck.fail(f"{where}.name", name, "a stage name has no '@' and is not a number (the stage column takes both)")
-    v = {}
-    for k, x in s.items():
-        w = f"{where}.{k}"
-        if k in ("kind", "name"):
-            continue
-        if k in CHOICES:
-            v[k] = ck.text(x, w, CHOICES[k])
-        elif k == "strain_rate" and kind == "crs":
-            v[k] = ck.number(x, w)
-            if v[k] == 0:
-                ck.fail(w, x, "must be != 0 (1/s, signed: > 0 loading, < 0 unloading)")
-        elif k in ("to_axial_strain", "to_cavity_strain"):
-            v[RENAMED[k]] = ck.number(x, w, positive=kind in ("shear", "expansion"),
-                                      non_negative=kind == "unloading") / 100.0
-            if abs(x) > 100.0:
-                ck.fail(w, x, "a strain in % must be <= 100")
-        else:
-            v[k] = ck.number(x, w, positive=True)
-    if kind in ("creep", "relaxation") and apparatus == "oedometer" and v.get("drainage") == "undrained":
-        ck.fail(f"{where}.drainage", "undrained", f"an oedometer {kind} stage is drained (undrained {kind} is "
-                "supported for apparatus 'triaxial')")
-    if kind == "consolidation":
-        consolidation_fields(ck, s, where, apparatus, v)
-        v.setdefault("duration", CONSOLIDATION_DURATION)
-    if kind == "load":
-        v.setdefault("ramp_time", RAMP_TIME)
-        if v["ramp_time"] >= v["duration"]:
-            ck.fail(f"{where}.ramp_time", v["ramp_time"], f"must be < the stage's duration {v['duration']:g} s")
-    if kind == "shear":
-        v.setdefault("direction", "compression")
-    if kind == "expansion":
-        v.setdefault("to_strain", EXPANSION_STRAIN_PCT / 100.0)
-    if kind in ("crs", "unloading"):
-        ends = [k for k in ("to_axial_strain", "to_sigma_v", "to_cavity_strain", "to_pressure") if k in s]
-        if len(ends) > 1:
-            ck.fail(f"{where}.{ends[1]}", s[ends[1]], f"the stage ends at {ends[0]}: give one end")
-        if kind == "unloading" and not ends:
-            raise StudyError(f"{ck.path}: {where}.to_cavity_strain is missing (an unloading stage ends at "
-                             "to_cavity_strain (%) or to_pressure (kPa))")
-    abscissa = {"shear": "axial_strain", "crs": "axial_strain", "expansion": "cavity_strain",
-                "unloading": "cavity_strain",
-                "consolidation": "p" if "p" in v else "sigma_v"}.get(kind, "time")
-    return Stage(kind, name, abscissa=abscissa, **v)
-
-
-def consolidation_fields(ck, s, where, apparatus, v):
-    """A consolidation stage's target: ``p`` (isotropic, triaxial) or ``sigma_v`` (with ``K0`` in a triaxial cell;
-    an oedometer holds the radial strain at zero and takes no K0)."""
-    if ("p" in v) == ("sigma_v" in v):
-        raise StudyError(f"{ck.path}: {where}: a consolidation stage goes to p (isotropic, triaxial) or to sigma_v "
-                         f"(kPa), one of them; got {sorted(k for k in ('p', 'sigma_v') if k in v) or 'neither'}")
-    if apparatus == "oedometer":
-        for k in ("p", "K0"):
-            if k in v:
-                ck.fail(f"{where}.{k}", s[k], "an oedometer consolidates to sigma_v with zero radial strain (no "
-                        f"{k})")
-    elif "p" in v and "K0" in v:
-        ck.fail(f"{where}.K0", s["K0"], "an isotropic consolidation (p) has no K0; give sigma_v and K0")
-    elif "sigma_v" in v and "K0" not in v:
-        raise StudyError(f"{ck.path}: {where}.K0 is missing (a triaxial consolidation to sigma_v holds sigma'_h = "
-                         "K0 sigma'_v)")
-
-
-def check_ends(ck, stages, where):
-    """A CRS stage whose end is a total axial strain moves in the direction of its rate when the strain at its
-    start is known (the previous CRS stage's end, or the test start)."""
-    start = 0.0
-    for k, s in enumerate(stages):
-        if s.kind == "crs" and s.to_strain is not None:
-            if start is not None and (s.to_strain - start) * s.strain_rate <= 0:
-                ck.fail(f"{where}.stages[{k}].to_axial_strain", 100 * s.to_strain, f"not reached at strain_rate "
-                        f"{s.strain_rate:g} 1/s from the previous stage's end {100 * start:g} % (a negative rate "
-                        "unloads)")
-            start = s.to_strain
-        elif s.kind not in ("relaxation",):
-            start = None
-
-
-def stage_times(spec) -> list:
-    """[(start, end)] of each stage of a programme in s since the test start, None where it follows from the
-    material's response (after a CRS stage to a stress, a consolidation's strain before a CRS to a strain, an
-    unloading to a pressure); the last stage's end is infinite (recorded to its last record)."""
-    out, t, strain, cavity = [], 0.0, 0.0, 0.0
-    for k, s in enumerate(spec.stages):
-        d = None
-        if s.kind in ("consolidation", "creep", "relaxation", "load", "hold"):
-            d = s.duration
-        elif s.kind == "shear" and s.to_strain is not None:
-            d = s.to_strain / s.strain_rate
-        elif s.kind == "crs" and s.to_strain is not None and strain is not None:
-            d = (s.to_strain - strain) / s.strain_rate
-        elif s.kind in ("expansion", "unloading") and s.to_strain is not None and cavity is not None:
-            d = abs(s.to_strain - cavity) / s.strain_rate
-        strain = s.to_strain if s.kind == "crs" else (strain if s.kind == "relaxation" else None)
-        cavity = s.to_strain if s.kind in ("expansion", "unloading") else (cavity if s.kind == "hold" else None)
-        end = float("inf") if k == len(spec.stages) - 1 else (None if t is None or d is None else t + d)
-        out.append((t, end))
-        t = end
-    return out
+    v = dict(kind.read_value(ck, k, x, f"{where}.{k}") for k, x in s.items() if k not in ("kind", "name"))
+    kind.check(ck, s, where, apparatus, v)
+    return Stage(kind_name, name, abscissa=kind.abscissa_of(v), **v)

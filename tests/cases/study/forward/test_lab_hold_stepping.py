@@ -24,13 +24,13 @@ def programme(apparatus, initial, *stages):
 @contextmanager
 def step_table(refine=1):
     """The geometric hold grid (no adaptive holds), ``refine`` times finer (steps per decade, first step)."""
-    saved = lab_stage_steps.ADAPTIVE_KINDS, lab_stage_steps.HOLD_STEPS_PER_DECADE, lab_stage_steps.HOLD_FIRST
-    lab_stage_steps.ADAPTIVE_KINDS = ()
+    saved = lab_stage_steps.ADAPTIVE_HOLDS, lab_stage_steps.HOLD_STEPS_PER_DECADE, lab_stage_steps.HOLD_FIRST
+    lab_stage_steps.ADAPTIVE_HOLDS = False
     lab_stage_steps.HOLD_STEPS_PER_DECADE, lab_stage_steps.HOLD_FIRST = saved[1] * refine, saved[2] / refine
     try:
         yield
     finally:
-        lab_stage_steps.ADAPTIVE_KINDS, lab_stage_steps.HOLD_STEPS_PER_DECADE, lab_stage_steps.HOLD_FIRST = saved
+        lab_stage_steps.ADAPTIVE_HOLDS, lab_stage_steps.HOLD_STEPS_PER_DECADE, lab_stage_steps.HOLD_FIRST = saved
 
 
 def _load_stages(levels, duration):
@@ -49,13 +49,13 @@ def test_equal_holds_end_on_one_isotache():
     levels = [80.0, 160.0, 320.0, 640.0]
     spec = programme("oedometer", InitialState(sigma_v0=40.0, K0=0.6), *_load_stages(levels, 1e6))
     x = {f"e@load{i}": np.array([1e6]) for i in range(len(levels))}
-    for route in (lab_stage_steps.ADAPTIVE_KINDS, ()):
-        lab = lab_stage_steps.ADAPTIVE_KINDS
-        lab_stage_steps.ADAPTIVE_KINDS = route
+    for route in (True, False):
+        lab = lab_stage_steps.ADAPTIVE_HOLDS
+        lab_stage_steps.ADAPTIVE_HOLDS = route
         try:
             out, failed = simulate_programme(model, spec, x, 1)
         finally:
-            lab_stage_steps.ADAPTIVE_KINDS = lab
+            lab_stage_steps.ADAPTIVE_HOLDS = lab
         assert not failed[0]
         e = np.array([out[f"e@load{i}"][0, 0] for i in range(len(levels))])
         deviation = -np.diff(e) / (lam * np.log(2.0)) - 1.0

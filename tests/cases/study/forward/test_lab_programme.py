@@ -164,7 +164,7 @@ def test_anicreep_creep_and_relaxation_closed_forms(knob, coarse, fine, bound, m
     value, the relaxed amount of p'): measured 0.42 % / 0.34 % (adaptive, rate change 0.1) and 0.60 % / 0.47 % (20
     steps per decade); both first order in their step parameter (backward Euler)."""
     if knob == "HOLD_STEPS_PER_DECADE":
-        monkeypatch.setattr(lab_stage_steps, "ADAPTIVE_KINDS", ())
+        monkeypatch.setattr(lab_stage_steps, "ADAPTIVE_HOLDS", False)
     monkeypatch.setattr(lab_stage_steps, knob, coarse)
     creep_err, relax_err, late = _anicreep_holds()
     assert creep_err < bound and relax_err < bound

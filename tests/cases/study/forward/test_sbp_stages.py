@@ -16,8 +16,9 @@ import inference
 from cases.study.reading.checks import Checker, StudyError
 from cases.study.reading.presets import Preset
 from cases.study.programme import Stage, TestSpec
-from cases.study.forward.sbp import HOLD_FIRST_STEP, SBPForward, hold_growth, pressuremeter_problem, stage_phases
-from cases.study.reading.sbp_stages import MAX_STRAIN, check_sbp_stages
+from cases.study.forward.sbp import SBPForward, hold_growth, pressuremeter_problem, stage_phases
+from cases.study.stages.pressuremeter import HOLD_FIRST_STEP, MAX_CAVITY_STRAIN
+from cases.study.stages.sequence import check_sbp_stages
 from dissipation import A0, CH, NU, SU, ElasticDissipation, G, K, R_OUT, series_wall, t50
 
 SITE = {"sigma_v0": 50.0, "K0": 1.0, "u0": 30.0, "permeability": K, "a0": A0}
@@ -196,7 +197,7 @@ def test_a_reloading_programme_is_accepted_and_runs_through_its_stages():
     """Expansion, unloading, reloading to a larger strain, hold: accepted, one phase per stage, strains continuous."""
     stages = (expansion(4.0), Stage("unloading", "unloading2", strain_rate=1e-2, to_strain=0.03,
                                     abscissa="cavity_strain"),
-              expansion(MAX_STRAIN * 100, rate=1e-2, name="expansion3"), Stage("hold", "hold4", duration=60.0))
+              expansion(MAX_CAVITY_STRAIN * 100, rate=1e-2, name="expansion3"), Stage("hold", "hold4", duration=60.0))
     check_sbp_stages(Checker("study.toml"), stages, "tests[0]", "loop")
     phases = stage_phases(stages, 20)
     assert [p.amplitude for p in phases] == [0.04, 0.03, 0.10, 0.10]

@@ -15,7 +15,7 @@ from cases.study.reading.checks import StudyError
 from cases.study.programme import Stage, curve_key, programme_of, split_key
 from cases.study.reading.records import load_test
 from cases.study.reading.schema import load_study
-from cases.study.reading.staged_tests import stage_times
+from cases.study.stages.sequence import stage_times
 from cases.study.reading.stage_records import recorded_programme
 from inference import DataError
 from tolerances import FE_RTOL, PRINTED_RTOL

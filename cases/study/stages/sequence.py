@@ -1,0 +1,58 @@
+"""What follows from the order of a programme's stages: the stage times (:func:`stage_times`), the checks that span
+stages of a laboratory programme (:func:`check_sequence`) and of a pressuremeter programme
+(:func:`check_sbp_stages`). Units: s, strains as fractions (% in the messages, as in the study file), 1/s.
+"""
+from __future__ import annotations
+
+from cases.study.stages import KINDS
+
+__all__ = ["stage_times", "check_sequence", "check_sbp_stages"]
+
+
+def stage_times(spec) -> list:
+    """[(start, end)] of each stage of a programme in s since the test start, None where it follows from the
+    material's response (after a CRS stage to a stress, a consolidation's strain before a CRS to a strain, an
+    unloading to a pressure); the last stage's end is infinite (recorded to its last record)."""
+    out, t, strain, cavity = [], 0.0, 0.0, 0.0
+    for k, s in enumerate(spec.stages):
+        kind = s.procedure
+        d = kind.elapsed(s, strain, cavity)
+        strain, cavity = kind.strain_after(s, strain), kind.cavity_after(s, cavity)
+        end = float("inf") if k == len(spec.stages) - 1 else (None if t is None or d is None else t + d)
+        out.append((t, end))
+        t = end
+    return out
+
+
+def check_sequence(ck, stages, where: str):
+    """Check each stage of a laboratory programme against the total axial strain at its start, where it is known
+    (the previous stage's end, or the test start): ``StageKind.check_from``. ``where`` names the test entry."""
+    strain = 0.0
+    for k, s in enumerate(stages):
+        s.procedure.check_from(ck, s, f"{where}.stages[{k}]", strain)
+        strain = s.procedure.strain_after(s, strain)
+
+
+def check_sbp_stages(ck, stages, where: str, test: str = ""):
+    """Check the ``stages`` of the SBP programme of test ``test`` before any solve; ``ck``
+    (cases.study.reading.checks.Checker) names the study file, ``where`` the test entry (``tests[2]``). A first
+    expansion, then any of the kinds of apparatus sbp, each recorded against one of its abscissae and checked from
+    the cavity strain at its start (``check_cavity`` of :mod:`cases.study.stages.pressuremeter`). The StudyError
+    names the file, the test, the stage, the field (as in the file: ``to_cavity_strain`` in %) and the value."""
+    kinds = KINDS["sbp"]
+    strain = 0.0
+    for k, stage in enumerate(stages):
+        at = f"{where}.stages[{k}]"
+        named = f" (test {test}, stage {stage.name})" if test else f" (stage {stage.name})"
+
+        def fail(field, value, why):
+            ck.fail(f"{at}.{field}", value, why + named)
+
+        if stage.kind not in tuple(kinds):
+            fail("kind", stage.kind, f"supported for apparatus 'sbp': {', '.join(kinds)}")
+        kind = kinds[stage.kind]
+        if k == 0 and not kind.opens_pressuremeter_test:
+            fail("kind", stage.kind, "the first stage of a pressuremeter test is an expansion")
+        if stage.abscissa not in kind.abscissae:
+            fail("abscissa", stage.abscissa, f"a {stage.kind} stage is recorded against " + " or ".join(kind.abscissae))
+        strain = kind.check_cavity(stage, strain, k == len(stages) - 1, fail)
