@@ -38,12 +38,14 @@ def prior_bounds(post) -> dict:
     return {d["name"]: Bound(d["name"], d["lower"], d["upper"], d["kind"]) for d in post.prior if "name" in d}
 
 
-def bound_warnings(post, lower_only=(), tolerance=BOUND_TOLERANCE) -> list:
+def bound_warnings(post, lower_only=(), tolerance=BOUND_TOLERANCE, skip=()) -> list:
     """Parameters whose MAP or 2.5 / 97.5 % quantile lies within ``tolerance`` of the prior box width from a bound
-    (the lower bound only for those in ``lower_only``)."""
+    (the lower bound only for those in ``lower_only``; none for those in ``skip``)."""
     q = post.quantiles((0.025, 0.975))
     out = []
     for b in prior_bounds(post).values():
+        if b.name in skip:
+            continue
         stats = {"MAP": post.map[b.name], "2.5 % quantile": q[b.name][0], "97.5 % quantile": q[b.name][1]}
         sides = [("lower", b.lower, lambda x: _position(b, x) <= tolerance)]
         if b.name not in lower_only:
@@ -104,8 +106,11 @@ def fit_warnings(like, map_simulated: dict, curve_sigma: dict, ratio=POOR_FIT_RA
 
 def calibration_warnings(post, like, map_simulated: dict) -> list:
     """Every warning of a finished calibration (module docstring): bounds, error parameters at their ceiling, poor
-    fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order)."""
+    fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order). A model-form
+    discrepancy's parameters get no bound warning: its amplitude at the floor is the base class's fit, and its
+    prior bounds are a choice of the diagnosis, not of the study."""
     sigma = like.curve_sigmas(post.map_theta)[0]
     sigma = np.broadcast_to(sigma, (len(like.curve_keys),))
-    return (bound_warnings(post, lower_only=like.sigma_names) + sigma_warnings(post, like.sigma_names)
+    return (bound_warnings(post, lower_only=like.sigma_names, skip=like.discrepancy_names)
+            + sigma_warnings(post, like.sigma_names)
             + fit_warnings(like, map_simulated, dict(zip(like.curve_keys, sigma.tolist()))))
