@@ -30,7 +30,7 @@ from .simsand import SIMSAND
 from .swelling import SWELLING_RANGES, SWELLING_SWITCH, DelayedSwelling
 
 __all__ = ["ModelSpec", "MODELS", "SBP_MODELS", "model_spec", "build_model", "class_name", "Family",
-           "enrichment_family", "mcc_as_anicreep", "k0_surface_ratio"]
+           "enrichment_family", "mcc_as_anicreep", "k0_surface_ratio", "CONVENTIONS", "conventions"]
 
 
 @dataclass(frozen=True)
@@ -231,3 +231,27 @@ def enrichment_family(model: str) -> Family:
     a model with switches of its own is its own family (switches {}, identity translation)."""
     model_spec(model)
     return FAMILIES.get(model, Family(model, {}, _same))
+
+
+# ---------------------------------------------------------------------------------------------- conventions
+#: constructor options that write the same model another way: the curves change, the physics does not (both are
+#: called Modified Cam Clay in the literature; docs/reference.md section 10). option -> {value: the convention in
+#: words}
+CONVENTIONS = {"specific_volume": {"current": "specific volume 1 + e (current)",
+                                   "initial": "specific volume 1 + e0 (held at its initial value)"}}
+
+
+def conventions(model: str, switches: dict) -> list:
+    """The conventions of the base ``model`` with ``switches``: [(option, value, in words)], the one it is written in
+    first, then every other value of each :data:`CONVENTIONS` option that its class, or its enrichment family's
+    (``enrichment_family``: Modified Cam Clay through ANICREEP), takes as a constructor option."""
+    family = enrichment_family(model)
+    cls = model_spec(family.model).cls
+    out = []
+    for option, values in CONVENTIONS.items():
+        if option not in cls.option_names:
+            continue
+        own = switches.get(option, family.switches.get(option,
+                                                       inspect.signature(cls.__init__).parameters[option].default))
+        out += [(option, own, values[own])] + [(option, v, words) for v, words in values.items() if v != own]
+    return out

@@ -19,7 +19,7 @@ import numpy as np
 
 import inference
 from constitutive import physics_catalog
-from constitutive.registry import class_name, enrichment_family
+from constitutive.registry import class_name, conventions, enrichment_family, model_spec
 from inference import diagnosis
 from inference.executors import mpi_world
 from inference.diagnosis import ModelClass
@@ -246,34 +246,62 @@ class LoopProblem:
         self.observations, self.run, self.out = observations, run, Path(out)
         self.seed, self.settings, self.label = seed, settings, label
         self.likelihood, self.description, self.base_mode = None, "", None
+        self.convention, self.conventions_compared = {}, []
 
     def candidates(self) -> list:
         return physics_catalog.signatures(self.catalog_switches(self.base_switches), self.model)
 
     def calibrate(self, candidate: str | None) -> ModelClass:
-        """The base class (candidate None, in DIR/<base_dir>) or the base class enriched with ``candidate``
-        (``physics_catalog.enriched_settings``, in DIR/enriched_<candidate>)."""
+        """The base class (candidate None, in DIR/<base_dir>: :meth:`calibrate_base`) or the base class enriched
+        with ``candidate`` (``physics_catalog.enriched_settings``, in DIR/enriched_<candidate>), written in the
+        convention the base class adopted."""
         if candidate is None:
-            switches, bounds, log_uniform = self.base_switches, self.base_bounds, tuple(self.base_log_uniform)
-            out = self.out / self.base_dir
-        else:
-            switches, bounds, extra_log = physics_catalog.enriched_settings(candidate, self.base_switches,
-                                                                            self.base_bounds, self.model)
-            log_uniform = tuple(self.base_log_uniform) + tuple(extra_log)
-            out = self.out / f"enriched_{candidate.replace(' ', '_')}"
-        name = class_name(switches, self.model if candidate is None else enrichment_family(self.model).model)
-        sampler = {} if candidate is None else {"max_failure_fraction": self.enriched_failure_fraction}
-        cls, post, like = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
-                                               self.seed, self.settings, **sampler)
-        if candidate is None:
-            self.likelihood, self.description = like, self.describe(self.label, name)
-            self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
+            return self.calibrate_base()
+        switches, bounds, extra_log = physics_catalog.enriched_settings(candidate, self.base_switches,
+                                                                        self.base_bounds, self.model)
+        switches = {**switches, **self.convention}
+        log_uniform = tuple(self.base_log_uniform) + tuple(extra_log)
+        out = self.out / f"enriched_{candidate.replace(' ', '_')}"
+        name = class_name(switches, enrichment_family(self.model).model)
+        cls, _, _ = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
+                                         self.seed, self.settings, max_failure_fraction=self.enriched_failure_fraction)
+        return cls
+
+    def calibrate_base(self) -> ModelClass:
+        """The base class in each of its conventions (``constitutive.registry.conventions``: the same model written
+        another way, e.g. specific volume 1 + e or 1 + e0), its own in DIR/<base_dir>, the others in
+        DIR/convention_<option>_<value>; the one with the highest ln Z becomes the base class (its convention is
+        kept by the enriched and model-form classes), and the description says which the data prefer."""
+        tried = []
+        for option, value, words in conventions(self.model, self.base_switches) or [(None, None, "")]:
+            own = not tried
+            switches = dict(self.base_switches) if own else {**self.base_switches, option: value}
+            if own or option in model_spec(self.model).cls.option_names:
+                name = class_name(switches, self.model)
+            else:  # written through the enrichment family (Modified Cam Clay as ANICREEP with every physics off)
+                family = enrichment_family(self.model)
+                name = class_name({**family.switches, **switches}, family.model)
+            out = self.out / (self.base_dir if own else f"convention_{option}_{value}")
+            cls, post, like = self.calibrate_class(self.observations, name, switches,
+                                                   self.base_bounds, tuple(self.base_log_uniform), self.run, out,
+                                                   self.seed, self.settings)
+            tried.append((words, {} if own else {option: value}, cls, post, like))
+        words, convention, cls, post, like = max(tried, key=lambda c: c[2].log_evidence)
+        self.convention = convention
+        self.likelihood, self.description = like, self.describe(self.label, cls.name)
+        if len(tried) > 1:
+            compared = "; ".join(f"{w}: ln Z = {c.log_evidence:.1f}" for w, _, c, _, _ in tried)
+            self.description += (f" Conventions compared (the same model written another way): {compared}; the data "
+                                 f"prefer {words}.")
+        self.conventions_compared = [{"convention": w, "switches": s, "class": c.name, "log_evidence": c.log_evidence}
+                                     for w, s, c, _, _ in tried]
+        self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
         return cls
 
     def calibrate_model_form(self) -> ModelClass:
         """The base class with a model-form discrepancy (:meth:`discrepancy`), in DIR/model_form: the alternative
         without physics that an enrichment must beat (``inference.diagnosis.rank.conclude``)."""
-        switches = self.base_switches
+        switches = {**self.base_switches, **self.convention}
         name = class_name(switches, self.model) + " + model-form discrepancy"
         cls, _, _ = self.calibrate_class(self.observations, name, switches, self.base_bounds,
                                          tuple(self.base_log_uniform), self.run, self.out / "model_form", self.seed,
@@ -300,7 +328,8 @@ def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: 
     (out / "loop.json").write_text(json.dumps({
         "label": label, "seed": seed, "verdict": final.verdict, "omitted_physics": final.omitted_physics,
         "named": result.named, "named_without_enrichment": result.named_without_enrichment,
-        "not_calibrated": result.not_calibrated, "log_bayes": final.log_bayes, "timing": result.timing, "settings": vars(settings)},
+        "not_calibrated": result.not_calibrated, "log_bayes": final.log_bayes,
+        "conventions": problem.conventions_compared, "timing": result.timing, "settings": vars(settings)},
         indent=1, default=float))
     return result
 
