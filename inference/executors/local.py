@@ -2,17 +2,22 @@
 """
 from __future__ import annotations
 
+import atexit
 import ctypes
 import math
+import multiprocessing as mp
 import os
 import signal
 import sys
 import threading
 import time
+import traceback
+from collections import deque
+from multiprocessing.connection import wait
 
 import numpy as np
 
-__all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S"]
+__all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", "MAX_WORKER_DEATHS"]
 
 
 class Executor:
@@ -27,9 +32,10 @@ class Executor:
         """``main()`` (which calls ``evaluate``) on the root rank; its result, returned on every rank."""
         return main()
 
-    def evaluate(self, evaluator, thetas, callback=None, stop=None):
+    def evaluate(self, evaluator, thetas, callback=None, stop=None, note=None):
         """Evaluate every row of thetas. ``callback(indices, values, reasons, ranks)`` is called as results arrive;
-        ``stop()`` returning True asks to stop early (rows not evaluated are returned as NaN with reason None).
+        ``stop()`` returning True asks to stop early (rows not evaluated are returned as NaN with reason None);
+        ``note(line)`` receives one line per event the run should log (a pool worker lost and replaced).
         Returns (values, reasons, ranks)."""
         raise NotImplementedError
 
@@ -59,7 +65,7 @@ class SerialExecutor(Executor):
     def __init__(self, chunk=None):
         self.chunk = chunk
 
-    def evaluate(self, evaluator, thetas, callback=None, stop=None):
+    def evaluate(self, evaluator, thetas, callback=None, stop=None, note=None):
         m = len(thetas)
         values = np.full(m, np.nan)
         reasons = [None] * m
@@ -78,25 +84,25 @@ class SerialExecutor(Executor):
         return values, reasons, ranks
 
 
-_POOL_EVALUATOR = None
-
 #: how often a pool worker's watchdog compares its parent process id with the pool owner's (s)
 WATCHDOG_INTERVAL_S = 0.5
 
+#: how many times one evaluation may take its pool worker down before it counts as a failed forward solve
+MAX_WORKER_DEATHS = 3
+
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
+_LIVE_POOLS = set()  # pools with workers, kept until closed (at the latest at interpreter exit)
 
-def _pool_init(evaluator, owner_pid, death_signal):
-    """Worker start-up: the evaluator (spawn start method only), signals, and death with the pool's owner.
+
+def _pool_init(owner_pid, death_signal):
+    """Worker start-up: signals, and death with the pool's owner.
 
     The parent handles SIGTERM/SIGINT (checkpoint and exit), so workers ignore them and never die half-way through a
     task. Because they ignore SIGTERM, a worker must notice by itself that its parent is gone (SIGKILL, a crash):
     the kernel's death signal (``death_signal``, Linux) and a watchdog thread, see :class:`PoolExecutor`. The check
     after the request closes the race of an owner that died before the request was made.
     """
-    global _POOL_EVALUATOR
-    if evaluator is not None:
-        _POOL_EVALUATOR = evaluator
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGUSR1, signal.SIG_IGN)
@@ -125,87 +131,254 @@ def _watch_parent(owner_pid):
     os._exit(1)
 
 
-def _pool_task(args):
-    idx, thetas = args
-    values, reasons = _POOL_EVALUATOR(thetas)
-    return idx, values, reasons, os.getpid()
+def _serve(conn, evaluator, owner_pid, death_signal):
+    """A worker's loop: evaluate the (batch, indices, thetas) tasks read from ``conn`` until None or the pipe closes;
+    answer (batch, indices, values, reasons, None), or a traceback in place of the results for an error outside
+    the forward evaluations (which the evaluator turns into -inf itself)."""
+    _pool_init(owner_pid, death_signal)
+    while True:
+        try:
+            task = conn.recv()
+        except EOFError:
+            return
+        if task is None:
+            return
+        batch, idx, thetas = task
+        try:
+            values, reasons = evaluator(thetas)
+        except Exception:
+            conn.send((batch, idx, None, None, traceback.format_exc()))
+        else:
+            conn.send((batch, idx, values, reasons, None))
+
+
+def _close_live_pools():
+    for pool in list(_LIVE_POOLS):
+        pool.close()
+
+
+def _how_it_ended(exitcode):
+    if exitcode is not None and exitcode < 0:
+        try:
+            return f"killed by signal {-exitcode} ({signal.Signals(-exitcode).name})"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"exited with status {exitcode}"
+
+
+class _Worker:
+    """One worker process of the pool: its end of the pipe and the task it runs, (batch, indices) or None."""
+
+    def __init__(self, ctx, evaluator):
+        conn, child = ctx.Pipe()
+        death_signal = threading.current_thread() is threading.main_thread()
+        self.process = ctx.Process(target=_serve, args=(child, evaluator, os.getpid(), death_signal),
+                                   name="inference-pool-worker")
+        self.process.start()
+        child.close()
+        self.conn = conn
+        self.task = None
+
+    def end(self):
+        """Wait for the process to exit, answers it still sends read and dropped (a full pipe never blocks it)."""
+        while True:
+            ready = wait([self.conn, self.process.sentinel])
+            if self.process.sentinel in ready:
+                break
+            try:
+                self.conn.recv()
+            except (EOFError, OSError):
+                break
+        self.process.join()
+        self.conn.close()
 
 
 class PoolExecutor(Executor):
     """A local process pool (the embedded default on a laptop or workstation without mpirun).
 
     Workers are forked with the evaluator already in memory (nothing but parameter vectors crosses processes);
-    where fork is unavailable the evaluator is pickled once per worker. Workers ignore SIGTERM/SIGINT so that a
-    signal sent to the whole process group (Slurm) reaches only the parent, which checkpoints; the pool is shut down
-    with sentinels (running evaluations finish, queued ones are cancelled), never with signals.
+    where fork is unavailable the evaluator is pickled once per worker. Each worker has its own pipe and runs one
+    chunk of a batch at a time, so the pool always knows which evaluations each worker has in flight. Workers ignore
+    SIGTERM/SIGINT so that a signal sent to the whole process group (Slurm) reaches only the parent, which
+    checkpoints; the pool is shut down with sentinels (running evaluations finish, queued ones are dropped), never
+    with signals.
+
+    Self-healing: a worker that dies (killed, out of memory, a segfault in compiled code) is replaced by a new
+    process in its rank, and the chunk it was evaluating is put back at the head of the queue, so the batch ends
+    with exactly the values of an uninterrupted one (evaluations are deterministic; results are stored by index).
+    Each loss is reported in one line, to ``note`` (the run's progress log) or else stderr: the worker's pid, the
+    signal or exit status, and how many evaluations are redone. A chunk that takes a worker down a second time is
+    redone one evaluation per task, to find the culprit (a vectorized log-likelihood then sees single rows); an
+    evaluation that has taken workers down ``max_deaths`` times (:data:`MAX_WORKER_DEATHS`, counting the deaths of
+    the chunks it was in) is given up as a failed forward solve (-inf with the reason), so the sampler's failed-solve
+    policy applies instead of a crash loop. Workers that die with nothing of the batch in flight, more than
+    ``max_deaths`` times per worker in one batch, stop the batch with an error.
 
     Workers die with their parent, even when it is killed with SIGKILL (no clean shut-down): on Linux the kernel
     sends them SIGKILL (prctl PR_SET_PDEATHSIG); everywhere a watchdog thread in each worker exits it within
     :data:`WATCHDOG_INTERVAL_S` once its parent process id changes (the watchdog needs the GIL, so a worker inside
     a long compiled call exits when the call returns). The kernel's signal follows the *thread* that started the
-    workers, so it is requested only when the pool is started from the main thread; from any other thread the
-    watchdog alone applies (a pool started in a thread that ends would otherwise lose its workers).
+    worker, so it is requested only for workers started from the main thread; from any other thread the watchdog
+    alone applies (a pool started in a thread that ends would otherwise lose its workers).
     """
 
     name = "pool"
 
-    def __init__(self, processes=None, chunk=None):
+    def __init__(self, processes=None, chunk=None, max_deaths=MAX_WORKER_DEATHS):
         self.processes = processes or os.cpu_count() or 1
         self.ranks = self.processes
         self.chunk = chunk
-        self._pool = None
+        self.max_deaths = max(1, int(max_deaths))
+        self._workers = []
         self._evaluator = None
-        self._pids = {}
+        self._ctx = None
+        self._batch = 0
 
     def _ensure(self, evaluator):
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
-
-        if self._pool is not None and self._evaluator is evaluator:
+        if self._workers and self._evaluator is evaluator:
             return
         self.close()
-        global _POOL_EVALUATOR
-        if "fork" in mp.get_all_start_methods():
-            _POOL_EVALUATOR = evaluator
-            ctx, initarg = mp.get_context("fork"), None
-        else:  # pragma: no cover - not on Linux
-            ctx, initarg = mp.get_context("spawn"), evaluator
-        death_signal = threading.current_thread() is threading.main_thread()
-        self._pool = ProcessPoolExecutor(self.processes, mp_context=ctx, initializer=_pool_init,
-                                         initargs=(initarg, os.getpid(), death_signal))
+        method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
+        self._ctx = mp.get_context(method)
         self._evaluator = evaluator
+        self._workers = [_Worker(self._ctx, evaluator) for _ in range(self.processes)]
+        if not _LIVE_POOLS:  # (re-)registered after multiprocessing's exit handler, which would wait for the workers
+            atexit.unregister(_close_live_pools)
+            atexit.register(_close_live_pools)
+        _LIVE_POOLS.add(self)
 
-    def evaluate(self, evaluator, thetas, callback=None, stop=None):
-        from concurrent.futures import as_completed
-
+    def evaluate(self, evaluator, thetas, callback=None, stop=None, note=None):
         self._ensure(evaluator)
-        m = len(thetas)
-        values = np.full(m, np.nan)
-        reasons = [None] * m
-        ranks = np.zeros(m, dtype=int)
-        vec = evaluator.vectorized or getattr(evaluator.loglike, "batch", False)
-        chunk = self.chunk or (math.ceil(m / self.processes) if vec else max(1, m // (8 * self.processes)))
-        futures = [self._pool.submit(_pool_task, (np.arange(s, min(m, s + chunk)), thetas[s:s + chunk]))
-                   for s in range(0, m, chunk)]
-        try:
-            for fut in as_completed(futures):
-                idx, v, r, pid = fut.result()
-                rank = self._pids.setdefault(pid, len(self._pids))
-                values[idx] = v
-                ranks[idx] = rank
-                for i, reason in zip(idx, r):
-                    reasons[i] = reason
-                if callback is not None:
-                    callback(idx, v, r, ranks[idx])
-                if stop is not None and stop():
-                    break
-        finally:
-            for fut in futures:
-                fut.cancel()
-        return values, reasons, ranks
+        self._batch += 1
+        batch = _Batch(self, self._batch, thetas, callback, note)
+        while batch.unfinished():
+            if stop is not None and stop():
+                break
+            for rank, worker in enumerate(self._workers):
+                if worker.task is None and batch.queue:
+                    batch.send(rank)
+            conns = {w.conn: rank for rank, w in enumerate(self._workers)}
+            sentinels = {w.process.sentinel: rank for rank, w in enumerate(self._workers)}
+            for ready in wait(list(conns) + list(sentinels), timeout=1.0):
+                rank = conns.get(ready, sentinels.get(ready))
+                if self._workers[rank].conn is not ready and self._workers[rank].process.sentinel is not ready:
+                    continue  # this worker was replaced while handling an earlier ready object
+                batch.receive(rank)
+        return batch.values, batch.reasons, batch.ranks
+
+    def _replace(self, rank):
+        """Start a new worker in ``rank`` in place of the dead one; returns (old pid, how it ended, new pid)."""
+        old = self._workers[rank]
+        old.process.join()
+        old.conn.close()
+        self._workers[rank] = _Worker(self._ctx, self._evaluator)
+        return old.process.pid, _how_it_ended(old.process.exitcode), self._workers[rank].process.pid
 
     def close(self):
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
-            self._evaluator = None
+        for worker in self._workers:
+            try:
+                worker.conn.send(None)
+            except OSError:
+                pass
+        for worker in self._workers:
+            worker.end()
+        self._workers = []
+        self._evaluator = None
+        _LIVE_POOLS.discard(self)
+
+
+class _Batch:
+    """One batch on a :class:`PoolExecutor`: the chunks still to send, the results, and the workers' deaths."""
+
+    def __init__(self, pool, batch_id, thetas, callback, note):
+        self.pool = pool
+        self.id = batch_id
+        self.thetas = thetas
+        self.callback = callback
+        self.note = note
+        m = len(thetas)
+        self.values = np.full(m, np.nan)
+        self.reasons = [None] * m
+        self.ranks = np.zeros(m, dtype=int)
+        self.deaths = np.zeros(m, dtype=int)
+        self.idle_deaths = 0
+        ev = pool._evaluator
+        vec = ev.vectorized or getattr(ev.loglike, "batch", False)
+        n = pool.processes
+        chunk = pool.chunk or (math.ceil(m / n) if vec else max(1, m // (8 * n)))
+        self.queue = deque(np.arange(s, min(m, s + chunk)) for s in range(0, m, chunk))
+
+    def unfinished(self):
+        return bool(self.queue) or any(w.task is not None and w.task[0] == self.id for w in self.pool._workers)
+
+    def send(self, rank):
+        worker = self.pool._workers[rank]
+        idx = self.queue.popleft()
+        try:
+            worker.conn.send((self.id, idx, self.thetas[idx]))
+        except OSError:  # it died while idle: the chunk never reached it
+            self.queue.appendleft(idx)
+            self.lost(rank)
+            return
+        worker.task = (self.id, idx)
+
+    def receive(self, rank):
+        """Read what ``rank`` answered, or handle its death."""
+        worker = self.pool._workers[rank]
+        answer = None
+        if worker.conn.poll():
+            try:
+                answer = worker.conn.recv()
+            except (EOFError, OSError):
+                answer = None
+        if answer is None:
+            if not worker.process.is_alive():
+                self.lost(rank)
+            return
+        batch, idx, v, r, error = answer
+        worker.task = None
+        if error is not None:
+            raise RuntimeError(f"pool worker {worker.process.pid} failed outside a forward evaluation:\n{error}")
+        if batch == self.id:
+            self.store(idx, v, r, rank)
+
+    def store(self, idx, v, r, rank):
+        self.values[idx] = v
+        self.ranks[idx] = rank
+        for i, reason in zip(idx, r):
+            self.reasons[i] = reason
+        if self.callback is not None:
+            self.callback(idx, np.asarray(v), r, self.ranks[idx])
+
+    def lost(self, rank):
+        """The worker of ``rank`` died: replace it, and redo its chunk or give the culprit up."""
+        task = self.pool._workers[rank].task
+        pid, how, new_pid = self.pool._replace(rank)
+        line = f"pool worker {pid} (rank {rank}) {how}; replaced by worker {new_pid}"
+        if task is None or task[0] != self.id:
+            self.idle_deaths += 1
+            if self.idle_deaths > self.pool.max_deaths * self.pool.processes:
+                raise RuntimeError(f"{line}: pool workers keep dying without evaluating anything")
+            self.say(f"{line}; no evaluation of this batch was in flight")
+            return
+        idx = task[1]
+        self.deaths[idx] += 1
+        limit = self.pool.max_deaths
+        if len(idx) == 1 and self.deaths[idx[0]] >= limit:
+            reason = (f"the forward evaluation took its pool worker down {self.deaths[idx[0]]} times (last: {how}); "
+                      "counted as a failed solve")
+            self.say(f"{line}; 1 evaluation given up after {self.deaths[idx[0]]} worker deaths (-inf, a failed solve)")
+            self.store(idx, np.array([-np.inf]), [reason], rank)
+        elif len(idx) > 1 and self.deaths[idx].max() >= limit - 1:
+            self.queue.extendleft(np.array([k]) for k in reversed(idx))
+            self.say(f"{line}; {len(idx)} evaluations redone one at a time (the chunk took workers down "
+                     f"{self.deaths[idx].max()} times)")
+        else:
+            self.queue.appendleft(idx)
+            self.say(f"{line}; {len(idx)} evaluation{'s' if len(idx) != 1 else ''} redone")
+
+    def say(self, line):
+        if self.note is not None:
+            self.note(line)
+        else:
+            print(line, file=sys.stderr, flush=True)

@@ -1,7 +1,10 @@
 """Evaluations on MPI ranks (mpi4py): dynamic master/worker or static round-robin (spmd); rank 0 runs the sampler.
 
 The ranks are processes of the MPI launcher, which ends the whole job when one rank dies; unlike the local pool's
-workers (:class:`inference.executors.PoolExecutor`), no rank here watches for its parent's death.
+workers (:class:`inference.executors.PoolExecutor`), no rank here watches for its parent's death, and a lost rank
+cannot be replaced. Where the MPI library reports the loss to rank 0 as an error instead, rank 0 prints one line
+(:func:`rank_lost_message`: rerun with --resume) and aborts the job with status 75 (EX_TEMPFAIL, "try again"):
+the other ranks wait for messages that will never come, so nothing but an abort ends them.
 """
 from __future__ import annotations
 
@@ -14,14 +17,28 @@ import numpy as np
 
 from .local import Executor
 
-__all__ = ["RootRankError", "MPIExecutor", "mpi_world"]
+__all__ = ["RootRankError", "RankLost", "MPIExecutor", "mpi_world", "rank_lost_message", "EXIT_RANK_LOST"]
 
 
 class RootRankError(RuntimeError):
     """Raised on the other ranks when the root rank's run stopped with an error."""
 
 
+class RankLost(RuntimeError):
+    """Rank 0 lost contact with another rank (an MPI error during a batch): the job cannot continue."""
+
+
+#: status of a job aborted after a lost rank (EX_TEMPFAIL: rerun with --resume)
+EXIT_RANK_LOST = 75
+
 _TAG_TASK, _TAG_RESULT, _TAG_STOP = 11, 12, 13
+
+
+def rank_lost_message(detail):
+    """The one line printed when a rank is lost: what MPI said, and rerun with --resume."""
+    detail = " ".join(str(detail).split())
+    return (f"error: an MPI rank was lost ({detail}); a rank cannot be replaced under mpirun: rerun the same command "
+            "with --resume (resume=True in Python) to continue from the last checkpoint")
 
 
 def mpi_world():
@@ -60,7 +77,15 @@ class MPIExecutor(Executor):
         self.name = f"mpi-{mode}"
 
     # ---- root side
-    def evaluate(self, evaluator, thetas, callback=None, stop=None):
+    def evaluate(self, evaluator, thetas, callback=None, stop=None, note=None):
+        from mpi4py import MPI
+
+        try:
+            return self._evaluate(evaluator, thetas, callback, stop)
+        except MPI.Exception as exc:
+            raise RankLost(str(exc)) from exc
+
+    def _evaluate(self, evaluator, thetas, callback, stop):
         m = len(thetas)
         values = np.full(m, np.nan)
         reasons = [None] * m
@@ -136,7 +161,8 @@ class MPIExecutor(Executor):
     def run(self, evaluator, main):
         """Rank 0 calls ``main()`` and hands its result (or how it stopped) to the workers, which serve ``evaluator``
         meanwhile: a result is returned on every rank, SystemExit raises SystemExit with the same code on every
-        rank, another exception raises :class:`RootRankError` on the workers."""
+        rank, another exception raises :class:`RootRankError` on the workers; a lost rank (:class:`RankLost`)
+        prints :func:`rank_lost_message` and aborts the job with :data:`EXIT_RANK_LOST`."""
         if not self.is_root:
             kind, value = self.serve(evaluator)
             if kind == "exit":
@@ -146,6 +172,10 @@ class MPIExecutor(Executor):
             return value
         try:
             value = main()
+        except RankLost as exc:  # releasing the ranks would wait for the lost one
+            print(rank_lost_message(exc), file=sys.stderr, flush=True)
+            self.comm.Abort(EXIT_RANK_LOST)
+            raise
         except SystemExit as exc:
             self.finish(("exit", exc.code))
             raise

@@ -10,7 +10,7 @@ kept (``RunState.partial``) and reused on resume. SIGTERM/SIGUSR1 write a checkp
 
 Progress lines: one per stage with its exponent, ln S_j, acceptance, sweeps, failures, evaluations per second,
 ``elapsed`` (the run's wall time summed over its sessions, as ``wall_s`` of the results) and an ETA
-(:func:`eta_text`).
+(:func:`eta_text`); and the executor's event lines (``note``: a pool worker lost and replaced).
 """
 from __future__ import annotations
 
@@ -157,7 +157,7 @@ class Run:
                              f"elapsed {self.wall(st):.0f} s")
 
             v, r, rk = self.ex.evaluate(self.ev, thetas[todo], callback=callback,
-                                        stop=lambda: self.signal_received is not None)
+                                        stop=lambda: self.signal_received is not None, note=self.say)
             values[todo], ranks[todo] = v, rk
             for i, k in enumerate(todo):
                 reasons[k] = r[i]
