@@ -35,8 +35,8 @@ import inference
 from constitutive import ANICREEP, ParameterError
 from inference import DataError
 
-from cases.study.cli import (UsageError, arguments, command, non_negative_int, pairs, positive_float, positive_int,
-                        run_settings)
+from cases.study.cli import (UsageError, arguments, command, non_negative_int, pairs, positive_int, quantity,
+                             run_settings)
 from cases.study.synthetic.generate import generate_sbp
 from cases.study.outputs.report import runs_table
 from cases.study.reading.presets import FE_FIELDS, PRESETS, Preset
@@ -120,7 +120,8 @@ def _options(ap):
                     help="MCMC sweeps per stage: 1 is the paper's one Metropolis step per resampled particle (the "
                     "paper setting's default), 0 adaptive up to 25 (--quick: adaptive up to 4 by default)")
     ap.add_argument("--max-stages", type=positive_int, default=200, help="stop after this many stages (tests)")
-    ap.add_argument("--timeout", type=positive_float, help="seconds per forward evaluation (then a failed particle)")
+    ap.add_argument("--timeout", type=quantity("time per forward evaluation", "s"),
+                    help="seconds per forward evaluation (then a failed particle)")
     ap.add_argument("--generate", action="store_true", help="regenerate the shipped synthetic recordings and exit")
     ap.add_argument("--throughput", type=positive_int, metavar="N",
                     help="benchmark: time N forward evaluations (prior draws) on this executor and exit")
@@ -137,9 +138,9 @@ def main(argv=None):
     if args.sweeps is not None:
         preset = replace(preset, sweeps=args.sweeps or None)
     label = base if preset == PRESETS[base] else f"{base}, modified"
-    fixed = pairs(args.fixed, "--fixed")
+    fixed = pairs(args.fixed, "--fixed", units={k: (f"fixed {k}", "s" if k == "tau" else "-") for k in FIXED})
     check_fixed(fixed)
-    rates = pairs(args.rates, "--rates") or RATES
+    rates = pairs(args.rates, "--rates", units={"": ("cavity strain rate", "1/s")}) or RATES
     for test, rate in rates.items():
         if not rate > 0:
             raise UsageError(f"--rates: {test}={rate:g}: a cavity expansion needs a strain rate > 0 (1/s)")

@@ -35,7 +35,7 @@ from pathlib import Path
 from constitutive.registry import class_name
 from inference.executors import mpi_world
 
-from cases.study.cli import UsageError, arguments, command, non_negative_float, run_settings
+from cases.study.cli import UsageError, arguments, command, quantity, run_settings
 from cases.study.synthetic.generate import generate
 from cases.study.loop.problem import CASE, StudyProblem, run_loop
 from cases.study.reading.records import load_observations
@@ -52,7 +52,7 @@ def _options(ap):
     ap.add_argument("--diagnose", action="store_true", help="run the whole missing-physics loop")
     ap.add_argument("--generate", action="store_true", help="(re)write the study's SYNTHETIC CSVs from its "
                     "[synthetic] table and exit")
-    ap.add_argument("--noise", type=non_negative_float,
+    ap.add_argument("--noise", type=quantity("noise level (standard deviation of c in Eq. 1)", "-", positive=False),
                     help="with --generate: the noise level (default: the [synthetic] table's)")
 
 

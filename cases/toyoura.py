@@ -53,7 +53,7 @@ from cases.study.cli import arguments
 from cases.study.outputs.report import parameter_table
 from cases.study.runner import is_root, method_name, run_all, write_summary
 from cases.study.reading.checks import Checker, read_toml
-from cases.study.cli import UsageError, command
+from cases.study.cli import UsageError, command, unit_hint
 from cases.study.reading.error_model import ErrorModel, read_error_model
 from cases.study.sand import CURVES, MAX_FAILURE_FRACTION, add_options, free_subset, parameters, run_line, \
     sampler_settings, sand_forward, volume_change_table, write_figures, write_runs
@@ -121,6 +121,11 @@ def parse_undrained(spec: str):
     if len(parts) not in (1, 3):
         raise UsageError(f"--undrained {spec!r}: use FILE or FILE:E0:P0_KPA")
     extra = {} if len(parts) == 1 else {"e0": parts[1], "p0_kPa": parts[2]}
+    for (key, value), (what, unit) in zip(extra.items(), (("initial void ratio E0", "-"), ("p'0 P0_KPA", "kPa"))):
+        try:
+            float(value)
+        except ValueError:
+            raise UsageError(f"--undrained {spec}: {unit_hint(value, what, unit)}") from None
     return Path(parts[0]), extra
 
 

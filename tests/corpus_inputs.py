@@ -70,8 +70,21 @@ LAB_CSVS = [
     ("strain twice", rows("0.5,0.5,40", "1,1,70", header="axial_strain_pct,axial_strain [%],q_kPa"),
      ["same quantity 'axial_strain'"]),
     ("unnamed column", rows("0.5,40,1", "1,70,2", header="axial_strain_pct,q_kPa,"), ["column 3", "no name"]),
-    ("semicolons", "axial_strain_pct;q_kPa\n0,5;40\n1,0;70\n", ["separated by ';'"]),
-    ("tabs", "axial_strain_pct\tq_kPa\n0.5\t40\n1.0\t70\n", ["separated by tabs"]),
+    ("semicolons, both decimal marks", "axial_strain_pct;q_kPa\n0,5;40\n1.0;70\n",
+     ["line 3", "'axial_strain_pct'", "'1.0'", "decimal point", "line 2", "'0,5'"]),
+    ("decimal comma in a comma file", rows('0.5,40,0.99', '1.0,"70,5",0.98'),
+     ["line 3", "'q_kPa'", "'70,5'", "decimal comma is read in a file separated by ';'"]),
+    ("unit psi suffix", rows("0.5,5.8", "1.0,10.2", header="axial_strain_pct,q_psi"),
+     ["line 1", "'q_psi'", "unit 'psi' is not supported: convert to kPa (1 psi = 6.894757 kPa)"]),
+    ("unit kgf/cm2", rows("0.5,0.4", "1.0,0.7", header="axial strain (%),q (kgf/cm2)"),
+     ["'q (kgf/cm2)'", "unit 'kgf/cm2' is not supported: convert to kPa (1 kgf/cm2 = 98.0665 kPa)"]),
+    ("unit in inches", rows("0.5,40,0.1", "1.0,70,0.2", header="axial_strain_pct,q_kPa,displacement [in]"),
+     ["'displacement [in]'", "unit 'in' is not supported: convert to mm (1 in = 25.4 mm)"]),
+    ("unit kpa", rows("0.5,40", "1.0,70", header="axial_strain_pct,q (kpa)"),
+     ["'q (kpa)'", "unit 'kpa' is not a known unit; did you mean 'kPa'?"]),
+    ("unit day", rows("0.5,40,1", "1.0,70,2", header="axial_strain_pct,q_kPa,time (day)"),
+     ["'time (day)'", "unit 'day' is not supported: write it as 'd'"]),
+    ("tabs", "axial_strain_pct\tq_kPa\n0.5\t40\n1.0\t70\n", ["line 1", "separated by tabs", "',' or ';'"]),
     ("short row", rows("0.5,40,0.99", "1.0,70"), ["line 3", "2 values for 3 columns"]),
     ("long row", rows("0.5,40,0.99", "1.0,70,0.98,5"), ["line 3", "4 values for 3 columns"]),
     ("text value", rows("0.5,40,0.99", "1.0,abc,0.98"), ["line 3", "'q_kPa'", "'abc'"]),
@@ -106,7 +119,8 @@ LAB_CSVS = [
     ("upper case", rows("0.5,40", "1,70", header="AXIAL_STRAIN_PCT,q_kPa"), ["did you mean 'axial_strain_pct'"]),
     ("strain without unit", rows("0.005,40", "0.01,70", header="axial_strain,q_kPa"),
      ["'axial_strain'", "unit '-'", "expected '%'"]),
-    ("unit psi", rows("0.5,4", "1,7", header="axial_strain_pct,q [psi]"), ["column 'q'", "unit 'psi'"]),
+    ("unit psi", rows("0.5,4", "1,7", header="axial_strain_pct,q [psi]"),
+     ["column 'q [psi]'", "unit 'psi' is not supported"]),
     ("stress in seconds", rows("0.5,40", "1,70", header="axial_strain_pct,q_s"), ["column 'q'", "unit 's'"]),
     ("pore pressure in a drained test", rows("0.5,40,5", "1,70,6", header="axial_strain_pct,q_kPa,"
                                               "excess_pore_pressure_kPa"), ["'excess_pore_pressure'", "drained"]),
@@ -156,9 +170,13 @@ SBP_CSVS = [
      ["missing column 'cavity_pressure'"]),
     ("strain without unit", sbp_rows("0.01,100", "0.02,120", header="cavity_strain,cavity_pressure_kPa"),
      ["'cavity_strain'", "unit '-'"]),
-    ("unit psi", sbp_rows("1,14", "2,17", header="cavity_strain_pct,cavity_pressure [psi]"), ["unit 'psi'"]),
+    ("unit psi", sbp_rows("1,14", "2,17", header="cavity_strain_pct,cavity_pressure [psi]"),
+     ["line 1", "'cavity_pressure [psi]'", "unit 'psi' is not supported: convert to kPa (1 psi = 6.894757 kPa)"]),
+    ("unit bar", sbp_rows("1;1,4", "2;1,7", header="cavity strain (%);cavity pressure (bar)"),
+     ["'cavity pressure (bar)'", "unit 'bar' is not supported: convert to kPa (1 bar = 100 kPa)"]),
     ("row length", sbp_rows("1,100,40", "2,120"), ["line 3", "2 values for 3 columns"]),
-    ("semicolons", "cavity_strain_pct;cavity_pressure_kPa\n1;100\n2;120\n", ["separated by ';'"]),
+    ("semicolons, both decimal marks", "cavity_strain_pct;cavity_pressure_kPa\n1,5;100\n2;120.5\n",
+     ["line 3", "'cavity_pressure_kPa'", "'120.5'", "decimal point", "'1,5'"]),
     ("time negative", sbp_rows("1,100,-6", "2,120,12", header="cavity_strain_pct,cavity_pressure_kPa,time_s"),
      ["line 2", "'time' in s", "-6"]),
 ]
@@ -249,6 +267,8 @@ CALIBRATE_ARGS = [
     ("method", ["--method", "mh"], ["--method", "'mh'"]),
     ("dispatch", ["--dispatch", "fast"], ["--dispatch", "'fast'"]),
     ("noise negative", ["--generate", "--noise", "-0.1"], ["--noise", "'-0.1'"]),
+    ("noise in %", ["--generate", "--noise", "2%"],
+     ["--noise", "'2%'", "give the noise level", "as a plain number (2 % = 0.02: write 0.02)"]),
     ("noise nan", ["--generate", "--noise", "nan"], ["--noise", "'nan'"]),
     ("unknown option", ["--sampels", "8"], ["--sampels"]),
     ("generate without synthetic", ["--generate"], ["study.toml", "synthetic.parameters"]),
@@ -267,6 +287,12 @@ BURSWOOD_ARGS = [
     ("rate text", ["--recordings", "fast={f}", "--rates", "fast=quick"], ["--rates", "'quick'"]),
     ("rate nan", ["--recordings", "fast={f}", "--rates", "fast=nan"], ["--rates", "'nan'"]),
     ("rate inf", ["--recordings", "fast={f}", "--rates", "fast=inf"], ["--rates", "'inf'"]),
+    ("rate in %", ["--recordings", "fast={f}", "--rates", "fast=0.167%"],
+     ["--rates fast=0.167%: give the cavity strain rate as a number in 1/s (0.167 %/s = 0.00167 1/s: write 0.00167)"]),
+    ("rate in %/min", ["--rates", "fast=1%/min"],
+     ["--rates fast=1%/min: give the cavity strain rate as a number in 1/s (1 %/min = 0.000166667 1/s"]),
+    ("rate in furlongs", ["--rates", "fast=2furlongs"],
+     ["--rates fast=2furlongs: give the cavity strain rate as a number in 1/s (unit 'furlongs' not understood)"]),
     ("radial cells 0", ["--radial-cells", "0"], ["--radial-cells", "'0'"]),
     ("layers 0", ["--layers", "0"], ["--layers", "'0'"]),
     ("increments -5", ["--increments", "-5"], ["--increments", "'-5'"]),
@@ -276,6 +302,8 @@ BURSWOOD_ARGS = [
     ("max stages 0", ["--max-stages", "0"], ["--max-stages", "'0'"]),
     ("timeout 0", ["--timeout", "0"], ["--timeout", "'0'"]),
     ("timeout -1", ["--timeout", "-1"], ["--timeout", "'-1'"]),
+    ("timeout in min", ["--timeout", "10min"],
+     ["--timeout", "'10min'", "give the time per forward evaluation as a number in s (10 min = 600 s: write 600)"]),
     ("throughput 0", ["--throughput", "0"], ["--throughput", "'0'"]),
     ("fixed nu 0.7", ["--fixed", "nu=0.7"], ["--fixed", "nu=0.7", "nu"]),
     ("fixed unknown", ["--fixed", "phi=30"], ["--fixed", "'phi'"]),
@@ -284,6 +312,10 @@ BURSWOOD_ARGS = [
     ("fixed inf", ["--fixed", "nu=inf"], ["--fixed", "'inf'"]),
     ("fixed text", ["--fixed", "nu=abc"], ["--fixed", "'abc'"]),
     ("fixed tau 0", ["--fixed", "tau=0"], ["--fixed", "tau=0"]),
+    ("fixed tau in days", ["--fixed", "tau=1d"],
+     ["--fixed tau=1d: give the fixed tau as a number in s (1 d = 86400 s: write 86400)"]),
+    ("fixed nu in %", ["--fixed", "nu=30%"],
+     ["--fixed nu=30%: give the fixed nu as a plain number (30 % = 0.3: write 0.3)"]),
     ("seed -1", ["--seed", "-1"], ["--seed", "'-1'"]),
     ("samples 2", ["--samples", "2"], ["--samples", "'2'"]),
     ("runs 0", ["--runs", "0"], ["--runs", "'0'"]),
@@ -296,7 +328,7 @@ BURSWOOD_ARGS = [
 
 
 def variants(plain: str, renames: dict, scale: dict):
-    """Encodings, line ends, quoting and unit spellings of the same records: (name, bytes)."""
+    """Encodings, line ends, quoting, unit spellings and a spreadsheet's saving of the same records: (name, bytes)."""
     header, *rows = [line for line in plain.splitlines() if not line.startswith("#")]
     quoted = "\n".join([header] + [",".join(f'"{v}"' for v in r.split(",")) for r in rows]) + "\n"
     bracket = plain.replace(header, ",".join(renames.get(c, c) for c in header.split(",")))
@@ -307,7 +339,25 @@ def variants(plain: str, renames: dict, scale: dict):
     return [("CRLF", plain.replace("\n", "\r\n").encode()), ("BOM", b"\xef\xbb\xbf" + plain.encode()),
             ("BOM and CRLF", b"\xef\xbb\xbf" + plain.replace("\n", "\r\n").encode()), ("quoted", quoted.encode()),
             ("bracket units", bracket.encode()), ("MPa", mpa.encode()), ("spaces", plain.replace(",", ", ").encode()),
-            ("old Mac CR", plain.replace("\n", "\r").encode())]
+            ("old Mac CR", plain.replace("\n", "\r").encode()),
+            ("spreadsheet", spreadsheet(plain).encode("utf-8-sig").replace(b"\n", b"\r\n")),
+            ("semicolons, decimal points", plain.replace(",", ";").encode())]
+
+
+def spreadsheet(plain: str) -> str:
+    """The records as a spreadsheet in a comma-decimal locale saves them: ';' between the columns, decimal commas,
+    headers ``name (unit)`` with blanks in the names (``axial strain (%)``)."""
+    lines = []
+    for line in plain.splitlines():
+        if line.startswith("#"):
+            lines.append(line)
+        elif not lines or lines[-1].startswith("#"):
+            names = [n.rsplit("_", 1) if n.rsplit("_", 1)[-1] in ("pct", "kPa", "s") else [n] for n in line.split(",")]
+            lines.append(";".join(" ".join(n[0].split("_")) + (f" ({'%' if n[1] == 'pct' else n[1]})"
+                                                                 if len(n) == 2 else "") for n in names))
+        else:
+            lines.append(line.replace(",", ";").replace(".", ","))
+    return "\n".join(lines) + "\n"
 
 
 LAB_VARIANTS = variants(LAB_CSV, {"axial_strain_pct": "axial_strain [%]", "q_kPa": "q [kPa]"}, {"q_kPa"})

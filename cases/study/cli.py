@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import re
 import sys
 from pathlib import Path
 
@@ -27,7 +28,7 @@ from cases.study.reading.checks import StudyError
 from cases.study.runner import PROPOSALS, OutputLocked, RunSettings, is_root
 
 __all__ = ["UsageError", "REFUSED", "EXIT_REFUSED", "EXIT_INTERRUPTED", "command", "arguments", "run_settings",
-           "pairs", "positive_int", "non_negative_int", "positive_float", "non_negative_float"]
+           "pairs", "positive_int", "non_negative_int", "quantity", "unit_hint"]
 
 #: exit status of a refused input or a stopped run; of Ctrl-C (128 + SIGINT)
 EXIT_REFUSED, EXIT_INTERRUPTED = 2, 130
@@ -106,21 +107,49 @@ def _integer(minimum):
 positive_int, non_negative_int = _integer(1), _integer(0)
 
 
-def _number(positive):
+#: units an option value may be written in -> (the unit it converts to, that unit per one of these)
+_OPTION_UNITS = {
+    "1/s": ("1/s", 1.0), "/s": ("1/s", 1.0), "%/s": ("1/s", 0.01), "1/min": ("1/s", 1 / 60),
+    "%/min": ("1/s", 0.01 / 60), "1/h": ("1/s", 1 / 3600), "%/h": ("1/s", 0.01 / 3600),
+    "s": ("s", 1.0), "ms": ("s", 1e-3), "min": ("s", 60.0), "h": ("s", 3600.0), "d": ("s", 86400.0),
+    "day": ("s", 86400.0), "kPa": ("kPa", 1.0), "Pa": ("kPa", 1e-3), "MPa": ("kPa", 1e3), "%": ("-", 0.01),
+}
+_NUMBER_AND_UNIT = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S.*?)\s*$")
+
+
+def unit_hint(text: str, what: str, unit: str) -> str:
+    """Why ``text`` is not a value of ``what`` (e.g. "cavity strain rate") as a plain number in ``unit`` ("1/s", "s",
+    "kPa", "-" for a plain number): a number with a unit gets its conversion (``0.167%`` for a rate: 0.167 %/s =
+    0.00167 1/s), or the unit expected."""
+    plain = "a plain number" if unit == "-" else f"a number in {unit}"
+    m = _NUMBER_AND_UNIT.match(text)
+    if m is None:
+        return f"{text!r} is not a number; give the {what} as {plain}"
+    number, given = float(m.group(1)), m.group(2)
+    given = "%/s" if given == "%" and unit == "1/s" else given
+    target, factor = _OPTION_UNITS.get(given, (None, 1.0))
+    if target != unit:
+        return f"give the {what} as {plain} (unit {given!r} not understood)"
+    value = f"{number * factor:.6g}"
+    converted = value if unit == "-" else f"{value} {unit}"
+    return f"give the {what} as {plain} ({m.group(1)} {given} = {converted}: write {value})"
+
+
+def quantity(what: str, unit: str, positive=True):
+    """argparse type: a finite number > 0 (``positive``) or >= 0 of ``what`` in ``unit``; a value with a unit is
+    refused with its conversion (:func:`unit_hint`)."""
     def cast(text):
         try:
             value = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+            hint = unit_hint(text, what, unit)
+            raise argparse.ArgumentTypeError(hint if hint.startswith(repr(text)) else f"{text!r}: {hint}") from None
         if not (value > 0 if positive else value >= 0) or value == float("inf"):
-            raise argparse.ArgumentTypeError(f"{text!r}: expected a finite number {'>' if positive else '>='} 0")
+            raise argparse.ArgumentTypeError(f"{text!r}: expected a finite number {'>' if positive else '>='} 0 "
+                                             f"({what}{'' if unit == '-' else ' in ' + unit})")
         return value
-    cast.__name__ = "number > 0" if positive else "number >= 0"
+    cast.__name__ = f"{what} in {unit}"
     return cast
-
-
-#: argparse types: a finite number > 0, a finite number >= 0
-positive_float, non_negative_float = _number(True), _number(False)
 
 
 def _out_directory(text):
@@ -161,10 +190,13 @@ def run_settings(args: argparse.Namespace) -> RunSettings:
                        out=args.out, resume=args.resume, dispatch=args.dispatch, processes=args.processes)
 
 
-def pairs(items, what, cast=float) -> dict:
+def pairs(items, what, cast=float, units=None) -> dict:
     """``NAME=VALUE`` command-line items -> {name: cast(value)}; a UsageError naming the option ``what`` and the item
-    for a missing '=', an empty name, a name given twice or a value ``cast`` refuses (a float must be finite)."""
+    for a missing '=', an empty name, a name given twice or a value ``cast`` refuses (a float must be finite).
+    ``units``: {name: (quantity, unit)} of float values ("" for every name): a value with a unit is refused with the
+    unit expected and its conversion (:func:`unit_hint`)."""
     out = {}
+    units = units or {}
     for item in items or []:
         key, sep, value = item.partition("=")
         key = key.strip()
@@ -175,6 +207,9 @@ def pairs(items, what, cast=float) -> dict:
         try:
             out[key] = cast(value)
         except ValueError:
+            expected = units.get(key, units.get(""))
+            if expected is not None:
+                raise UsageError(f"{what} {item}: {unit_hint(value, *expected)}") from None
             raise UsageError(f"{what}: {item!r}: {value!r} is not a valid value") from None
         if cast is float and not abs(out[key]) < float("inf"):
             raise UsageError(f"{what}: {item!r}: {value!r} is not a finite number")

@@ -191,7 +191,7 @@ BAD_CSVS = [
     (CSV.replace("2.0,95", "2.0,abc"), ["line 5", "column 'q_kPa'", "'abc'"]),
     (CSV.replace("2.0,95", "0.8,95"), ["line 5", "column 'axial_strain'", "0.8"]),
     (CSV.replace("axial_strain_pct", "axial_strain"), ["column 'axial_strain'", "unit '-'"]),
-    (CSV.replace("q_kPa", "q [psi]"), ["column 'q'", "unit 'psi'"]),
+    (CSV.replace("q_kPa", "q [psi]"), ["line 2", "column 'q [psi]'", "unit 'psi' is not supported: convert to kPa"]),
     (CSV.replace("0.5,40", "-0.5,40"), ["line 3", "column 'axial_strain'", "-0.5"]),
     (CSV.replace("0.97", "-0.97"), ["line 5", "column 'void_ratio'", "-0.97"]),
     (CSV.replace("void_ratio", "excess_pore_pressure_kPa"), ["column 'excess_pore_pressure'", "drained"]),

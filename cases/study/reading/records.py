@@ -3,8 +3,11 @@
 writer of synthetic records.
 
 A recording CSV has ``#`` header lines (``key: value`` pairs become the test's conditions), a row of column names with
-units (``axial_strain_pct``, ``q_kPa``, ``time_s``, or ``q [MPa]``: converted when the dimension agrees), then the
-rows. Errors name the file, the column and the line.
+units, then the rows (the forms ``inference.observations`` reads: ',' or ';' separated, decimal commas in a ';' file).
+A column is named as :data:`COLUMNS` spells it, with its unit as a suffix (``axial_strain_pct``, ``q_kPa``,
+``time_s``) or in brackets or parentheses with blanks for ``_`` (``axial strain (%)``, ``q [MPa]``: converted when
+the dimension agrees); names are case-sensitive, and the stresses p and sigma_v are effective, named without a prime
+(``p'`` is refused with the hint ``p_kPa``). Errors name the file, the column and the line.
 """
 from __future__ import annotations
 
@@ -67,8 +70,12 @@ def _unknown_column(path, quantity, unit, test_type):
     close = (difflib.get_close_matches(given.lower(), lower, n=1, cutoff=0.75)
              or difflib.get_close_matches(quantity.lower(), lower, n=1, cutoff=0.75))
     hint = f"did you mean {lower[close[0]]!r}? " if close else ""
+    unprimed = quantity.replace("'", "").replace("\u2019", "").strip("_")
+    if unprimed != quantity and unprimed in COLUMNS[test_type]:
+        hint = (f"did you mean {column_name(unprimed, test_type)!r}? (p and sigma_v are effective stresses, named "
+                "without the prime) ")
     raise DataError(f"{path}: column {quantity!r} (unit {unit!r}) is not a column of a {test_type} test; {hint}"
-                    f"known: {', '.join(names)}")
+                    f"known: {', '.join(names)} (or as 'name (unit)', e.g. 'axial strain (%)')")
 
 
 def _monotone(path, column, values, lines, decreasing=False, strict=True, what="increase"):
