@@ -1,11 +1,12 @@
 """``python -m validation.independent --write [--folder DIR]``: regenerate the independent generator's programmes
-(every programme x hidden effect x noise seed, the pressuremeter's included) and their KEY.json under
-validation/data/independent/."""
+(every programme x hidden effect x noise seed, the pressuremeter's included, then the model-form controls of
+:mod:`validation.independent.controls`) and their KEY.json under validation/data/independent/."""
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
+from .controls import write_controls
 from .recording import write_all
 from .sbp import write_sbp
 
@@ -22,6 +23,7 @@ def main(argv=None):
         return 0
     key = write_all(args.folder)
     key.update(write_sbp(args.folder))
+    key.update(write_controls(args.folder))
     print(f"{len(key)} cases written to {args.folder}")
     return 0
 

@@ -1,7 +1,8 @@
 """The missing-physics diagnosis on the independent generator's programmes: its confusion table.
 
     python -m validation.independent.confusion [--seeds 1 2 3] [--programmes ciu ck0u ...] [--out DIR]
-                                          [--skip-done] [--stop-at HH:MM] [--table-only]
+                                          [--controls effects|model-form|all] [--skip-done] [--stop-at HH:MM]
+                                          [--table-only]
 
 Each case of validation/data/independent/ (programme x hidden effect x noise seed; the truth in its KEY.json) goes through
 ``python -m cases.calibrate <case>/study.toml --quick --diagnose --out DIR/<case>`` as a subprocess under ``nice``,
@@ -12,6 +13,12 @@ headers). The named effects (DIR/<case>/loop.json ``named``, in ranked order) an
 - named: the hidden effect is among the named candidates (first: it is the best-ranked one);
 - confirmed: the confirmed effect is the hidden one ("none" on a negative control);
 - false alarm: an effect confirmed that is not the hidden one (any confirmed effect on a control).
+
+``--controls`` selects the cases: ``effects`` (default) the hidden-effect cases and their negative controls,
+``model-form`` the model-form-only controls of :mod:`validation.independent.controls` (plain clay written with other
+conventions: every confirmed effect on them is a false alarm; KEY.json ``model_form`` names the variant; the
+programmes crs_load and crs_ur carry only these), ``all`` both. The table has one row per programme, hidden effect
+and model-form variant, and the summary counts the false alarms on the model-form controls on their own.
 
 Anisotropy in the crs, il and relaxation programmes (one-dimensional compression and relaxation from a K0 state)
 gives the same records as the control by construction: those cells are left out; the SBP pairs (two expansion
@@ -35,11 +42,13 @@ from pathlib import Path
 
 from .recording import SEEDS
 
-__all__ = ["DATA", "EFFECTS", "PROGRAMMES", "LEFT_OUT", "load_key", "case_order", "outcome", "summarize", "main"]
+__all__ = ["DATA", "EFFECTS", "PROGRAMMES", "CONTROL_SETS", "LEFT_OUT", "load_key", "case_order", "outcome",
+           "summarize", "main"]
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "independent"
 DEFAULT_OUT = Path("results") / "independent"
-PROGRAMMES = ("ciu", "ck0u", "crs", "il", "relaxation", "sbp")
+PROGRAMMES = ("ciu", "ck0u", "crs", "il", "relaxation", "sbp", "crs_load", "crs_ur")
+CONTROL_SETS = ("effects", "model-form", "all")
 EFFECTS = ("none", "viscosity", "anisotropy", "destructuration")
 #: (programme, effect) cells whose records equal the control's by construction, and the SBP cells the generator
 #: does not write (its pressuremeter pairs carry viscosity or nothing)
@@ -55,12 +64,20 @@ def load_key(data=DATA) -> dict:
     return json.loads((Path(data) / "KEY.json").read_text())
 
 
-def case_order(key: dict, seeds=SEEDS, programmes=PROGRAMMES) -> list:
+def case_order(key: dict, seeds=SEEDS, programmes=PROGRAMMES, controls="effects") -> list:
     """Case ids to run: seed by seed, in each seed the effects in :data:`ORDER` and the programmes in the order
-    given; the :data:`LEFT_OUT` cells skipped."""
-    by_cell = {(v["programme"], v["effect"], v["seed"]): case for case, v in key.items()}
-    return [by_cell[p, e, s] for s in seeds for e in ORDER for p in programmes
-            if (p, e) not in LEFT_OUT and (p, e, s) in by_cell]
+    given (the :data:`LEFT_OUT` cells skipped), then the model-form controls (variant by variant); ``controls``
+    (:data:`CONTROL_SETS`) selects the effect cases, the model-form controls or both."""
+    by_cell = {(v["programme"], v["effect"], v.get("model_form"), v["seed"]): case for case, v in key.items()}
+    variants = sorted({v["model_form"] for v in key.values() if "model_form" in v})
+    out = []
+    for s in seeds:
+        if controls in ("effects", "all"):
+            out += [by_cell[p, e, None, s] for e in ORDER for p in programmes
+                    if (p, e) not in LEFT_OUT and (p, e, None, s) in by_cell]
+        if controls in ("model-form", "all"):
+            out += [by_cell[p, "none", m, s] for m in variants for p in programmes if (p, "none", m, s) in by_cell]
+    return out
 
 
 def run_case(case: str, data: Path, out: Path, timeout: float | None = None) -> dict:
@@ -95,7 +112,8 @@ def outcome(case: str, truth: dict, out: Path) -> dict:
     """One case's row: the truth, what the loop named and confirmed, run times and the diagnosis' reasons."""
     d = out / case
     run = json.loads((d / RUN_FILE).read_text()) if (d / RUN_FILE).exists() else {}
-    row = {"case": case, "programme": truth["programme"], "effect": truth["effect"], "seed": truth["seed"],
+    row = {"case": case, "programme": truth["programme"], "effect": truth["effect"],
+           "model_form": truth.get("model_form"), "seed": truth["seed"],
            "wall_s": run.get("wall_s"), "returncode": run.get("returncode"), "started": run.get("started")}
     if not (d / "loop.json").exists() or not (d / "diagnosis.json").exists():
         return {**row, "status": "timed out" if run.get("timed_out") else "failed", "error": _error_tail(out, case)}
@@ -123,16 +141,18 @@ def outcome(case: str, truth: dict, out: Path) -> dict:
 
 
 def summarize(rows: list) -> list:
-    """Per (programme, hidden effect): counts over the cases run, and their run times."""
+    """Per (programme, hidden effect, model-form variant or None): counts over the cases run, and their run times;
+    the effect cases first, then the model-form controls."""
     cells = {}
     for r in rows:
-        cells.setdefault((r["programme"], r["effect"]), []).append(r)
+        cells.setdefault((r["programme"], r["effect"], r.get("model_form")), []).append(r)
     out = []
-    for (prog, effect), rs in sorted(cells.items(), key=lambda kv: (PROGRAMMES.index(kv[0][0]),
-                                                                   EFFECTS.index(kv[0][1]))):
+    for (prog, effect, form), rs in sorted(cells.items(), key=lambda kv: (kv[0][2] is not None, kv[0][2] or "",
+                                                                         PROGRAMMES.index(kv[0][0]),
+                                                                         EFFECTS.index(kv[0][1]))):
         ran = [r for r in rs if r["status"] == "ran"]
         times = [r["wall_s"] for r in rs if r.get("wall_s") is not None]
-        out.append({"programme": prog, "effect": effect, "cases": len(rs), "ran": len(ran),
+        out.append({"programme": prog, "effect": effect, "model_form": form, "cases": len(rs), "ran": len(ran),
                     "failed": len(rs) - len(ran),
                     "timed_out": sum(r["status"] == "timed out" for r in rs),
                     "named": sum(r["named_ok"] for r in ran) if effect != "none" else None,
@@ -173,6 +193,8 @@ def write_tables(rows: list, out: Path, settings: dict) -> None:
              "`python -m cases.calibrate study.toml --quick --diagnose` with the Modified Cam Clay base of its "
              "study file. Counts over the seeds run; run time: subprocess wall time, s. Anisotropy in crs, il "
              "and relaxation is left out (records equal to the control by construction).", "",
+             "Model-form controls (true effect `none (variant)`): the plain clay written with another convention "
+             "(validation/independent/controls.py); any effect confirmed on them is a false alarm.", "",
              "| programme | true effect | cases | named | confirmed | false alarm | failed | run time s (mean, max) |",
              "|---|---|---|---|---|---|---|---|"]
     for c in cells:
@@ -181,21 +203,26 @@ def write_tables(rows: list, out: Path, settings: dict) -> None:
         t = c["wall_s"]
         times = f"{sum(t) / len(t):.0f}, {max(t):.0f}" if t else "-"
         timed = f" ({c['timed_out']} timed out)" if c["timed_out"] else ""
-        lines.append(f"| {c['programme']} | {c['effect']} | {c['cases']} | {named} | {c['confirmed']}/{n} | "
+        truth = c["effect"] + (f" ({c['model_form']})" if c["model_form"] else "")
+        lines.append(f"| {c['programme']} | {truth} | {c['cases']} | {named} | {c['confirmed']}/{n} | "
                      f"{c['false_alarm']}/{n} | {c['failed']}{timed} | {times} |")
     ran = [r for r in rows if r["status"] == "ran"]
     effects = [r for r in ran if r["effect"] != "none"]
-    controls = [r for r in ran if r["effect"] == "none"]
+    controls = [r for r in ran if r["effect"] == "none" and not r.get("model_form")]
+    forms = [r for r in ran if r.get("model_form")]
     lines += ["", f"Effects named {sum(r['named_ok'] for r in effects)}/{len(effects)}, confirmed "
               f"{sum(r['confirmed_ok'] for r in effects)}/{len(effects)}; controls clean "
-              f"{sum(r['confirmed_ok'] for r in controls)}/{len(controls)}; false alarms "
+              f"{sum(r['confirmed_ok'] for r in controls)}/{len(controls)}; model-form controls clean "
+              f"{sum(r['confirmed_ok'] for r in forms)}/{len(forms)} (false alarms "
+              f"{sum(r['false_alarm'] for r in forms)}/{len(forms)}); false alarms "
               f"{sum(r['false_alarm'] for r in ran)}/{len(ran)}; failed {len(rows) - len(ran)}.", "",
               "| case | seed | true effect | named (ranked) | confirmed | run time s | reason (screening; attribution; "
               "candidates; ln B vs base) |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         named = ", ".join(r.get("named") or []) or "-"
         wall = "-" if r.get("wall_s") is None else f"{r['wall_s']:.0f}"
-        lines.append(f"| {r['case']} | {r['seed']} | {r['effect']} | {named} | {r.get('confirmed', '-')} | "
+        truth = r["effect"] + (f" ({r['model_form']})" if r.get("model_form") else "")
+        lines.append(f"| {r['case']} | {r['seed']} | {truth} | {named} | {r.get('confirmed', '-')} | "
                      f"{wall} | {_reason(r)} |")
     (out / "confusion.md").write_text("\n".join(lines) + "\n")
 
@@ -212,6 +239,10 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m validation.independent.confusion", description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=list(SEEDS), help="noise seeds (default 1 2 3)")
     ap.add_argument("--programmes", nargs="+", default=list(PROGRAMMES), choices=PROGRAMMES)
+    ap.add_argument("--controls", choices=CONTROL_SETS, default="effects",
+                    help="effects: the hidden-effect cases and their negative controls (default); model-form: the "
+                         "plain clay written with other conventions (validation/independent/controls.py; every "
+                         "confirmed effect a false alarm); all: both")
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
     ap.add_argument("--data", type=Path, default=DATA, help=f"the generator's data folder (default {DATA})")
     ap.add_argument("--skip-done", action="store_true", help="keep a case whose DIR/<case>/loop.json exists")
@@ -220,9 +251,9 @@ def main(argv=None):
     ap.add_argument("--table-only", action="store_true", help="rewrite the tables from the cases already run")
     args = ap.parse_args(argv)
     key = load_key(args.data)
-    cases = case_order(key, args.seeds, args.programmes)
+    cases = case_order(key, args.seeds, args.programmes, args.controls)
     args.out.mkdir(parents=True, exist_ok=True)
-    settings = {"seeds": args.seeds, "programmes": args.programmes, "data": str(args.data),
+    settings = {"seeds": args.seeds, "programmes": args.programmes, "controls": args.controls, "data": str(args.data),
                 "command": "python -m cases.calibrate <case>/study.toml --quick --diagnose"}
     rows = []
     for case in cases:

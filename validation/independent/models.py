@@ -8,6 +8,14 @@ Elasticity (Roscoe & Burland 1968; Wood 1990, Eq. 3.13-3.14): swelling lines e =
 bulk modulus K = v p' / kappa, shear modulus G = 3 K (1 - 2 nu) / (2 (1 + nu)) (constant Poisson's ratio):
     dp = K d(eps_v^e),  dq = 3 G d(eps_q^e).                                                        (1)
 
+Conventions (all called Modified Cam Clay in the literature; options of both models, defaults first):
+- ``specific_volume``: "current" uses v = 1 + e in Eq. (1) and (3); "initial" holds it at the specimen's v0 = 1 + e0
+  (``ClayState.v0``), so that ln p' is linear in the volumetric strain;
+- ``compression``: "e-lnp" (e linear in ln p', slopes lambda, kappa); "lnv-lnp" (Butterfield 1979: ln v linear in
+  ln p', slopes lambda* = ``lambda_``, kappa* = ``kappa``): the factor v of Eq. (1) and (3) becomes 1;
+- ``elasticity``: "nu" (constant Poisson's ratio, Eq. 1) or "G" (constant shear modulus ``G``, kPa; K still from the
+  swelling line).
+
 :class:`ElastoplasticClay` -- Modified Cam Clay (Roscoe & Burland 1968) with two optional additions, each a switch:
 - anisotropy: the ellipse inclined in p'-q by a fixed alpha (S-CLAY1 in triaxial form, Wheeler et al. 2003, Eq. 1;
   no rotational hardening):
@@ -45,13 +53,15 @@ __all__ = ["ClayState", "ElastoplasticClay", "ViscousClay", "ellipse_size"]
 @dataclass
 class ClayState:
     """Mutable material state: effective p, q (kPa), specific volume v, size of the surface (p_mi: intrinsic size
-    for the elastoplastic model, p_p: the preconsolidation of the creep law, kPa) and bonding chi (-)."""
+    for the elastoplastic model, p_p: the preconsolidation of the creep law, kPa), bonding chi (-) and the initial
+    specific volume v0 (the "initial" specific-volume convention)."""
 
     p: float
     q: float
     v: float
     size: float
     chi: float = 0.0
+    v0: float | None = None
 
 
 def ellipse_size(p: float, q: float, M: float, alpha: float = 0.0) -> float:
@@ -60,13 +70,26 @@ def ellipse_size(p: float, q: float, M: float, alpha: float = 0.0) -> float:
 
 
 class _Elastic:
-    """Eq. (1): the elastic moduli at the current state."""
+    """Eq. (1) and the conventions of the module docstring: the elastic moduli and the volume factor."""
 
-    def __init__(self, kappa, nu):
-        self.kappa, self.nu = kappa, nu
+    def __init__(self, kappa, nu, specific_volume="current", compression="e-lnp", elasticity="nu", G=None):
+        if specific_volume not in ("current", "initial") or compression not in ("e-lnp", "lnv-lnp"):
+            raise ValueError(f"unknown convention {specific_volume!r}, {compression!r}")
+        if (elasticity == "G") != (G is not None) or elasticity not in ("nu", "G"):
+            raise ValueError("elasticity 'G' takes a shear modulus G (kPa); 'nu' none")
+        self.kappa, self.nu, self.G = kappa, nu, G
+        self.specific_volume, self.compression = specific_volume, compression
+
+    def volume(self, s: ClayState):
+        """The factor v of Eq. (1) and (3): v, v0 or 1 (module docstring)."""
+        if self.compression == "lnv-lnp":
+            return 1.0
+        return s.v if self.specific_volume == "current" else s.v0
 
     def moduli(self, s: ClayState):
-        K = s.v * s.p / self.kappa
+        K = self.volume(s) * s.p / self.kappa
+        if self.G is not None:
+            return K, self.G + 0.0 * K
         return K, 3.0 * K * (1.0 - 2.0 * self.nu) / (2.0 * (1.0 + self.nu))
 
 
@@ -75,15 +98,15 @@ class ElastoplasticClay(_Elastic):
 
     viscous = False
 
-    def __init__(self, M, lambda_, kappa, nu, alpha=0.0, a=0.0, b=0.0):
-        super().__init__(kappa, nu)
+    def __init__(self, M, lambda_, kappa, nu, alpha=0.0, a=0.0, b=0.0, **conventions):
+        super().__init__(kappa, nu, **conventions)
         self.M, self.lambda_, self.alpha, self.a, self.b = M, lambda_, alpha, a, b
 
     def initial_state(self, p, q, v, sigma_p_point, chi0=0.0) -> ClayState:
         """State at (p, q, v) whose apparent surface passes through the stress point ``sigma_p_point`` = (p, q) of
         the preconsolidation; the bonding chi0 splits it into intrinsic and bonded parts."""
         pm = ellipse_size(*sigma_p_point, self.M, self.alpha)
-        return ClayState(p, q, v, pm / (1.0 + chi0), chi0)
+        return ClayState(p, q, v, pm / (1.0 + chi0), chi0, v)
 
     def yield_value(self, s: ClayState) -> float:
         """f of Eq. (2), scaled by 1/p_m^2 (dimensionless; < 0 inside)."""
@@ -96,7 +119,7 @@ class ElastoplasticClay(_Elastic):
         pm = (1.0 + s.chi) * s.size
         n_p = -2.0 * al * (s.q - al * s.p) - m2 * (pm - 2.0 * s.p)
         n_q = 2.0 * (s.q - al * s.p)
-        dpm = ((1.0 + s.chi) * s.v * s.size * n_p / (self.lambda_ - self.kappa)
+        dpm = ((1.0 + s.chi) * self.volume(s) * s.size * n_p / (self.lambda_ - self.kappa)
                - s.size * self.a * s.chi * (abs(n_p) + self.b * abs(n_q)))
         return n_p, n_q, m2 * s.p * dpm
 
@@ -106,7 +129,7 @@ class ElastoplasticClay(_Elastic):
         K, G = self.moduli(s)
         s.p += K * (dev - dev_p)
         s.q += 3.0 * G * (deq - deq_p)
-        s.size += s.v * s.size * dev_p / (self.lambda_ - self.kappa)
+        s.size += self.volume(s) * s.size * dev_p / (self.lambda_ - self.kappa)
         s.chi -= self.a * s.chi * (abs(dev_p) + self.b * abs(deq_p))
         s.v -= s.v * dev
 
@@ -116,15 +139,15 @@ class ViscousClay(_Elastic):
 
     viscous = True
 
-    def __init__(self, M, lambda_, kappa, nu, C_alpha_e, tau=86400.0):
-        super().__init__(kappa, nu)
+    def __init__(self, M, lambda_, kappa, nu, C_alpha_e, tau=86400.0, **conventions):
+        super().__init__(kappa, nu, **conventions)
         self.M, self.lambda_, self.tau = M, lambda_, tau
         self.psi = C_alpha_e / math.log(10.0)
         self.beta = (lambda_ - kappa) / self.psi
 
     def initial_state(self, p, q, v, sigma_p_point, chi0=0.0) -> ClayState:
         """State at (p, q, v) whose reference surface (the tau time line) passes through ``sigma_p_point``."""
-        return ClayState(p, q, v, ellipse_size(*sigma_p_point, self.M))
+        return ClayState(p, q, v, ellipse_size(*sigma_p_point, self.M), 0.0, v)
 
     def creep_rate(self, s: ClayState):
         """(d eps_v^vp/dt, d eps_q^vp/dt) of Eq. (6), 1/s."""
@@ -139,5 +162,5 @@ class ViscousClay(_Elastic):
         K, G = self.moduli(s)
         s.p += K * (dev - dev_p)
         s.q += 3.0 * G * (deq - deq_p)
-        s.size += s.v * s.size * dev_p / (self.lambda_ - self.kappa)
+        s.size += self.volume(s) * s.size * dev_p / (self.lambda_ - self.kappa)
         s.v -= s.v * dev

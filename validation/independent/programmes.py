@@ -5,6 +5,9 @@ preconsolidation 100 kPa on the K0 = 0.55 line) with one hidden effect per data 
 ``none`` (plain MCC, the negative control), ``viscosity`` (creep-rate law, C_alpha_e = 0.015, tau = 1 day),
 ``anisotropy`` (ellipse inclined at alpha = 0.30), ``destructuration`` (bonding chi0 = 1.5, a = 8, b = 0.4); see
 :mod:`validation.independent.models` for the equations.
+The K0 of normally consolidated states (:func:`k0_nc`) is the given 0.55 (the in situ preconsolidation line; the
+specimens' stated initial K0); the model-form controls (:mod:`validation.independent.controls`) take Jaky's or the
+flow rule's instead, and the models' other conventions through :func:`material`.
 
 Programmes (:data:`PROGRAMMES`), each a list of :class:`Test` (initial state + stages, units kPa, s, 1/s, strains
 as fractions here and % in the files, compression positive):
@@ -28,7 +31,7 @@ from dataclasses import dataclass, field
 from .integrator import Control, Point, run_stage
 from .models import ClayState, ElastoplasticClay, ViscousClay
 
-__all__ = ["CLAY", "EFFECTS", "Stage", "Test", "PROGRAMMES", "material", "simulate"]
+__all__ = ["CLAY", "EFFECTS", "Stage", "Test", "PROGRAMMES", "material", "k0_nc", "simulate"]
 
 #: base parameters of the clay (kPa), the in situ preconsolidation (vertical, kPa) and its K0 line
 CLAY = {"M": 1.2, "lambda_": 0.25, "kappa": 0.05, "nu": 0.25, "sigma_p": 100.0, "K0_nc": 0.55}
@@ -38,17 +41,42 @@ EFFECTS = {"none": {}, "viscosity": {"C_alpha_e": 0.015, "tau": 86400.0}, "aniso
 DAY = 86400.0
 
 
-def material(effect: str, clay: dict | None = None):
-    """(model, chi0) of the clay with ``effect``; ``clay`` overrides values of :data:`CLAY`."""
-    c, e = {**CLAY, **(clay or {})}, EFFECTS[effect]
+def material(effect: str, clay: dict | None = None, conventions: dict | None = None):
+    """(model, chi0) of the clay with ``effect``; ``clay`` overrides values of :data:`CLAY`, ``conventions`` are the
+    models' convention options (:mod:`validation.independent.models`; default ours)."""
+    c, e, conv = {**CLAY, **(clay or {})}, EFFECTS[effect], conventions or {}
     base = (c["M"], c["lambda_"], c["kappa"], c["nu"])
     if effect == "viscosity":
-        return ViscousClay(*base, e["C_alpha_e"], e["tau"]), 0.0
+        return ViscousClay(*base, e["C_alpha_e"], e["tau"], **conv), 0.0
     if effect == "anisotropy":
-        return ElastoplasticClay(*base, alpha=e["alpha"]), 0.0
+        return ElastoplasticClay(*base, alpha=e["alpha"], **conv), 0.0
     if effect == "destructuration":
-        return ElastoplasticClay(*base, a=e["a"], b=e["b"]), e["chi0"]
-    return ElastoplasticClay(*base), 0.0
+        return ElastoplasticClay(*base, a=e["a"], b=e["b"], **conv), e["chi0"]
+    return ElastoplasticClay(*base, **conv), 0.0
+
+
+def k0_nc(convention: str, clay: dict | None = None) -> float:
+    """K0 of normally consolidated states (-): "given" (``K0_nc`` of :data:`CLAY`), "jaky" (1 - sin phi', sin phi' =
+    3 M / (6 + M), triaxial compression), or "mcc" (the flow rule's one-dimensional K0 of the elastoplastic clay:
+    eta (kappa 2 (1 + nu) / (9 (1 - 2 nu))) + (lambda - kappa) 2 eta / (M^2 - eta^2) = 2 lambda / 3 solved by
+    bisection, K0 = (3 - eta) / (3 + 2 eta))."""
+    c = {**CLAY, **(clay or {})}
+    if convention == "given":
+        return c["K0_nc"]
+    M, lam, kap, nu = c["M"], c["lambda_"], c["kappa"], c["nu"]
+    if convention == "jaky":
+        return 1.0 - 3.0 * M / (6.0 + M)
+    if convention != "mcc":
+        raise ValueError(f"unknown K0 convention {convention!r}")
+    g = kap * 2.0 * (1.0 + nu) / (9.0 * (1.0 - 2.0 * nu))
+    lo, hi = 1e-9, M - 1e-9
+    for _ in range(80):
+        eta = 0.5 * (lo + hi)
+        if eta * g + (lam - kap) * 2.0 * eta / (M * M - eta * eta) > 2.0 * lam / 3.0:
+            hi = eta
+        else:
+            lo = eta
+    return (3.0 - eta) / (3.0 + 2.0 * eta)
 
 
 @dataclass(frozen=True)
@@ -160,18 +188,21 @@ def _control(point, test, stage):
     raise ValueError(f"stage kind {stage.kind!r} of {test.name} is not generated")
 
 
-def simulate(test: Test, effect: str, clay: dict | None = None, **steps):
+def simulate(test: Test, effect: str, clay: dict | None = None, conventions: dict | None = None, k0: str = "given",
+             **steps):
     """{stage name: (start index, end index)} and the trajectory rows (time s, eps_a, eps_r, sigma'_a, sigma'_r,
-    e) of ``test`` on the clay with ``effect`` (``clay`` overrides values of :data:`CLAY`); ``steps`` go to
-    :func:`run_stage` (sub-step sizes)."""
-    model, chi0 = material(effect, clay)
-    c = {**CLAY, **(clay or {})}
+    e) of ``test`` on the clay with ``effect`` (``clay`` overrides values of :data:`CLAY`, ``conventions`` the
+    models' options); ``k0`` the K0 convention (:func:`k0_nc`) of the in situ preconsolidation line and, other than
+    "given", of the specimen's initial state too (its stated K0 replaced); ``steps`` go to :func:`run_stage`
+    (sub-step sizes)."""
+    model, chi0 = material(effect, clay, conventions)
     init = test.initial
     if "p0" in init:
         sa = sr = init["p0"]
     else:
-        sa, sr = init["sigma_v0"], init["K0"] * init["sigma_v0"]
-    k0 = c["K0_nc"]
+        sa = init["sigma_v0"]
+        sr = (init["K0"] if k0 == "given" else k0_nc(k0, clay)) * sa
+    k0, c = k0_nc(k0, clay), {**CLAY, **(clay or {})}
     point_p = (c["sigma_p"] * (1 + 2 * k0) / 3.0, c["sigma_p"] * (1 - k0))
     state: ClayState = model.initial_state((sa + 2 * sr) / 3.0, sa - sr, 1.0 + init["e0"], point_p, chi0)
     point = Point(model, state)

@@ -14,6 +14,10 @@ applied cell stresses (consolidation, holds) + N(0, 0.3^2) kPa; axial strain whe
 holds, load stages) x N(1, 0.01^2) + N(0, 0.002^2) %; void ratio + N(0, 0.002^2); sigma'_v of an incremental load
 stage is the applied dead load (no noise).
 
+The logging resolution (:data:`LOGGING`, per call of :func:`records`): a factor on the strain intervals, the points per
+decade of log-spaced stages and the resolution (kPa) to which measured and applied stresses are read (0: not rounded);
+the effect cases use the defaults, the model-form controls (:mod:`validation.independent.controls`) a sparser one.
+
 Files (per programme x hidden effect x noise seed, in a folder named by an opaque case id): one CSV per test
 (``#`` header lines with the conditions and the programme, never the hidden effect; columns ``stage`` (1-based
 stage number), ``time_s`` (since the test start), ``stage_time_s`` (since the stage start), ``axial_strain_pct``
@@ -33,14 +37,16 @@ import numpy as np
 
 from .programmes import CLAY, EFFECTS, PROGRAMMES, simulate
 
-__all__ = ["SEEDS", "STRESS_NOISE", "STRAIN_NOISE", "log_points", "logged_times", "records", "write_all",
-           "case_ids"]
+__all__ = ["SEEDS", "LOGGING", "STRESS_NOISE", "STRAIN_NOISE", "log_points", "logged_times", "records", "write_all",
+           "case_ids", "header", "write_csv", "study_text"]
 
 SEEDS = (1, 2, 3)
 #: noise of a measured stress: relative and absolute (kPa) standard deviations (module docstring)
 STRESS_NOISE = (0.015, 0.3)
 #: noise of an axial strain where it is a response: relative and absolute (%) standard deviations
 STRAIN_NOISE = (0.01, 0.002)
+#: the laboratory's logging resolution (module docstring): strain-interval factor, points per decade, stress resolution
+LOGGING = {"spacing": 1.0, "per_decade": 3, "resolution": 0.0}
 HEADER = "SYNTHETIC (independent generator): NOT MEASURED DATA"
 COLUMNS = {"triaxial": ("stage", "time_s", "stage_time_s", "axial_strain_pct", "q_kPa", "p_kPa", "excess_pore_pressure_kPa",
                         "void_ratio"),
@@ -70,21 +76,23 @@ def _strain_points(total, rng, spacing):
     return np.array(pts + [total])
 
 
-def log_points(stage, t, x, rng) -> np.ndarray:
-    """Logged times (s since the test start) in a stage with sub-step times ``t`` and control strains ``x``."""
+def log_points(stage, t, x, rng, spacing=1.0, per_decade=3) -> np.ndarray:
+    """Logged times (s since the test start) in a stage with sub-step times ``t`` and control strains ``x``;
+    ``spacing`` scales the strain interval and ``per_decade`` sets the points per decade of a log-spaced stage
+    (:data:`LOGGING`: the laboratory's logging resolution)."""
     t0, t1 = t[0], t[-1]
     if stage.log == "strain":
         xs = np.abs(x - x[0])
-        spacing = (rng.uniform(0.004, 0.006) if stage.fields.get("strain_rate", 1) > 0 or stage.kind == "shear"
-                   else rng.uniform(0.0015, 0.0025))
-        pts = _strain_points(xs[-1], rng, spacing)
+        interval = (rng.uniform(0.004, 0.006) if stage.fields.get("strain_rate", 1) > 0 or stage.kind == "shear"
+                    else rng.uniform(0.0015, 0.0025))
+        pts = _strain_points(xs[-1], rng, spacing * interval)
         return np.interp(pts, xs, t)
     if stage.log == "time":
         u = (np.arange(1, 7) + rng.uniform(-0.3, 0.3, 6)) / 6.0
         return t0 + np.clip(u, 0.02, 0.97) * (t1 - t0)
     span = t1 - t0
     start = 6.0 * rng.uniform(0.8, 1.2)
-    n = max(int(3 * math.log10(span / start)) + 1, 2)
+    n = max(int(per_decade * math.log10(span / start)) + 1, 2)
     local = np.geomspace(start, span, n) * np.exp(rng.uniform(-0.08, 0.08, n))
     local = np.unique(np.clip(local, start, span))
     if stage.kind == "load":
@@ -93,24 +101,33 @@ def log_points(stage, t, x, rng) -> np.ndarray:
     return t0 + local
 
 
-def logged_times(test, spans, rows, seed, prog_index, test_index) -> list:
-    """[(stage number, stage, its trajectory rows, the logged times)] of one test for a noise seed."""
+def logged_times(test, spans, rows, seed, prog_index, test_index, spacing=1.0, per_decade=3) -> list:
+    """[(stage number, stage, its trajectory rows, the logged times)] of one test for a noise seed (``spacing``,
+    ``per_decade``: :func:`log_points`)."""
     r = np.array(rows)
     rng = np.random.default_rng([seed, prog_index, test_index])
     out = []
     for number, stage in enumerate(test.stages, start=1):
         a, b = spans[stage.name]
         seg = r[a:b]
-        out.append((number, stage, seg, log_points(stage, seg[:, 0], seg[:, 1], rng)))
+        out.append((number, stage, seg, log_points(stage, seg[:, 0], seg[:, 1], rng, spacing, per_decade)))
     return out
 
 
-def records(test, effect, seed, prog_index, test_index, **steps) -> dict:
-    """{column: values} of one test logged and with noise, for a noise seed (NaN: not recorded in that stage)."""
-    spans, rows = simulate(test, effect, **steps)
+def records(test, effect, seed, prog_index, test_index, form: dict | None = None, noise_scale=1.0, **steps) -> dict:
+    """{column: values} of one test logged and with noise, for a noise seed (NaN: not recorded in that stage).
+    ``form``: a model-form control of :mod:`validation.independent.controls` ("clay", "conventions", "k0" go to
+    :func:`simulate`, "steps" to the integrator, "logging" {"spacing", "per_decade", "resolution" (kPa: stresses
+    rounded to it)}); ``noise_scale`` multiplies every noise standard deviation (0: noise-free, same logged points)."""
+    form = form or {}
+    simulated = {k: form[k] for k in ("clay", "conventions", "k0") if k in form}
+    spans, rows = simulate(test, effect, **simulated, **{**form.get("steps", {}), **steps})
+    logging = {**LOGGING, **form.get("logging", {})}
+    resolution = logging.pop("resolution")
     noise = np.random.default_rng([seed, prog_index, test_index, 7])
     out = {c: [] for c in COLUMNS[test.apparatus]}
-    for number, stage, seg, times in logged_times(test, spans, rows, seed, prog_index, test_index):
+    sd_rel, sd_abs = STRESS_NOISE[0] * noise_scale, STRESS_NOISE[1] * noise_scale
+    for number, stage, seg, times in logged_times(test, spans, rows, seed, prog_index, test_index, **logging):
         t = seg[:, 0]
         at = {j: np.interp(times, t, seg[:, j]) for j in range(1, 6)}
         ea, sa, sr, e = at[1], at[3], at[4], at[5]
@@ -118,13 +135,14 @@ def records(test, effect, seed, prog_index, test_index, **steps) -> dict:
         empty = np.full(n, np.nan)
 
         def measured(v):
-            return v * noise.normal(1.0, STRESS_NOISE[0], n) + noise.normal(0.0, STRESS_NOISE[1], n)
+            return _round(v * noise.normal(1.0, sd_rel, n) + noise.normal(0.0, sd_abs, n), resolution)
 
         def applied(v):
-            return v + noise.normal(0.0, STRESS_NOISE[1], n)
+            return _round(v + noise.normal(0.0, sd_abs, n), resolution)
         strain = 100.0 * ea
         if stage.kind in ("consolidation", "creep", "load"):
-            strain = strain * noise.normal(1.0, STRAIN_NOISE[0], n) + noise.normal(0.0, STRAIN_NOISE[1], n)
+            strain = (strain * noise.normal(1.0, STRAIN_NOISE[0] * noise_scale, n)
+                      + noise.normal(0.0, STRAIN_NOISE[1] * noise_scale, n))
         elif stage.kind == "shear":
             strain = 100.0 * (ea - seg[0, 1])
         out["stage"] += [number] * n
@@ -137,10 +155,15 @@ def records(test, effect, seed, prog_index, test_index, **steps) -> dict:
             out["q_kPa"] += list(stress(sa - sr))
             out["p_kPa"] += list(stress((sa + 2 * sr) / 3.0))
             out["excess_pore_pressure_kPa"] += list(measured(seg[0, 4] - sr) if undrained else empty)
-            out["void_ratio"] += list(empty if undrained else e + noise.normal(0.0, 0.002, n))
+            out["void_ratio"] += list(empty if undrained else e + noise.normal(0.0, 0.002 * noise_scale, n))
         else:
             out["sigma_v_kPa"] += list(sa if stage.kind == "load" else measured(sa))
     return {k: np.array(v) for k, v in out.items()}
+
+
+def _round(v, resolution):
+    """``v`` rounded to the logger's ``resolution`` (kPa; 0: not rounded)."""
+    return np.round(v / resolution) * resolution if resolution else v
 
 
 def _describe(stage) -> str:
@@ -158,10 +181,11 @@ def _describe(stage) -> str:
     return f"{stage.name} ({stage.kind}): {parts[stage.kind]()}"
 
 
-def _header(case, prog, test, seed) -> list:
+def header(case, description, test, seed) -> list:
+    """The ``#`` header lines of one test's CSV: the conditions and the programme's ``description``."""
     init = ", ".join(f"{k} {v:g}" for k, v in test.initial.items())
     lines = [f"synthetic: {HEADER} (python -m validation.independent --write)",
-             f"case: {case}", f"programme: {PROGRAMMES[prog][0]}", f"test: {test.name}",
+             f"case: {case}", f"programme: {description}", f"test: {test.name}",
              f"apparatus: {test.apparatus}", f"initial_state: {init} (kPa; effective stresses)"]
     lines += [f"stage_{k}: {_describe(s)}" for k, s in enumerate(test.stages, start=1)]
     lines += ["columns: stage number; time since the test start; compression positive; effective stresses"
@@ -170,7 +194,7 @@ def _header(case, prog, test, seed) -> list:
     return lines
 
 
-def _write_csv(path, header, columns):
+def write_csv(path, header, columns):
     with open(path, "w") as fh:
         fh.writelines(f"# {h}\n" for h in header)
         fh.write(",".join(columns) + "\n")
@@ -187,8 +211,8 @@ def _toml_value(v):
     return repr(float(v))
 
 
-def _study(case, prog, tests) -> str:
-    desc = PROGRAMMES[prog][0]
+def study_text(case, desc, tests) -> str:
+    """The study file an engineer would write from the headers of a programme described by ``desc``."""
     low = min(t.initial.get("p0", t.initial.get("sigma_v0", 0)) for t in tests)
     lines = [f"# {HEADER}: {desc}. Written by validation.independent; the study an engineer would write from the file",
              "# headers, with Modified Cam Clay as the base model.",
@@ -220,9 +244,9 @@ def write_all(folder, seeds=SEEDS) -> dict:
                 d = folder / case
                 d.mkdir(exist_ok=True)
                 for ti, test in enumerate(tests):
-                    _write_csv(d / f"{test.name}.csv", _header(case, prog, test, seed),
-                               records(test, effect, seed, pi, ti))
-                (d / "study.toml").write_text(_study(case, prog, tests))
+                    write_csv(d / f"{test.name}.csv", header(case, PROGRAMMES[prog][0], test, seed),
+                              records(test, effect, seed, pi, ti))
+                (d / "study.toml").write_text(study_text(case, PROGRAMMES[prog][0], tests))
                 key[case] = {"programme": prog, "effect": effect, "seed": seed,
                              "parameters": {**CLAY, **EFFECTS[effect]}}
     (folder / "KEY.json").write_text(json.dumps(key, indent=1, sort_keys=True) + "\n")

@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 
 from .programmes import CLAY, EFFECTS as ALL_EFFECTS, PROGRAMMES, Stage, Test, material
-from .recording import HEADER, SEEDS, _strain_points, _write_csv, log_points
+from .recording import HEADER, SEEDS, _strain_points, log_points, write_csv
 from .sbp_material import CavityClay
 from .sbp_solver import Cavity
 
-__all__ = ["PROGRAMME", "SITE", "EFFECTS", "TESTS", "COLUMNS", "FE", "case_ids", "simulate", "records", "study_text",
-           "write_sbp"]
+__all__ = ["PROGRAMME", "SITE", "EFFECTS", "TESTS", "COLUMNS", "FE", "case_ids", "simulate", "records", "header",
+           "study_text", "write_sbp"]
 
 PROGRAMME = "sbp"
 DESCRIPTION = ("self-boring pressuremeter: expansion to 10 % cavity strain at 1 %/min and at 0.1 %/min, each "
@@ -65,18 +65,29 @@ def case_ids() -> dict:
     return {effect: "AB"[j] for effect, j in zip(EFFECTS, order)}
 
 
-def simulate(test: Test, effect: str, n=100, max_strain=1e-4, growth=0.05):
-    """({stage name: (start, end) row indices}, rows (time s, cavity strain -, cavity pressure kPa, wall pore
-    pressure kPa)) of ``test`` on the clay with ``effect``; ``n`` elements, the solver's step limits."""
-    model, _ = material(effect)
-    k0 = CLAY["K0_nc"]
-    point = (CLAY["sigma_p"] * (1 + 2 * k0) / 3.0, CLAY["sigma_p"] * (1 - k0))
+def cavity_clay(test: Test, effect: str, clay=None, conventions=None):
+    """(:class:`CavityClay`, the size of its surface in kPa) of the clay with ``effect`` at the test's in situ state
+    (``clay``, ``conventions``: :func:`simulate`)."""
+    model, _ = material(effect, clay, conventions)
+    c = {**CLAY, **(clay or {})}
+    k0 = c["K0_nc"]
+    point = (c["sigma_p"] * (1 + 2 * k0) / 3.0, c["sigma_p"] * (1 - k0))
     init = test.initial
     sh = init["K0"] * init["sigma_v0"]
     size = model.initial_state((init["sigma_v0"] + 2 * sh) / 3.0, init["sigma_v0"] - sh, 1.0 + init["e0"],
                                point).size
-    cavity = Cavity(CavityClay(model), size, SITE["a0"], init["sigma_v0"], init["K0"], init["u0"],
-                    SITE["permeability"], init["e0"], n=n)
+    return CavityClay(model, 1.0 + init["e0"]), size
+
+
+def simulate(test: Test, effect: str, n=100, max_strain=1e-4, growth=0.05, outer=200.0, clay=None, conventions=None):
+    """({stage name: (start, end) row indices}, rows (time s, cavity strain -, cavity pressure kPa, wall pore
+    pressure kPa)) of ``test`` on the clay with ``effect``; ``n`` elements to ``outer`` a0, the solver's step limits;
+    ``clay`` overrides values of the clay, ``conventions`` are the models' options
+    (:mod:`validation.independent.models`)."""
+    material_, size = cavity_clay(test, effect, clay, conventions)
+    init = test.initial
+    cavity = Cavity(material_, size, SITE["a0"], init["sigma_v0"], init["K0"], init["u0"], SITE["permeability"],
+                    init["e0"], n=n, outer=outer)
     spans = {}
     for stage in test.stages:
         start = len(cavity.rows) - 1
@@ -128,7 +139,8 @@ def _describe(stage) -> str:
     return f"{stage.name} (hold): cavity strain held for {f['duration']:g} s"
 
 
-def _header(case, test, seed) -> list:
+def header(case, test, seed) -> list:
+    """The ``#`` header lines of one SBP test's CSV (the site, the stages, the noise)."""
     init = ", ".join(f"{k} {v:g}" for k, v in test.initial.items())
     lines = [f"synthetic: {HEADER} (python -m validation.independent --write)", f"case: {case}",
              f"programme: {DESCRIPTION}", f"test: {test.name}", "apparatus: sbp (self-boring pressuremeter)",
@@ -187,7 +199,7 @@ def write_sbp(folder, seeds=SEEDS) -> dict:
             for ti, test in enumerate(TESTS):
                 if test.name not in simulated:
                     simulated[test.name] = simulate(test, effect)
-                _write_csv(d / f"{test.name}.csv", _header(case, test, seed),
+                write_csv(d / f"{test.name}.csv", header(case, test, seed),
                            records(test, effect, seed, ti, simulated[test.name]))
             (d / "study.toml").write_text(study_text(case))
             key[case] = {"programme": PROGRAMME, "effect": effect, "seed": seed,

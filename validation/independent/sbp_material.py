@@ -68,17 +68,17 @@ class CavityClay:
     arrays of points. The model's own methods give the moduli, the yield value and its gradient (they take numpy
     arrays); the creep rate, written for scalars, is evaluated point by point."""
 
-    def __init__(self, model):
+    def __init__(self, model, v0=None):
         if getattr(model, "a", 0.0):
             raise ValueError("the cavity solver's clay has no bonding (destructuration is not generated here)")
-        self.model = model
+        self.model, self.v0 = model, v0
         self.viscous = model.viscous
         self.stiffness = model.lambda_ - model.kappa
 
     def _state(self, pts: Points, p=None, q=None):
         if p is None:
             p, q, _ = invariants(pts.sigma)
-        return ClayState(p, q, pts.v, pts.size, 0.0)
+        return ClayState(p, q, pts.v, pts.size, 0.0, self.v0)
 
     def moduli(self, pts: Points):
         """(K, G) arrays (kPa) of the models' Eq. (1)."""
@@ -95,8 +95,9 @@ class CavityClay:
         return n_p[:, None] / 3.0 + n_q[:, None] * direction, n_p, H
 
     def harden(self, pts: Points, dev_p):
-        """Size after a plastic (or viscoplastic) volumetric strain ``dev_p``: models' Eq. (3) / (7)."""
-        return pts.size + pts.v * pts.size * dev_p / self.stiffness
+        """Size after a plastic (or viscoplastic) volumetric strain ``dev_p``: models' Eq. (3) / (7) with the model's
+        volume factor (its specific-volume convention; ``v0`` the initial specific volume)."""
+        return pts.size + self.model.volume(self._state(pts, 0.0, 0.0)) * pts.size * dev_p / self.stiffness
 
     def creep_rate(self, pts: Points):
         """Viscoplastic principal strain rates (points, 3) (1/s) of the models' Eq. (6)."""
