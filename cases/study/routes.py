@@ -37,56 +37,76 @@ def _comma_list(text):
     return [x.strip() for x in text.split(",") if x.strip()]
 
 
-def _options(ap, study_path):
+def _options(ap, study_path, route=None):
+    """The study positional (without ``study_path``) and the options of ``route`` (None: of every route)."""
     if study_path is None:
         ap.add_argument("study", type=Path, help="the study file (TOML)")
-    g = ap.add_argument_group("route \"study\"")
-    g.add_argument("--diagnose", action="store_true", help="run the whole missing-physics loop")
-    g = ap.add_argument_group("every route")
-    g.add_argument("--generate", action="store_true", help="(re)write the study's SYNTHETIC records from its "
-                   "[synthetic] table and exit")
-    g.add_argument("--noise", type=non_negative_float, help="the noise level of the synthetic records (route "
-                   "\"study\": with --generate; route \"sand\": which records, one of [runner] noise_levels)")
-    g.add_argument("--sweeps", type=non_negative_int, help="MCMC sweeps per stage (0: adaptive, capped by the "
-                   "preset)")
-    g = ap.add_argument_group("route \"sand\"")
-    g.add_argument("--free", type=_comma_list, help="comma-separated subset of the free parameters to identify "
-                   "(the others held at [runner] hold_at)")
-    g.add_argument("--undrained", nargs="+", metavar="FILE[:E0:P0_KPA]",
-                   help="undrained recordings (eps_a_pct, q_kPa, u_kPa) replacing [runner] substitutes")
-    g.add_argument("--error-groups", nargs="?", const=True, type=Path, metavar="FILE",
-                   help="one error parameter per group of curves (Eq. 6g) from FILE's [sigma_eps] table (default "
-                   "[runner] error_groups)")
-    g.add_argument("--regenerate", action="store_true", help="rewrite the synthetic records first, then calibrate")
-    g = ap.add_argument_group("route \"sbp\"")
-    g.add_argument("--recordings", nargs="+", metavar="TEST=CSV",
-                   help="SBP records, e.g. fast=f.csv slow=s.csv (test names must have a rate: the study's or --rates)")
-    g.add_argument("--rates", nargs="+", metavar="TEST=RATE", help="cavity strain rate per test in 1/s "
-                   "(default: the study's tests)")
-    g.add_argument("--pressure-only", action="store_true",
-                   help="calibrate on the cavity pressure alone even when the records have the wall pore pressure")
-    g.add_argument("--fixed", nargs="+", metavar="NAME=VALUE", help="override the study's fixed values")
-    g.add_argument("--radial-cells", type=positive_int, help="FE cells along the radius, >= 1")
-    g.add_argument("--layers", type=positive_int, help="FE cell layers, >= 1")
-    g.add_argument("--increments", type=positive_int, help="FE load increments to 10 %% cavity strain, >= 1")
-    g.add_argument("--max-stages", type=positive_int, help="stop after this many stages (default 200)")
-    g.add_argument("--timeout", type=positive_float, help="seconds per forward evaluation (then a failed particle)")
-    g.add_argument("--throughput", type=positive_int, metavar="N",
-                   help="benchmark: time N forward evaluations (prior draws) on this executor and exit")
+
+    def group(name):
+        return ap.add_argument_group(f"route \"{name}\"") if route in (None, name) else None
+
+    shared = ap.add_argument_group("study file")
+    shared.add_argument("--generate", action="store_true", help="(re)write the study's SYNTHETIC records from its "
+                        "[synthetic] table and exit")
+    if route in (None, "study", "sand"):
+        shared.add_argument("--noise", type=non_negative_float, help="the noise level of the synthetic records "
+                            "(route \"study\": with --generate; route \"sand\": which records, one of [runner] "
+                            "noise_levels)")
+    if route in (None, "sand", "sbp"):
+        shared.add_argument("--sweeps", type=non_negative_int, help="MCMC sweeps per stage (0: adaptive, capped "
+                            "by the preset)")
+    if g := group("study"):
+        g.add_argument("--diagnose", action="store_true", help="run the whole missing-physics loop")
+    if g := group("sand"):
+        g.add_argument("--free", type=_comma_list, help="comma-separated subset of the free parameters to identify "
+                       "(the others held at [runner] hold_at)")
+        g.add_argument("--undrained", nargs="+", metavar="FILE[:E0:P0_KPA]",
+                       help="undrained recordings (eps_a_pct, q_kPa, u_kPa) replacing [runner] substitutes")
+        g.add_argument("--error-groups", nargs="?", const=True, type=Path, metavar="FILE",
+                       help="one error parameter per group of curves (Eq. 6g) from FILE's [sigma_eps] table "
+                       "(default [runner] error_groups)")
+        g.add_argument("--regenerate", action="store_true", help="rewrite the synthetic records first, then "
+                       "calibrate")
+    if g := group("sbp"):
+        g.add_argument("--recordings", nargs="+", metavar="TEST=CSV", help="SBP records, e.g. fast=f.csv "
+                       "slow=s.csv (test names must have a rate: the study's or --rates)")
+        g.add_argument("--rates", nargs="+", metavar="TEST=RATE", help="cavity strain rate per test in 1/s "
+                       "(default: the study's tests)")
+        g.add_argument("--pressure-only", action="store_true", help="calibrate on the cavity pressure alone even "
+                       "when the records have the wall pore pressure")
+        g.add_argument("--fixed", nargs="+", metavar="NAME=VALUE", help="override the study's fixed values")
+        g.add_argument("--radial-cells", type=positive_int, help="FE cells along the radius, >= 1")
+        g.add_argument("--layers", type=positive_int, help="FE cell layers, >= 1")
+        g.add_argument("--increments", type=positive_int, help="FE load increments to 10 %% cavity strain, >= 1")
+        g.add_argument("--max-stages", type=positive_int, help="stop after this many stages (default 200)")
+        g.add_argument("--timeout", type=positive_float, help="seconds per forward evaluation (then a failed "
+                       "particle)")
+        g.add_argument("--throughput", type=positive_int, metavar="N",
+                       help="benchmark: time N forward evaluations (prior draws) on this executor and exit")
 
 
 def _refuse_foreign(args, route, study):
     own = set(OPTIONS[route])
     for dest in sorted(set().union(*OPTIONS.values()) - own):
-        if getattr(args, dest) not in (None, False):
+        if getattr(args, dest, None) not in (None, False):
             raise UsageError(f"--{dest.replace('_', '-')}: not an option of a study with [runner] route = "
                              f"{route!r} ({study.path})")
+
+
+def _complete(args):
+    """Every route's option in ``args``, None or False where this command line does not take it."""
+    for dest in set().union(*OPTIONS.values()):
+        if not hasattr(args, dest):
+            setattr(args, dest, None)
+    return args
 
 
 def main(argv, description, study_path=None, quick_help="the study's [sampler.quick] and [fe.quick] settings"):
     """Parse ``argv`` (the study file given as ``study_path`` or as the first positional argument), load the study
     and run it on its route. Returns the exit status."""
-    args = arguments(description, argv, quick_help=quick_help, add=lambda ap: _options(ap, study_path))
+    route = load_study(study_path, check_files=False).runner["route"] if study_path else None
+    args = arguments(description, argv, quick_help=quick_help, add=lambda ap: _options(ap, study_path, route))
+    args = _complete(args)
     run = run_settings(args)
     path = study_path or args.study
     if args.generate and not args.diagnose:

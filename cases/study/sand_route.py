@@ -340,7 +340,7 @@ def run(study, run_settings, args) -> int:
     if groups is True:  # --error-groups without FILE
         if runner["error_groups"] is None:
             raise UsageError(f"--error-groups: give FILE (the study {study.name} has no [runner] error_groups)")
-        groups = study.path.parent / runner["error_groups"]
+        groups = (study.path.parent / runner["error_groups"]).resolve()
     error_model = read_error_groups(groups) if groups else None
     s = build(study, args.free, args.undrained or (), error_model, noise)
     settings = study.settings(run_settings.quick, run_settings.samples)

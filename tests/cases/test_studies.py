@@ -74,6 +74,9 @@ def test_bad_reference_is_refused_by_the_command_line_with_exit_2(tmp_path, caps
 
 def test_an_option_of_another_route_is_refused(tmp_path, capsys):
     out = tmp_path / "out"
-    assert toyoura.main(["--pressure-only", "--out", out]) == 2
+    assert calibrate.main([toyoura.STUDY, "--pressure-only", "--out", out]) == 2
     err = capsys.readouterr().err
     assert "--pressure-only" in err and "route = 'sand'" in err and not out.exists()
+    with pytest.raises(SystemExit) as exit_status:  # an entry point offers its own route's options only
+        toyoura.main(["--pressure-only", "--out", out])
+    assert exit_status.value.code == 2 and "--pressure-only" in capsys.readouterr().err
