@@ -262,7 +262,7 @@ CATALOG = (
                "(critical state)")),
         {"state_dependent_dilatancy": True},
         # SIMSAND's interlocking (VII) on: n_p, n_d free with the paper's SIMSAND priors (uniform [0.1, 10] both,
-        # cases.simsand_synthetic.BOUNDS; the printed table of the paper swaps them)
+        # cases/studies/simsand_synthetic.toml; the printed table of the paper swaps them)
         Enrichment("SIMSAND", {"state_dependent_dilatancy": True}, {"n_p": (0.1, 10.0), "n_d": (0.1, 10.0)},
                    inert_at={"n_p": "lower", "n_d": "lower"}),
         references=("docs/reference.md section 3 (VII): tan phi_p = (e_c/e)^n_p tan phi_mu, tan phi_pt = (e_c/e)^-n_d "

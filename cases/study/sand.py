@@ -27,6 +27,7 @@ from inference import DataError
 from cases.study.forward.lab import LabForward
 from cases.study.outputs.report import plot_marginals, plot_stages, pyplot, runs_table
 from cases.study.programme import TestSpec
+from cases.study.reading.reference import is_error_parameter
 
 __all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
            "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_csl", "plot_map_spread",
@@ -87,11 +88,6 @@ def sand_forward(observations, fixed: dict, grid_pct=None) -> LabForward:
                                              for t in observations]))
     curves = {t.name: tuple(CURVES[spec.drainage == "drained"]) for t, spec in zip(observations, tests)}
     return LabForward("SIMSAND", tests, strains, curves, fixed, grid=grid_pct)
-
-
-def is_error_parameter(name: str) -> bool:
-    """sigma_eps, or sigma_eps_<group> of an error group (Eq. 6g)."""
-    return name == "sigma_eps" or name.startswith("sigma_eps_")
 
 
 def parameters(forward: LabForward, params: dict) -> dict:

@@ -1,4 +1,5 @@
-"""cases.burswood_sbp on a tiny mesh: recordings, bad input, a small calibration serial and under mpirun -n 2."""
+"""cases.burswood_sbp (cases/studies/burswood_sbp.toml through cases.study.sbp_route) on a tiny mesh: recordings, bad
+input, a small calibration serial and under mpirun -n 2."""
 import json
 import os
 import subprocess
@@ -7,12 +8,19 @@ import sys
 import numpy as np
 import pytest
 
-from cases import burswood_sbp as sbp
+from cases import burswood_sbp
+from cases.study import sbp_route
+from cases.study.reading.presets import Preset
 from cases.study.reading.records import load_sbp_recordings
+from cases.study.reading.schema import load_study
 from inference.observations import DataError
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-TINY = sbp.Preset(radial_cells=8, layers=1, increments=10, outer="fixed", outer_radius_a0=200.0)
+STUDY = load_study(burswood_sbp.STUDY)
+GENERATING = STUDY.references["generating"].values
+RATES = {t.name: t.strain_rate for t in STUDY.tests}
+BOUNDS = {**STUDY.free, "sigma_eps": STUDY.sigma_bounds}
+TINY = Preset(radial_cells=8, layers=1, increments=10, outer="fixed", outer_radius_a0=200.0)
 TINY_ARGS = ["--radial-cells", "8", "--layers", "1", "--increments", "10"]
 
 
@@ -20,18 +28,18 @@ TINY_ARGS = ["--radial-cells", "8", "--layers", "1", "--increments", "10"]
 def tiny_records(tmp_path_factory):
     """Synthetic records from the tiny FE itself (no discretization mismatch), 5 % noise, 12 points per test."""
     d = tmp_path_factory.mktemp("records")
-    return sbp.generate_recordings(d, noise=0.05, seed=7, preset=TINY, n_points=12)
+    return sbp_route.generate_recordings(STUDY, d, noise=0.05, seed=7, preset=TINY, n_points=12)
 
 
 def test_noise_free_recordings_equal_the_forward_model(tmp_path):
     """The generator writes what the forward model computes (9 significant digits), labelled synthetic."""
-    paths = sbp.generate_recordings(tmp_path, noise=0.0, preset=TINY, n_points=12)
+    paths = sbp_route.generate_recordings(STUDY, tmp_path, noise=0.0, preset=TINY, n_points=12)
     obs = load_sbp_recordings(paths, pore_pressure=True)
-    forward = sbp.burswood_forward(TINY, curves=("cavity_pressure", "pore_pressure"))
-    sim = forward(sbp.GENERATING)
+    forward = sbp_route.sbp_forward(STUDY, TINY, curves=("cavity_pressure", "pore_pressure"))
+    sim = forward(GENERATING)
     for t in obs:
         assert t.conditions["synthetic"].startswith("NOT MEASURED DATA")
-        assert float(t.conditions["strain_rate_per_s"]) == sbp.RATES[t.name]
+        assert float(t.conditions["strain_rate_per_s"]) == RATES[t.name]
         for cname, c in t.curves.items():
             x, y = sim[t.name][cname]
             np.testing.assert_allclose(c.y, np.interp(c.x, x, y), rtol=1e-8)
@@ -43,9 +51,9 @@ def test_one_layer_equals_four_layers():
     """Plane strain, top and bottom fixed vertically: the problem is 1D in r, so the quick preset's single layer
     of cells gives the paper mesh's 4-layer answer (the hourglass modes are not excited by a z-uniform field), to the
     Newton tolerance of the solver (relative residual 1e-6 per dof)."""
-    one = sbp.burswood_forward(TINY).results(sbp.GENERATING)
-    four = sbp.burswood_forward(sbp.Preset(radial_cells=8, layers=4, increments=10, outer_radius_a0=200.0)).results(
-        sbp.GENERATING)
+    one = sbp_route.sbp_forward(STUDY, TINY).results(GENERATING)
+    four = sbp_route.sbp_forward(STUDY, Preset(radial_cells=8, layers=4, increments=10, outer_radius_a0=200.0)).results(
+        GENERATING)
     for name in one:
         np.testing.assert_allclose(one[name].cavity_pressure, four[name].cavity_pressure, rtol=1e-6)
         np.testing.assert_allclose(one[name].cavity_pore_pressure, four[name].cavity_pore_pressure, rtol=1e-6)
@@ -81,8 +89,8 @@ def test_a_forward_solve_that_raises_is_a_zero_likelihood_particle(tiny_records)
     """A forward solve that raises inside a calibration gives -inf with its reason, never a crash."""
     import inference
 
-    like = inference.Likelihood(load_sbp_recordings(tiny_records), sbp.burswood_forward(TINY))
-    like.bind(tuple(sbp.BOUNDS))
+    like = inference.Likelihood(load_sbp_recordings(tiny_records), sbp_route.sbp_forward(STUDY, TINY))
+    like.bind(tuple(BOUNDS))
     values, reasons = like.evaluate_many(np.array([[1.71, 58.4, 0.02, 0.05], [1.71, -5.0, 0.02, 0.05]]))
     assert np.isfinite(values[0]) and reasons[0] is None
     assert values[1] == -np.inf and "sigma_p0" in reasons[1]
@@ -107,7 +115,7 @@ def test_small_calibration_serial_and_two_ranks_agree_and_move_toward_the_genera
                 "parameters", "sigma_eps", "log_evidence", "J_g_at_map"):
         assert key in summary
     assert summary["synthetic_recordings"] is True
-    assert summary["generating"] == sbp.GENERATING  # read back from the records' synthetic_parameters header
+    assert summary["generating"] == GENERATING  # read back from the records' synthetic_parameters header
     for f in ("report.md", "curves.png", "marginals.png", "stages.png", "posterior.npz", "progress.log"):
         assert (serial / f).exists(), f
     report = (serial / "report.md").read_text()
@@ -121,8 +129,8 @@ def test_small_calibration_serial_and_two_ranks_agree_and_move_toward_the_genera
     # half its expectation under the prior, E|U - t| = (t^2 + (1 - t)^2)/2 for U ~ U(0, 1) and truth at t. (C_alpha_e
     # is left out: 12 points per test with 5 % noise on a 10-increment mesh hardly constrain the rate effect.)
     for i, name in enumerate(("M", "sigma_p0")):
-        lo, hi = sbp.BOUNDS[name]
-        t = (sbp.GENERATING[name] - lo) / (hi - lo)
+        lo, hi = BOUNDS[name]
+        t = (GENERATING[name] - lo) / (hi - lo)
         distance = np.mean(np.abs((a["samples"][:, i] - lo) / (hi - lo) - t))
         assert distance < 0.5 * (t**2 + (1 - t) ** 2) / 2, name
 

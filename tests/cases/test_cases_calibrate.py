@@ -9,6 +9,7 @@ import pytest
 
 import inference
 from cases import burswood_sbp, calibrate as cal
+from cases.study import sbp_route
 from cases.study.cli import arguments
 from cases.study.reading.checks import StudyError
 from cases.study.synthetic.generate import generate
@@ -339,10 +340,11 @@ def test_noise_free_sbp_example_equals_the_burswood_forward_model(tmp_path):
     study, obs = _noise_free(tmp_path, "sbp")
     t = study.tests[0]
     gen = study.synthetic["parameters"]
-    site = {"sigma_v0": t.sigma_v0, "K0": t.K0, "u0": t.u0, "permeability": t.permeability, "a0": t.probe_radius}
+    burswood = load_study(burswood_sbp.STUDY)
+    assert sbp_route.site_of(burswood) == t.site
     fixed = {k: v for k, v in study.fixed.items() if k != "C_alpha_e"}
-    direct = burswood_sbp.burswood_forward(study.preset(False), fixed=fixed, site=site,
-                                           rates={t.name: t.strain_rate}, curves=("cavity_pressure", "pore_pressure"))
+    direct = sbp_route.sbp_forward(burswood, study.preset(False), fixed=fixed, rates={t.name: t.strain_rate},
+                                   curves=("cavity_pressure", "pore_pressure"))
     sim = direct({**gen, "C_alpha_e": study.fixed["C_alpha_e"]})
     for c, curve in obs[t.name].curves.items():
         np.testing.assert_allclose(curve.y, np.interp(curve.x, *sim[t.name][c]), rtol=2e-8)

@@ -8,15 +8,23 @@ import numpy as np
 import pytest
 
 import inference
-from cases import toyoura as ty
+from cases import toyoura
+from cases.study import sand_route
+from cases.study.reading.schema import load_study
 
-SOIL = dict(ty.PAPER_REFERENCE)
+STUDY = load_study(toyoura.STUDY)
+SOIL = dict(STUDY.references["paper_reference"].values)
+ERROR_GROUPS = STUDY.path.parent / STUDY.runner["error_groups"]
+
+
+def _route(built):
+    return built.cal_obs, built.all_obs, built.forward, built.forward_all, built.like, built.prior
 
 
 @pytest.fixture(scope="module")
 def routes():
-    single = ty.build()
-    groups = ty.build(error_model=ty.read_error_groups(ty.ERROR_GROUPS))
+    single = _route(sand_route.build(STUDY))
+    groups = _route(sand_route.build(STUDY, error_model=sand_route.read_error_groups(ERROR_GROUPS)))
     return single, groups
 
 
@@ -45,8 +53,8 @@ def test_groups_route_parameters(routes):
     assert prior2.names[:-2] == prior1.names[:-1]
     assert {key: g for key, g in like2.group_of.items()} == {
         ("test2", "q"): "stress", ("test2", "e"): "volume", ("test6", "q"): "stress", ("test6", "e"): "volume"}
-    assert ty.curve_sigmas(like2) == {"q": "sigma_eps_stress", "e": "sigma_eps_volume"}
-    assert ty.curve_sigmas(like1) == {}
+    assert sand_route.curve_sigmas(like2) == {"q": "sigma_eps_stress", "e": "sigma_eps_volume"}
+    assert sand_route.curve_sigmas(like1) == {}
 
 
 def test_same_jg_per_curve_and_eq_6g_by_hand(routes):

@@ -47,6 +47,9 @@ CASE = "calibrate"
 #: CRS destructuration). A later CIU control's swelling class reached +26.7 (the generator's model and the drivers'
 #: discretization differ from the calibrated one): the located-misfit check (rank.MISFIT_REDUCTION) refused it
 LOG_BAYES_THRESHOLD = 20.0
+#: ln B by which another convention of the base model (``constitutive.registry.conventions``) must beat the base's
+#: own to replace it (Kass & Raftery's "strong": the same physics, so no Occam penalty separates them)
+CONVENTION_LOG_BAYES = 3.0
 #: the decision rule of a soil study's loop (threshold and margin LOG_BAYES_THRESHOLD), recorded in its directory's
 #: diagnosis_input.json so that ``python -m inference.diagnosis DIR`` reaches the loop's conclusion
 DECISION_RULE = diagnosis.DecisionRule(threshold=LOG_BAYES_THRESHOLD)
@@ -270,8 +273,9 @@ class LoopProblem:
     def calibrate_base(self) -> ModelClass:
         """The base class in each of its conventions (``constitutive.registry.conventions``: the same model written
         another way, e.g. specific volume 1 + e or 1 + e0), its own in DIR/<base_dir>, the others in
-        DIR/convention_<option>_<value>; the one with the highest ln Z becomes the base class (its convention is
-        kept by the enriched and model-form classes), and the description says which the data prefer."""
+        DIR/convention_<option>_<value>; the one with the highest ln Z becomes the base class when it beats the
+        base's own by :data:`CONVENTION_LOG_BAYES` (its convention is then kept by the enriched and model-form
+        classes), and the description says which the data prefer."""
         tried = []
         for option, value, words in conventions(self.model, self.base_switches) or [(None, None, "")]:
             own = not tried
@@ -286,13 +290,18 @@ class LoopProblem:
                                                    self.base_bounds, tuple(self.base_log_uniform), self.run, out,
                                                    self.seed, self.settings)
             tried.append((words, {} if own else {option: value}, cls, post, like))
-        words, convention, cls, post, like = max(tried, key=lambda c: c[2].log_evidence)
+        # another convention replaces the base's own only when the data prefer it clearly (ln B >= 3, "strong"): in
+        # an undrained test 1 + e and 1 + e0 are the same and their ln Z differ by rounding
+        best = max(tried, key=lambda c: c[2].log_evidence)
+        own = tried[0]
+        words, convention, cls, post, like = (best if best[2].log_evidence - own[2].log_evidence >= CONVENTION_LOG_BAYES
+                                              else own)
         self.convention = convention
         self.likelihood, self.description = like, self.describe(self.label, cls.name)
         if len(tried) > 1:
             compared = "; ".join(f"{w}: ln Z = {c.log_evidence:.1f}" for w, _, c, _, _ in tried)
-            self.description += (f" Conventions compared (the same model written another way): {compared}; the data "
-                                 f"prefer {words}.")
+            self.description += (f" Conventions compared (the same model written another way): {compared}; "
+                                 f"the base is written with {words}.")
         self.conventions_compared = [{"convention": w, "switches": s, "class": c.name, "log_evidence": c.log_evidence}
                                      for w, s, c, _, _ in tried]
         self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))

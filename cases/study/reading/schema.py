@@ -1,11 +1,13 @@
 """The study file: a TOML file naming the data files, the type and conditions of every test, the base model with
-its fixed parameters and the priors of the free ones, the error parameter's bounds, the sampler and FE settings
-and the synthetic-record generator. Every field is checked before any solve (:mod:`cases.study.reading.checks`). The schema
+its fixed parameters and the priors of the free ones, the error parameter's bounds, the sampler and FE settings,
+the synthetic-record generator, published or generating reference values (``[reference]``,
+:mod:`cases.study.reading.reference`) and the route of the one runner (``[runner]``,
+:mod:`cases.study.reading.runner_table`). Every field is checked before any solve (:mod:`cases.study.reading.checks`). The schema
 is documented in the README ("Your own recordings").
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from constitutive import ParameterError
@@ -16,6 +18,8 @@ from cases.study.reading.constraints import feasible_point, read_constraints
 from cases.study.reading.error_model import DEFAULT_SIGMA, ErrorModel, read_error_model
 from cases.study.reading.flat_tests import test_spec
 from cases.study.reading.presets import FE_FIELDS, PRESETS, Preset
+from cases.study.reading.reference import read_references
+from cases.study.reading.runner_table import read_runner
 
 __all__ = ["Settings", "Study", "load_study", "SAMPLER_DEFAULTS", "QUICK_DEFAULTS"]
 
@@ -31,7 +35,7 @@ class Settings:
 
 SAMPLER_DEFAULTS = {"samples": 400, "max_steps": 8, "predictive_draws": 100}
 QUICK_DEFAULTS = {"samples": 64, "max_steps": 4, "predictive_draws": 24}
-TOP_LEVEL = ("name", "description", "model", "sigma_eps", "sampler", "fe", "tests", "synthetic")
+TOP_LEVEL = ("name", "description", "model", "sigma_eps", "sampler", "fe", "tests", "synthetic", "reference", "runner")
 
 
 @dataclass(frozen=True)
@@ -56,6 +60,8 @@ class Study:
     synthetic: dict
     error_model: ErrorModel | None = None   # [sigma_eps]: bounds and error groups (None: one sigma_eps, sigma_bounds)
     constraints: tuple = ()                 # inference.Constraint restricting the free parameters' prior
+    references: dict = field(default_factory=dict)   # [reference]: {key: reference.Reference}
+    runner: dict = field(default_factory=lambda: {"route": "study"})   # [runner]: the route and its settings
 
     @property
     def spec(self) -> ModelSpec:
@@ -152,8 +158,10 @@ def load_study(path, check_files=True) -> Study:
             ck.fail(f"tests[{i}].name", n, "test names must be unique")
     synthetic = ck.table(doc.get("synthetic", {}), "synthetic",
                          ("parameters", "switches", "noise", "seed", "points", "max_strain_pct"))
+    references = read_references(ck, doc.get("reference", {}), spec.parameters)
+    runner = read_runner(ck, ck.table(doc.get("runner", {}), "runner"), names, tuple(references))
     return Study(path, name, description, model, switches, fixed, free, tuple(log_uniform), (lo, hi), sigma_kind,
-                 tests, sampler, quick, fe, fe_quick, synthetic, error_model, constraints)
+                 tests, sampler, quick, fe, fe_quick, synthetic, error_model, constraints, references, runner)
 
 
 def fe_settings(ck, table, where):

@@ -9,8 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from cases import simsand_synthetic as syn
-from cases import toyoura
+from cases import simsand_synthetic, toyoura
+from cases.study import sand_route
+from cases.study.reading.schema import load_study
 from inference import Curve, ForwardModelError, Likelihood, Observations, Test
 
 
@@ -137,12 +138,12 @@ def _random_thetas(prior, samples_near, rng, n):
 
 @pytest.mark.parametrize("study", ["synthetic", "toyoura"])
 def test_simsand_batch_equals_reference_and_per_particle_path(study):
-    if study == "synthetic":
-        _, forward, like, prior = syn.build(0.0)
-        centre = np.array([syn.TRUE.get(n, 0.02) for n in prior.names])
-    else:
-        *_, forward, _, like, prior = toyoura.build()
-        centre = np.array([toyoura.PAPER_REFERENCE.get(n, 0.05) for n in prior.names])
+    path, centre_key, sigma = ((simsand_synthetic.STUDY, "generating", 0.02) if study == "synthetic" else
+                               (toyoura.STUDY, "paper_reference", 0.05))
+    loaded = load_study(path)
+    built = sand_route.build(loaded)
+    forward, like, prior = built.forward, built.like, built.prior
+    centre = np.array([loaded.references[centre_key].values.get(n, sigma) for n in prior.names])
     like.bind(prior.names)
     thetas = _random_thetas(prior, centre, np.random.default_rng(11), 12)
     values, reasons = like.evaluate_many(thetas)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cases import toyoura
+from cases.study import sand_route
 from cases.study.cli import UsageError
 from cases.study.loop.problem import StudyProblem
 from cases.study.reading.records import load_observations
@@ -147,7 +147,7 @@ def test_a_rate_in_percent_is_refused_naming_1_per_s_from_the_command_line(tmp_p
 ])
 def test_toyoura_undrained_conditions_with_a_unit_name_the_unit_expected(spec, message):
     with pytest.raises(UsageError) as err:
-        toyoura.parse_undrained(spec)
+        sand_route.parse_undrained(spec)
     assert str(err.value) == message
 
 
