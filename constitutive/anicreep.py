@@ -85,8 +85,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import (IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter,
-                   point_rows)
+from .base import (
+    IntegrationError,
+    MaterialModel,
+    ParameterError,
+    ParameterRange,
+    as_points,
+    check_parameter,
+    point_rows,
+)
 from .invariants import IDENTITY, mean_stress
 
 __all__ = ["ANICREEP", "SPECIFIC_VOLUMES", "anisotropy_constants"]

@@ -14,8 +14,8 @@ import time
 import numpy as np
 
 from . import labtests
-from .mcc import ModifiedCamClay
 from .anicreep import ANICREEP
+from .mcc import ModifiedCamClay
 from .simsand import SIMSAND
 
 

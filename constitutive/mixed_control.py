@@ -14,8 +14,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._mixed_control_kernel import (adaptive_inputs, aim_step, correct_all, finish_step, judge_steps, newton_correction,
-                                    next_steps, start_step)
+from ._mixed_control_kernel import (
+    adaptive_inputs,
+    aim_step,
+    correct_all,
+    finish_step,
+    judge_steps,
+    newton_correction,
+    next_steps,
+    start_step,
+)
 from .base import IntegrationError, iterating_rows, updated_rows
 
 __all__ = ["mixed_control", "adaptive_control", "batch_size", "newton_correction", "NORMAL"]

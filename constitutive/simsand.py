@@ -61,8 +61,7 @@ import numpy as np
 
 from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
 from .invariants import IDENTITY, isotropic_stiffness
-from .simsand_constants import (CONTROL_STIFFNESS_RATIO, E_MAX_STIFFNESS, FAILURE_REASONS, P_AT,
-                                STRESS_ERROR_FLOOR)
+from .simsand_constants import CONTROL_STIFFNESS_RATIO, E_MAX_STIFFNESS, FAILURE_REASONS, P_AT, STRESS_ERROR_FLOOR
 from .simsand_substepping import GENERAL, TRIAXIAL, ModifiedEulerSubstepping, simsand_kernel
 
 __all__ = ["SIMSAND", "P_AT", "E_MAX_STIFFNESS", "FAILURE_REASONS", "friction_ratio", "friction_from_angle"]

@@ -50,8 +50,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import (IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, iterating_rows,
-                   point_rows, updated_rows)
+from .base import (
+    IntegrationError,
+    MaterialModel,
+    ParameterError,
+    ParameterRange,
+    as_points,
+    iterating_rows,
+    point_rows,
+    updated_rows,
+)
 from .invariants import mean_stress
 
 __all__ = ["DelayedSwelling", "SWELLING_SWITCH", "SWELLING_RANGES"]

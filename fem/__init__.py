@@ -8,8 +8,7 @@
 Conventions: see fem.material_point (the one sign conversion) and fem.solver (the equations).
 """
 from .mesh import Mesh, MeshError
-from .problem import (GAMMA_W, BoundaryPressure, Dirichlet, Geostatic, Phase, Problem, ProblemError,
-                      pressuremeter)
+from .problem import GAMMA_W, BoundaryPressure, Dirichlet, Geostatic, Phase, Problem, ProblemError, pressuremeter
 from .result import Result, Snapshot
 from .solver import ConvergenceError, Solver, solve
 

@@ -25,8 +25,15 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from constitutive import IntegrationError
 
-from ._residual_kernel import (band_matrix, coupled_residual, extrapolate, newton_measures, step_rates,
-                               structural_zeros, trial_strain)
+from ._residual_kernel import (
+    band_matrix,
+    coupled_residual,
+    extrapolate,
+    newton_measures,
+    step_rates,
+    structural_zeros,
+    trial_strain,
+)
 from .element import ElementGeometry
 from .material_point import MaterialPoints
 from .problem import DOFS, Problem, edges_of_set

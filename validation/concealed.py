@@ -27,10 +27,10 @@ from __future__ import annotations
 
 import sys
 
-
-
 from cases.study.cli import arguments, command
-from validation.proofs import lab as proof_lab, rates as proof_rates, sbp as proof_sbp
+from validation.proofs import lab as proof_lab
+from validation.proofs import rates as proof_rates
+from validation.proofs import sbp as proof_sbp
 
 __all__ = ["main", "proof_of"]
 

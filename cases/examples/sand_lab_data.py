@@ -28,8 +28,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from cases.study.synthetic.generate import generate  # noqa: E402
 from cases.study.reading.schema import load_study  # noqa: E402
+from cases.study.synthetic.generate import generate  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 #: generating values of the studies' free parameters (the fixed ones are the study files')

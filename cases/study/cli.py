@@ -21,11 +21,10 @@ import sys
 from pathlib import Path
 
 import inference
-from constitutive import ParameterError
-from fem import MeshError, ProblemError
-
 from cases.study.reading.checks import StudyError
 from cases.study.runner import PROPOSALS, OutputLocked, RunSettings, is_root
+from constitutive import ParameterError
+from fem import MeshError, ProblemError
 
 __all__ = ["UsageError", "REFUSED", "EXIT_REFUSED", "EXIT_INTERRUPTED", "command", "arguments", "run_settings",
            "pairs", "positive_int", "non_negative_int", "quantity", "unit_hint"]

@@ -12,9 +12,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from constitutive.registry import class_name
-from inference.executors import mpi_world
-
 from cases.study import sand_route, sbp_route
 from cases.study.cli import UsageError, arguments, non_negative_int, positive_int, quantity, run_settings
 from cases.study.loop.problem import CASE, StudyProblem, run_loop
@@ -22,6 +19,8 @@ from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 from cases.study.runner import announce_compilation, kernel_files, out_lock, run_all, run_directories
 from cases.study.synthetic.generate import generate
+from constitutive.registry import class_name
+from inference.executors import mpi_world
 
 __all__ = ["OPTIONS", "main"]
 

@@ -21,13 +21,12 @@ from pathlib import Path
 import numpy as np
 
 import inference
-from constitutive import SIMSAND
-from inference import DataError
-
 from cases.study.forward.lab import LabForward
 from cases.study.outputs.report import plot_marginals, plot_stages, pyplot, runs_table
 from cases.study.programme import TestSpec
 from cases.study.reading.reference import is_error_parameter
+from constitutive import SIMSAND
+from inference import DataError
 
 __all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
            "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_csl", "plot_map_spread",

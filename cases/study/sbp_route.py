@@ -22,9 +22,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import inference
-from constitutive import ParameterError
-from inference import DataError
-
 from cases.study.cli import UsageError, pairs
 from cases.study.forward.sbp import SBPForward
 from cases.study.outputs.report import runs_table
@@ -34,6 +31,8 @@ from cases.study.reading.presets import PRESETS
 from cases.study.reading.records import generating_values, has_pore_pressure, load_sbp_recordings
 from cases.study.runner import announce_compilation, is_root, kernel_files, run_all, throughput
 from cases.study.synthetic.generate import generate_sbp
+from constitutive import ParameterError
+from inference import DataError
 
 __all__ = ["site_of", "sbp_forward", "check_fixed", "generate_recordings", "run"]
 

@@ -20,11 +20,30 @@ from .bands import PredictiveBand, predictive_bands
 from .files import diagnose_directory, read_input, recorded_rule, write_diagnosis, write_input
 from .loop import ENRICH, LoopProblem, LoopResult, run_loop
 from .rank import conclude, rank_candidates
-from .records import (STRONG_LOG_BAYES, CandidateDecision, CandidateScore, ClassSummary, Conclusion, DecisionRule,
-                      DiagnosedCandidate, Diagnosis, MismatchRegion, ModelClass, NextTest, SignatureItem)
+from .records import (
+                      STRONG_LOG_BAYES,
+                      CandidateDecision,
+                      CandidateScore,
+                      ClassSummary,
+                      Conclusion,
+                      DecisionRule,
+                      DiagnosedCandidate,
+                      Diagnosis,
+                      MismatchRegion,
+                      ModelClass,
+                      NextTest,
+                      SignatureItem,
+)
 from .report import diagnose, markdown
-from .screening import (POSITION, CurveStatistics, ScreenReport, curve_statistics, relative_residuals, screen,
-                     simulate_samples)
+from .screening import (
+                      POSITION,
+                      CurveStatistics,
+                      ScreenReport,
+                      curve_statistics,
+                      relative_residuals,
+                      screen,
+                      simulate_samples,
+)
 from .structure import Region, lag1_test, runs_test, scale_test, scan_test, segment
 
 __all__ = [

@@ -57,10 +57,18 @@ from scipy import stats
 
 from . import contrast
 from .attribution import per_curve
-from .trust import confirmation_blocks, sampler_disagrees
-from .records import (MISFIT_REDUCTION, PATTERN_REDUCTION, STRONG_LOG_BAYES, CandidateDecision, CandidateScore,
-                      Conclusion, DecisionRule, SignatureItem)
+from .records import (
+    MISFIT_REDUCTION,
+    PATTERN_REDUCTION,
+    STRONG_LOG_BAYES,
+    CandidateDecision,
+    CandidateScore,
+    Conclusion,
+    DecisionRule,
+    SignatureItem,
+)
 from .screening import ScreenReport
+from .trust import confirmation_blocks, sampler_disagrees
 
 __all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "rank_candidates", "pattern_explained",
            "misfit_explained", "conclude"]

@@ -23,8 +23,7 @@ import numpy as np
 
 from .attribution import expand_covariates, split_spec
 from .rank import conclude, misfit_explained, names_curve, pattern_explained, rank_candidates
-from .records import (ClassSummary, DecisionRule, Diagnosis, DiagnosedCandidate, MismatchRegion, ModelClass,
-                      NextTest)
+from .records import ClassSummary, DecisionRule, DiagnosedCandidate, Diagnosis, MismatchRegion, ModelClass, NextTest
 from .screening import POSITION, relative_residuals, screen
 
 __all__ = ["diagnose", "markdown", "next_tests"]

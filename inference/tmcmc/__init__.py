@@ -16,12 +16,21 @@ chain k. Samples, MAP and evidence therefore do not depend on the executor or th
 resumed from a checkpoint continues with exactly the numbers it would have drawn.
 """
 from .mixture import GaussianMixture, fit_gaussian_mixture
-from .moves import (DEMove, GaussianMove, MixtureMove, Move, Proposal, RedBlueDEMove, SymmetricDEMove, de_proposal,
-                    make_move, mixture_proposal)
+from .moves import (
+                    DEMove,
+                    GaussianMove,
+                    MixtureMove,
+                    Move,
+                    Proposal,
+                    RedBlueDEMove,
+                    SymmetricDEMove,
+                    de_proposal,
+                    make_move,
+                    mixture_proposal,
+)
 from .sampler import EXIT_CHECKPOINTED, Checkpointed, RunStopped, tmcmc
 from .settings import TMCMCSettings
-from .stage import (SamplerError, choose_next_exponent, resample, stage_weights, start_correlation,
-                    weighted_covariance)
+from .stage import SamplerError, choose_next_exponent, resample, stage_weights, start_correlation, weighted_covariance
 
 __all__ = ["tmcmc", "TMCMCSettings", "SamplerError", "RunStopped", "Checkpointed", "EXIT_CHECKPOINTED",
            "choose_next_exponent", "stage_weights", "weighted_covariance", "resample", "start_correlation",

@@ -6,20 +6,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from corpus_inputs import LAB_CSV as CSV
+from corpus_inputs import LAB_TOML as TOML
+from tolerances import FE_RTOL, PRINTED_RTOL
 
 import inference
-from cases import burswood_sbp, calibrate as cal
+from cases import burswood_sbp
+from cases import calibrate as cal
 from cases.study import sbp_route
 from cases.study.cli import arguments
-from cases.study.reading.checks import StudyError
-from cases.study.synthetic.generate import generate
 from cases.study.loop.problem import StudyProblem
+from cases.study.reading.checks import StudyError
 from cases.study.reading.records import generating_values, load_observations
 from cases.study.reading.schema import Settings, load_study
+from cases.study.synthetic.generate import generate
 from constitutive import ANICREEP, SIMSAND, ModifiedCamClay, labtests
 from inference.observations import DataError
-from corpus_inputs import LAB_CSV as CSV, LAB_TOML as TOML
-from tolerances import FE_RTOL, PRINTED_RTOL
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "cases" / "examples"
@@ -175,7 +177,7 @@ def test_anicreep_and_test_type_errors_name_field_and_value(tmp_path, viscous, f
 
 
 def test_simsand_refuses_the_pressuremeter(tmp_path):
-    toml = (f"[model]\nname = \"SIMSAND\"\n[model.fixed]\n"
+    toml = ("[model]\nname = \"SIMSAND\"\n[model.fixed]\n"
             + "".join(f"{k} = {v}\n" for k, v in dict(nu=0.2, K_0=100, n=0.6, lambda_c=0.03, xi=0.6, phi_mu=30.0,
                                                       k_p=0.003, A_d=1.0, n_p=2.0, n_d=2.0).items())
             + "[model.free]\ne_ref = [0.5, 1.5]\n[[tests]]\nfile = \"t1.csv\"\ne0 = 0.7\n" + SBP_TEST)

@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, fsolve
 
-from constitutive import ANICREEP, IntegrationError, ModifiedCamClay, ParameterError
-from constitutive import labtests
+from constitutive import ANICREEP, IntegrationError, ModifiedCamClay, ParameterError, labtests
 from constitutive.anicreep import anisotropy_constants
 
 BURSWOOD = dict(lambda_=0.40, kappa=0.026, nu=0.3, e0=2.0)

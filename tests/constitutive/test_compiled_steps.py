@@ -9,8 +9,15 @@ import numpy as np
 import pytest
 
 from constitutive import _swelling_kernel as sk
-from constitutive.mixed_control import (NORMAL, adaptive_inputs, aim_step, correct_all, finish_step, newton_correction,
-                                         start_step)
+from constitutive.mixed_control import (
+    NORMAL,
+    adaptive_inputs,
+    aim_step,
+    correct_all,
+    finish_step,
+    newton_correction,
+    start_step,
+)
 
 N = 64
 

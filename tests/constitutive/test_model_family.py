@@ -90,11 +90,12 @@ def test_crs_oedometer_identical_and_the_strain_measure_closed_form():
 def test_study_family_forward_reproduces_the_mcc_study():
     """An MCC study (cases/examples/triaxial_undrained.toml: CK0UC and CIUE, ocr free) through its family's forward
     model with every ANICREEP switch off gives the MCC study's curves (1e-8 relative), and an enriched class runs."""
+    from pathlib import Path
+
     from cases.study.forward.family import FamilyForward
     from cases.study.forward.study import StudyForward
     from cases.study.reading.records import load_observations
     from cases.study.reading.schema import load_study
-    from pathlib import Path
     study = load_study(Path(__file__).resolve().parents[2] / "cases/examples/triaxial_undrained.toml")
     obs, _ = load_observations(study.tests)
     batch = [{"M": 1.2, "ocr": 1.5}, {"M": 1.0, "ocr": 2.5}]

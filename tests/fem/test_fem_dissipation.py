@@ -18,10 +18,10 @@ dissipation (sigma'_z lags the in-plane mean stress, J2 grows), the soil is soft
 """
 import numpy as np
 import pytest
+from dissipation import A0, CH, NU, R_OUT, SU, T_EXPAND, ElasticDissipation, G, K, series_wall, t50
 
 import constitutive as C
 import fem
-from dissipation import A0, CH, NU, K, R_OUT, SU, T_EXPAND, G, ElasticDissipation, series_wall, t50
 from fem import oracles
 
 

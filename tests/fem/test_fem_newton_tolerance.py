@@ -6,7 +6,6 @@ import numpy as np
 import constitutive as C
 import fem
 
-
 N_INCREMENTS = 100
 
 

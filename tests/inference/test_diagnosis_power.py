@@ -11,9 +11,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from inference import Curve, Likelihood, Observations, Test
-from inference import diagnosis
-from inference.diagnosis import ModelClass, attribute, relative_residuals, run_loop, screen
+from inference import Curve, Likelihood, Observations, Test, diagnosis
+from inference.diagnosis import ModelClass, attribute, run_loop
 
 SIGMA = 0.02
 ALPHA = 0.05

@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 from scipy import integrate, special
 
-from inference import Curve, Likelihood, Observations, SerialExecutor, Test, UniformPrior, tmcmc
-from inference import diagnosis
+from inference import Curve, Likelihood, Observations, SerialExecutor, Test, UniformPrior, diagnosis, tmcmc
 from inference.diagnosis import ModelClass, run_loop
 
 A, B, SIGMA = 2.0, 0.08, 0.01

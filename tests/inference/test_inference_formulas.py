@@ -3,7 +3,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.special import logsumexp
 
 T = __import__("inference.tmcmc", fromlist=["tmcmc"])
 

@@ -4,8 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from inference import (Curve, DataError, Likelihood, LogUniformPrior, Observations, PriorError, Test,
-                       UniformPrior, tmcmc)
+from inference import Curve, DataError, Likelihood, LogUniformPrior, Observations, PriorError, Test, UniformPrior, tmcmc
 
 
 def _obs():

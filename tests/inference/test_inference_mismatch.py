@@ -12,8 +12,18 @@ import pytest
 from scipy import stats
 
 from inference import Curve, Likelihood, Observations, Test
-from inference.diagnosis import (attribute, holm, lag1_test, predictive_bands, relative_residuals, runs_test,
-                                 scale_test, scan_test, screen, segment)
+from inference.diagnosis import (
+    attribute,
+    holm,
+    lag1_test,
+    predictive_bands,
+    relative_residuals,
+    runs_test,
+    scale_test,
+    scan_test,
+    screen,
+    segment,
+)
 from inference.diagnosis.structure import SCAN_DRAWS
 
 ALPHA = 0.05

@@ -14,8 +14,16 @@ import time
 import numpy as np
 import pytest
 
-from inference import (EXIT_CHECKPOINTED, Checkpointed, RunStopped, SamplerError, SerialExecutor, UniformPrior, tmcmc,
-                       write_failures)
+from inference import (
+    EXIT_CHECKPOINTED,
+    Checkpointed,
+    RunStopped,
+    SamplerError,
+    SerialExecutor,
+    UniformPrior,
+    tmcmc,
+    write_failures,
+)
 from inference.bench import PROBLEMS
 from inference.tmcmc.run import remaining_evaluations
 from inference.tmcmc.state import StageRecord

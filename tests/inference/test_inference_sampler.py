@@ -17,7 +17,7 @@ import time
 import numpy as np
 import pytest
 
-from inference import (CheckpointError, PoolExecutor, SamplerError, SerialExecutor, UniformPrior, tmcmc)
+from inference import CheckpointError, PoolExecutor, SamplerError, SerialExecutor, UniformPrior, tmcmc
 from inference.bench import PROBLEMS, reference_evidence_by_quadrature
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -153,6 +153,7 @@ def test_mixture_move_leaves_a_bimodal_target_invariant(independence):
 def test_mixture_proposal_density_ratio():
     """The Hastings term equals ln q(x | x*) - ln q(x* | x) computed directly from the proposal densities."""
     from scipy.stats import multivariate_normal as mvn
+
     from inference.tmcmc import GaussianMixture, mixture_proposal
     mix = GaussianMixture([0.4, 0.6], [[0.0, 0.0], [2.0, 1.0]], [[[0.5, 0.1], [0.1, 0.3]], [[1.0, -0.2], [-0.2, 0.8]]])
     rng = np.random.default_rng(2)

@@ -9,9 +9,10 @@ import pytest
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from validation.proofs import sbp as cs  # noqa: E402
-from constitutive import physics_catalog  # noqa: E402
 from tolerances import FE_RTOL
+
+from constitutive import physics_catalog  # noqa: E402
+from validation.proofs import sbp as cs  # noqa: E402
 
 FORBIDDEN = ("visc", "creep", "c_alpha", "secondary", "rate-dep", "rate dep", "drain", "permeab", "consolid",
              "set_1", "k_true")

@@ -11,13 +11,13 @@ import pytest
 
 import constitutive
 import inference
-from validation.proofs import lab
-from validation.proofs import rates as cv
 from cases.study.cli import arguments
 from constitutive import physics_catalog as catalog
 from constitutive.swelling import SWELLING_RANGES, SWELLING_SWITCH
 from inference import diagnosis
 from inference.diagnosis import relative_residuals, screen
+from validation.proofs import lab
+from validation.proofs import rates as cv
 
 ROOT = Path(__file__).resolve().parents[2]
 BASE = {"viscous": False, "anisotropy": True}

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import ast
 import json
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 from scipy.optimize import brentq
 
 from validation.independent.integrator import Control, Point, run_stage
@@ -208,12 +208,12 @@ def test_study_files_load_through_the_study_schema(programme):
 def test_negative_control_is_reproduced_by_the_calibrated_mcc(programme):
     # the project's own MCC programme forward at the generating values reproduces the plain-MCC records within
     # the noise (no bias): the two implementations agree, and the control carries no hidden effect
-    from validation.independent.models import ellipse_size
     from cases.study.forward.lab_staged import simulate_programme
     from cases.study.reading.records import load_observations
     from cases.study.reading.schema import load_study
     from cases.study.reading.stage_records import recorded_programme
     from constitutive.registry import build_model
+    from validation.independent.models import ellipse_size
     key = json.loads((DATA / "KEY.json").read_text())
     case = next(c for c, v in key.items() if v["programme"] == programme and v["effect"] == "none"
                 and v["seed"] == 1 and "model_form" not in v)
@@ -237,7 +237,8 @@ def test_negative_control_is_reproduced_by_the_calibrated_mcc(programme):
 
 
 def test_identifiability_control_is_its_own_plain_clay_and_a_bonded_clay_is_not():
-    from validation.independent.identifiability import CLAY as PLAIN, plain_residual, records_with_effect
+    from validation.independent.identifiability import CLAY as PLAIN
+    from validation.independent.identifiability import plain_residual, records_with_effect
     clay = {k: PLAIN[k] for k in ("M", "lambda_", "kappa", "sigma_p")}
     assert np.max(np.abs(plain_residual("relaxation", records_with_effect("relaxation", "none", 1), clay))) == 0.0
     bonded = plain_residual("relaxation", records_with_effect("relaxation", "destructuration", 1), clay)

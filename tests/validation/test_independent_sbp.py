@@ -4,17 +4,17 @@ and step convergence, the project's coupled FE (a second implementation of the s
 from __future__ import annotations
 
 import json
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
-from validation.independent.models import ElastoplasticClay, ViscousClay, ClayState
+from fem import oracles
+from validation.independent.models import ClayState, ElastoplasticClay, ViscousClay
 from validation.independent.sbp import EFFECTS, SITE, TESTS, case_ids, records, simulate
 from validation.independent.sbp_material import CavityClay, Points, invariants, update
 from validation.independent.sbp_solver import GAMMA_W, Cavity, block_solve
-from fem import oracles
 
 DATA = Path(__file__).resolve().parents[2] / "validation" / "data" / "independent"
 A0 = 0.0415

@@ -28,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .programmes import CLAY, EFFECTS as ALL_EFFECTS, PROGRAMMES, Stage, Test, material
+from .programmes import CLAY, PROGRAMMES, Stage, Test, material
+from .programmes import EFFECTS as ALL_EFFECTS
 from .recording import HEADER, SEEDS, _strain_points, log_points, write_csv
 from .sbp_material import CavityClay
 from .sbp_solver import Cavity

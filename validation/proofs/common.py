@@ -17,11 +17,10 @@ from pathlib import Path
 import numpy as np
 
 import inference
-
-from cases.study.loop.covariates import programme_covariates
 from cases.study.forward.lab import LabForward
-from cases.study.outputs.report import plot_loop
+from cases.study.loop.covariates import programme_covariates
 from cases.study.loop.problem import LoopProblem
+from cases.study.outputs.report import plot_loop
 from cases.study.reading.records import write_records
 from cases.study.reading.schema import Settings
 

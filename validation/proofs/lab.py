@@ -45,15 +45,14 @@ from pathlib import Path
 
 import numpy as np
 
-from constitutive.registry import class_name
-
-from validation.proofs import common as proofs
 from cases.study.cli import UsageError
 from cases.study.loop.covariates import post_peak_strain
 from cases.study.loop.problem import run_loop as loop
 from cases.study.programme import TestSpec
-from validation.proofs.common import PRESETS
 from cases.study.reading.schema import Settings
+from constitutive.registry import class_name
+from validation.proofs import common as proofs
+from validation.proofs.common import PRESETS
 
 CASE = "concealed_lab"
 DATA = Path(__file__).parents[1] / "data" / "concealed_programme"

@@ -50,9 +50,8 @@ import math
 
 import numpy as np
 
-from constitutive import labtests
-
 from cases.study.stages import KINDS
+from constitutive import labtests
 
 __all__ = ["StageSteps", "STRESS_STEP", "HOLD_FIRST", "HOLD_STEPS_PER_DECADE", "ADAPTIVE_HOLDS",
            "HOLD_RATE_CHANGE", "FALLBACK_STRAIN_STEP", "DEFAULT_DURATION", "DEFAULT_SHEAR_RATE", "DEFAULT_SHEAR_STRAIN",

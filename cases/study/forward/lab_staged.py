@@ -35,12 +35,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from constitutive import labtests
-from constitutive.base import ParameterError
-
 from cases.study.forward.lab_stage_steps import FALLBACK_STRAIN_STEP, StageSteps
 from cases.study.programme import split_key
 from cases.study.stages.base import OEDOMETER_STRAIN
+from constitutive import labtests
+from constitutive.base import ParameterError
 
 __all__ = ["simulate_programme", "simulate_programmes", "stage_signature", "specimen_model", "QUANTITIES", "ALIASES",
            "CROSSING_ITERATIONS", "CROSSING_TOLERANCE", "CHUNKS", "CHUNK_STEPS"]

@@ -30,10 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fem.oracles import consolidation_coefficient
-
 from cases.study.programme import split_key
 from cases.study.stages.sequence import stage_times
+from fem.oracles import consolidation_coefficient
 
 __all__ = ["programme_covariates", "BETWEEN", "post_peak_strain", "drainage_time_factor", "StagePhase",
            "stage_phases"]

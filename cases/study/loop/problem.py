@@ -18,25 +18,23 @@ from pathlib import Path
 import numpy as np
 
 import inference
-from constitutive import physics_catalog
-from constitutive.registry import class_name, conventions, enrichment_family, model_spec
-from inference import diagnosis
-from inference.executors import mpi_world
-from inference.diagnosis import ModelClass
-from inference.discrepancy import where_it_lies
-from inference.priors import Bound
-
 from cases.study import runner
-
-from cases.study.loop.covariates import programme_covariates
-from cases.study.programme import split_key
 from cases.study.forward.family import FamilyForward
 from cases.study.forward.study import StudyForward
+from cases.study.loop.covariates import programme_covariates
+from cases.study.outputs.calibration_warnings import calibration_warnings
 from cases.study.outputs.report import plot_loop, write_outputs
+from cases.study.programme import split_key
 from cases.study.reading.presets import FE_FIELDS
 from cases.study.reading.records import generating_values
 from cases.study.reading.schema import Settings, Study
-from cases.study.outputs.calibration_warnings import calibration_warnings
+from constitutive import physics_catalog
+from constitutive.registry import class_name, conventions, enrichment_family, model_spec
+from inference import diagnosis
+from inference.diagnosis import ModelClass
+from inference.discrepancy import where_it_lies
+from inference.executors import mpi_world
+from inference.priors import Bound
 
 __all__ = ["LoopProblem", "StudyProblem", "run_loop", "CASE", "LOG_BAYES_THRESHOLD", "DECISION_RULE"]
 

@@ -10,10 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from inference import diagnosis
-
-from cases.study.runner import method_name
 from cases.study.outputs.calibration_warnings import calibration_warnings
+from cases.study.runner import method_name
+from inference import diagnosis
 
 __all__ = ["LABELS", "X_LABELS", "parameter_table", "runs_table", "pyplot", "plot_marginals", "plot_stages",
            "plot_curves", "plot_loop", "write_outputs"]

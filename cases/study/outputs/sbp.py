@@ -9,10 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from inference import diagnosis
-
 from cases.study.outputs.report import parameter_table, plot_marginals, plot_stages, pyplot
 from cases.study.runner import method_name, write_summary
+from inference import diagnosis
 
 __all__ = ["SBPCase", "predictive_bands", "plot_sbp_curves", "sbp_report", "write_sbp_outputs"]
 

@@ -18,12 +18,11 @@ from pathlib import Path
 import numpy as np
 
 import inference
+from cases.study.programme import TestSpec
+from cases.study.reading.stage_records import load_programme_test
+from cases.study.stages.pressuremeter import MAX_CAVITY_STRAIN
 from inference import DataError
 from inference.observations import converted, read_csv_rows, read_csv_table
-
-from cases.study.programme import TestSpec
-from cases.study.stages.pressuremeter import MAX_CAVITY_STRAIN
-from cases.study.reading.stage_records import load_programme_test
 
 __all__ = ["COLUMNS", "X_COLUMN", "CURVE_OF", "DRAINED_ONLY", "UNDRAINED_ONLY", "SBP_MAX_STRAIN_PCT",
            "column_name", "data_lines", "check_table", "creep_stage", "load_test", "load_observations",

@@ -10,9 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from constitutive import ParameterError
-from constitutive.registry import MODELS, ModelSpec, build_model
-
 from cases.study.reading.checks import Checker, StudyError, fe_value, read_toml
 from cases.study.reading.constraints import feasible_point, read_constraints
 from cases.study.reading.error_model import DEFAULT_SIGMA, ErrorModel, read_error_model
@@ -20,6 +17,8 @@ from cases.study.reading.flat_tests import test_spec
 from cases.study.reading.presets import FE_FIELDS, PRESETS, Preset
 from cases.study.reading.reference import read_references
 from cases.study.reading.runner_table import read_runner
+from constitutive import ParameterError
+from constitutive.registry import MODELS, ModelSpec, build_model
 
 __all__ = ["Settings", "Study", "load_study", "SAMPLER_DEFAULTS", "QUICK_DEFAULTS"]
 

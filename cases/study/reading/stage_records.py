@@ -26,11 +26,10 @@ from dataclasses import replace
 import numpy as np
 
 import inference
-from inference import DataError
-from inference.observations import converted, read_csv_rows, split_unit
-
 from cases.study.programme import curve_key, split_key
 from cases.study.stages.sequence import stage_times
+from inference import DataError
+from inference.observations import converted, read_csv_rows, split_unit
 
 __all__ = ["COLUMNS", "load_programme_test", "recorded_programme"]
 

@@ -8,12 +8,11 @@ record); compression positive.
 """
 from __future__ import annotations
 
-from constitutive.registry import SBP_MODELS
-
-from cases.study.reading.checks import StudyError
 from cases.study.programme import InitialState, Stage, TestSpec
+from cases.study.reading.checks import StudyError
 from cases.study.stages import KINDS
 from cases.study.stages.sequence import check_sbp_stages, check_sequence
+from constitutive.registry import SBP_MODELS
 
 __all__ = ["PROGRAMME_FIELDS", "INITIAL_FIELDS", "programme_spec", "PRECONSOLIDATION_PARAMETERS"]
 

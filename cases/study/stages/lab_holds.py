@@ -6,8 +6,14 @@ rate-dependent model takes them in adaptive time steps (``cases.study.forward.la
 """
 from __future__ import annotations
 
-from cases.study.stages.base import (OEDOMETER_STRAIN, OEDOMETER_STRESS, TRIAXIAL_AXIAL, TRIAXIAL_STRESS,
-                                     StageKind, hold_times)
+from cases.study.stages.base import (
+    OEDOMETER_STRAIN,
+    OEDOMETER_STRESS,
+    TRIAXIAL_AXIAL,
+    TRIAXIAL_STRESS,
+    StageKind,
+    hold_times,
+)
 
 __all__ = ["LabHold", "Creep", "Relaxation"]
 

@@ -10,15 +10,14 @@ from pathlib import Path
 import numpy as np
 
 import inference
-from constitutive.registry import class_name
-
-from cases.study.reading.checks import Checker, StudyError
 from cases.study.forward.study import StudyForward
-from cases.study.reading.presets import FE_FIELDS
 from cases.study.programme import TestSpec
+from cases.study.reading.checks import Checker, StudyError
+from cases.study.reading.presets import FE_FIELDS
 from cases.study.reading.records import CURVE_OF, SBP_MAX_STRAIN_PCT, X_COLUMN, column_name, write_records
 from cases.study.reading.schema import Study, load_study
 from cases.study.synthetic.logging_plan import logged_stages, programme_columns
+from constitutive.registry import class_name
 
 __all__ = ["SYNTHETIC_DEFAULTS", "generated_quantities", "synthetic_settings", "synthetic_abscissae", "generate",
            "generate_sbp"]

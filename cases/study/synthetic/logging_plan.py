@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from cases.study.programme import curve_key
-from cases.study.stages.sequence import stage_times
 from cases.study.reading.stage_records import COLUMNS, CURVE_OF
+from cases.study.stages.sequence import stage_times
 
 __all__ = ["logged_stages", "programme_columns"]
 

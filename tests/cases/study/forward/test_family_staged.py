@@ -8,12 +8,11 @@ import numpy as np
 import pytest
 
 from cases.study.forward import lab_stage_steps
-
 from cases.study.forward.family import FamilyForward
 from cases.study.forward.study import StudyForward
-from cases.study.synthetic.generate import generate
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
+from cases.study.synthetic.generate import generate
 from constitutive import ANICREEP, ModifiedCamClay
 from constitutive.registry import enrichment_family
 

@@ -18,9 +18,8 @@ import numpy as np
 import pytest
 
 from cases.study.forward import lab_staged
-
-from cases.study.forward.lab_staged import simulate_programme, simulate_programmes
 from cases.study.forward.lab_stage_steps import StageSteps
+from cases.study.forward.lab_staged import simulate_programme, simulate_programmes
 from cases.study.programme import InitialState, Stage, TestSpec
 from constitutive.mcc import ModifiedCamClay
 

@@ -8,11 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from constitutive import ANICREEP, ModifiedCamClay
 from cases.study.forward import lab_stage_steps
-
 from cases.study.forward.lab_staged import simulate_programme
 from cases.study.programme import InitialState, Stage, TestSpec
+from constitutive import ANICREEP, ModifiedCamClay
 
 INDEPENDENT = Path(__file__).resolve().parents[4] / "validation" / "data" / "independent"
 

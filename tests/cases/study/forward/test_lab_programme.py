@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 from cases.study.forward import lab_stage_steps
-
 from cases.study.forward.lab_staged import simulate_programme
 from cases.study.programme import InitialState, Stage, TestSpec
 from constitutive.anicreep import ANICREEP
@@ -280,9 +279,8 @@ def test_drained_stage_after_undrained_dissipates_the_excess_pore_pressure():
 def _equal_to_one_test_calls(model, specs, abscissae, n, monkeypatch):
     """simulate_programmes of the tests together against one call per test: the largest difference relative to
     each curve's magnitude (at least 1: kPa, %, void ratio), and the number of mixed_control calls made together."""
-    from constitutive import labtests
-
     from cases.study.forward.lab_staged import simulate_programmes
+    from constitutive import labtests
     calls = []
     real = labtests.mixed_control
     monkeypatch.setattr(labtests, "mixed_control", lambda *a, **k: calls.append(1) or real(*a, **k))

@@ -9,17 +9,17 @@ the in situ total stress K0 sigma'_v0 + u0 and pore pressure u0.
 """
 import numpy as np
 import pytest
+from dissipation import A0, CH, NU, R_OUT, SU, ElasticDissipation, G, K, series_wall, t50
 
 import constitutive as C
 import fem
 import inference
+from cases.study.forward.sbp import SBPForward, hold_growth, pressuremeter_problem, stage_phases
+from cases.study.programme import Stage, TestSpec
 from cases.study.reading.checks import Checker, StudyError
 from cases.study.reading.presets import Preset
-from cases.study.programme import Stage, TestSpec
-from cases.study.forward.sbp import SBPForward, hold_growth, pressuremeter_problem, stage_phases
 from cases.study.stages.pressuremeter import HOLD_FIRST_STEP, MAX_CAVITY_STRAIN
 from cases.study.stages.sequence import check_sbp_stages
-from dissipation import A0, CH, NU, SU, ElasticDissipation, G, K, R_OUT, series_wall, t50
 
 SITE = {"sigma_v0": 50.0, "K0": 1.0, "u0": 30.0, "permeability": K, "a0": A0}
 FIXED = {"e0": 1.0}

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import inference
-from cases.study.loop.covariates import programme_covariates, stage_phases
 from cases.study.forward.lab_staged import simulate_programme
+from cases.study.loop.covariates import programme_covariates, stage_phases
 from cases.study.programme import InitialState, Stage, TestSpec, programme_of
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study

@@ -17,13 +17,24 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from corpus_inputs import (BURSWOOD_ARGS, CALIBRATE_ARGS, LAB_CSV, LAB_CSVS, LAB_TOML, LAB_TOMLS, LAB_VARIANTS,
-                           SBP_CSV, SBP_CSVS, SBP_TOMLS, SBP_VARIANTS, sbp_rows)
+from corpus_inputs import (
+    BURSWOOD_ARGS,
+    CALIBRATE_ARGS,
+    LAB_CSV,
+    LAB_CSVS,
+    LAB_TOML,
+    LAB_TOMLS,
+    LAB_VARIANTS,
+    SBP_CSV,
+    SBP_CSVS,
+    SBP_TOMLS,
+    SBP_VARIANTS,
+    sbp_rows,
+)
 
 import inference
 from cases import burswood_sbp, calibrate, simsand_synthetic, toyoura
 from cases.study import runner
-
 from cases.study.cli import command
 from cases.study.loop.problem import StudyProblem
 from cases.study.reading.records import load_observations, load_sbp_recordings

@@ -10,15 +10,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tolerances import FE_RTOL, PRINTED_RTOL
 
-from cases.study.reading.checks import StudyError
 from cases.study.programme import Stage, curve_key, programme_of, split_key
+from cases.study.reading.checks import StudyError
 from cases.study.reading.records import load_test
 from cases.study.reading.schema import load_study
-from cases.study.stages.sequence import stage_times
 from cases.study.reading.stage_records import recorded_programme
+from cases.study.stages.sequence import stage_times
 from inference import DataError
-from tolerances import FE_RTOL, PRINTED_RTOL
 
 ROOT = Path(__file__).resolve().parents[4]
 EXAMPLES = ROOT / "cases" / "examples"
@@ -529,8 +529,8 @@ def test_shipped_programme_examples_are_labelled_and_equal_the_generator(tmp_pat
     the Newton tolerance (FE_RTOL)."""
     import shutil
 
-    from cases.study.synthetic.generate import generate
     from cases.study.reading.records import load_observations
+    from cases.study.synthetic.generate import generate
 
     assert name in (EXAMPLES / "SOURCE.md").read_text()
     shutil.copy(EXAMPLES / f"{name}.toml", tmp_path)

@@ -1,8 +1,9 @@
 """The consolidation stage kind (cases.study.stages.consolidation): its target, defaults, checks and description."""
 from __future__ import annotations
 
-from cases.study.stages.consolidation import CONSOLIDATION_DURATION, Consolidation
 from stage_tables import WHERE, read, refused
+
+from cases.study.stages.consolidation import CONSOLIDATION_DURATION, Consolidation
 
 
 def test_isotropic_and_k0_targets():

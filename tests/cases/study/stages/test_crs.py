@@ -3,11 +3,11 @@ from the strain at its start, description and logging."""
 from __future__ import annotations
 
 import pytest
+from stage_tables import WHERE, read, refused
 
 from cases.study.reading.checks import Checker, StudyError
 from cases.study.stages.base import LoggingError
 from cases.study.stages.crs import ConstantRateOfStrain
-from stage_tables import WHERE, read, refused
 
 
 def test_signed_rate_and_ends():

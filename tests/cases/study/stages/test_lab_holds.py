@@ -2,9 +2,10 @@
 and logging plans per apparatus."""
 from __future__ import annotations
 
+from stage_tables import WHERE, read, refused
+
 from cases.study.stages.base import OEDOMETER_STRAIN, OEDOMETER_STRESS
 from cases.study.stages.lab_holds import Creep, Relaxation
-from stage_tables import WHERE, read, refused
 
 
 def test_creep_and_relaxation_are_parsed_and_described():

@@ -2,8 +2,9 @@
 history and logging."""
 from __future__ import annotations
 
-from cases.study.stages.load import RAMP_TIME, Load
 from stage_tables import WHERE, read, refused
+
+from cases.study.stages.load import RAMP_TIME, Load
 
 
 def test_parsed_and_described():

@@ -4,11 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from stage_tables import WHERE, read, refused
 
 from cases.study.stages.base import LoggingError
-from cases.study.stages.pressuremeter import (HOLD_FIRST_STEP, MAX_CAVITY_STRAIN, SBP_QUANTITIES, Expansion, Hold,
-                                              LoadingPhase, Unloading)
-from stage_tables import WHERE, read, refused
+from cases.study.stages.pressuremeter import (
+    HOLD_FIRST_STEP,
+    MAX_CAVITY_STRAIN,
+    SBP_QUANTITIES,
+    Expansion,
+    Hold,
+    LoadingPhase,
+    Unloading,
+)
 
 
 def test_parsed_with_defaults_and_described():

@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 import numpy as np
+from stage_tables import WHERE, read, refused
 
 from cases.study.stages.shear import SHEAR_STRAIN_PCT, Shear
-from stage_tables import WHERE, read, refused
 
 
 def test_parsed_with_its_defaults():
