@@ -246,13 +246,15 @@ def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, re
                    f"base's (median over the regions; needs <= {100 * reduction:.0f} %)"]
 
 
-def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None) -> Conclusion:
+def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, numerics="") -> Conclusion:
     """The omitted physics from ranked candidates [CandidateScore] and model classes [ModelClass] (module docstring:
     confirmation) under ``rule`` (its threshold and margin; the reductions are applied by `pattern_explained` and
     `misfit_explained`, whose verdicts come in ``explained``: {candidate: (explained, reasons)}, missing: explained;
     the checks of `trust` block a class that cannot confirm). With a class of role "model form" (the base with a
     model-form discrepancy), the chosen enrichment must also beat it by the threshold; when nothing is confirmed and
     it beats the base by the threshold, the misfit is of model form (``Conclusion.model_form["prevails"]``).
+    ``numerics``: why the located misfit may be the forward model's own discretisation error (`trust`), which then
+    blocks every candidate.
     """
     threshold, margin = float(rule.threshold), rule.lead
     explained = explained or {}
@@ -274,6 +276,8 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None) -
     blocks = {}
     for name, cl in enriched.items():
         reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule)
+        if numerics:
+            reasons.append(numerics)
         if rule.sampler_agrees:
             for other in (base, model_form):
                 disagree = "" if other is None else sampler_disagrees(cl, other)

@@ -41,6 +41,9 @@ INERT_FRACTION = 0.02
 ESS_FRACTION = 0.1
 #: a posterior has collapsed when every free parameter's standard deviation is below this fraction of its prior range
 COLLAPSE_FRACTION = 1e-6
+#: the forward model's discretisation error is comparable with the located misfit when it reaches this fraction of it
+#: (median over the regions; `trust.numerics_comparable`)
+NUMERICAL_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -51,7 +54,9 @@ class DecisionRule:
     which it must lead the other enriched classes (None: the threshold); pattern_reduction: the fraction of the
     base's effect size to which each supporting primary item must fall on the enriched class; misfit_reduction: the
     fraction of the base's located misfit (median region of |mean r|) to which it must fall; inert_fraction,
-    ess_fraction, collapse_fraction: the checks of an enriched class's evidence and mode (`trust`); sampler_agrees:
+    ess_fraction, collapse_fraction: the checks of an enriched class's evidence and mode (`trust`);
+    numerical_fraction: the base's discretisation error, as a fraction of the located misfit, at which the misfit
+    counts as numerical (no enrichment is confirmed on it; `trust.numerics_comparable`); sampler_agrees:
     the sampler's own ln Z must not favour the class compared with (the refined estimates decide the size of ln B,
     not its sign alone). A study calibrates the threshold and margin on negative controls (`rank` module docstring)
     and passes its rule to the loop, which records it in DIR/diagnosis_input.json (`to_dict`, `from_dict`) for the
@@ -66,6 +71,7 @@ class DecisionRule:
     inert_fraction: float = INERT_FRACTION
     ess_fraction: float = ESS_FRACTION
     collapse_fraction: float = COLLAPSE_FRACTION
+    numerical_fraction: float = NUMERICAL_FRACTION
     sampler_agrees: bool = True
 
     def __post_init__(self):
@@ -109,7 +115,10 @@ class ModelClass:
     ``log_evidence`` is a refined estimate (``inference.mode_evidence``), whose record is ``evidence`` (the
     `EvidenceEstimate` as a dict); priors: {parameter: [lower, upper, kind]} of the class's free parameters (the
     mode's checks, `trust`); discrepancy: for a model-form class, where its discrepancy lies at its mode
-    (``inference.discrepancy.where_it_lies``: [{test, curve, x_name, x_start, x_end, rms, max}], largest first).
+    (``inference.discrepancy.where_it_lies``: [{test, curve, x_name, x_start, x_end, rms, max}], largest first);
+    numerical_error: the forward model's discretisation error at the class's mode, [{test, curve, rms, max}] of the
+    relative difference between the calibrated and a refined discretisation (the problem's, e.g. half the strain
+    steps, twice the FE cells and increments), empty when not measured.
     """
 
     name: str
@@ -130,6 +139,7 @@ class ModelClass:
     evidence: dict | None = None
     priors: dict = field(default_factory=dict)
     discrepancy: list = field(default_factory=list)
+    numerical_error: list = field(default_factory=list)
 
     def __post_init__(self):
         if self.role not in ROLES:
@@ -143,7 +153,8 @@ class ModelClass:
                 "map_simulated": self.map_simulated, "sample_simulated": self.sample_simulated,
                 "sample_sigma": self.sample_sigma, "warnings": list(self.warnings),
                 "sampler_log_evidence": self.sampler_log_evidence, "evidence": self.evidence,
-                "priors": self.priors, "discrepancy": self.discrepancy}
+                "priors": self.priors, "discrepancy": self.discrepancy,
+                "numerical_error": self.numerical_error}
 
     @classmethod
     def of(cls, model_class) -> "ModelClass":

@@ -25,6 +25,7 @@ from .attribution import expand_covariates, split_spec
 from .rank import conclude, misfit_explained, names_curve, pattern_explained, rank_candidates
 from .records import ClassSummary, DecisionRule, DiagnosedCandidate, Diagnosis, MismatchRegion, ModelClass, NextTest
 from .screening import POSITION, relative_residuals, screen
+from .trust import numerics_comparable
 
 __all__ = ["diagnose", "markdown", "next_tests"]
 
@@ -80,7 +81,7 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
                 ok2, left2 = misfit_explained(base_screen.regions, base_r,
                                               relative_residuals(likelihood, cl.map_simulated), rule.misfit_reduction)
                 explained[cl.candidate] = (ok and ok2, left + left2)
-    verdict = conclude(ranked, classes, rule, explained)
+    verdict = conclude(ranked, classes, rule, explained, numerics_comparable(base, base_screen.regions, rule))
     recorded = sorted({c for t in likelihood.observations for c in t.curves})
     warnings = {cl.name: list(cl.warnings) for cl in classes if cl.warnings}
     candidates_out = []

@@ -14,6 +14,9 @@ A class cannot confirm when
 4. the sampler's own ln Z favours the class it is compared with (the base, or the model-form class), while the
    refined estimates favour it: two estimates that disagree in sign are a warning, not a licence to take the
    larger one (`sampler_disagrees`).
+And no class confirms anything when the base's misfit is of the size of its forward model's own discretisation
+error (`numerics_comparable`: the refined-minus-calibrated difference at the base's mode reaches
+``numerical_fraction`` of the located misfit): the misfit is then not shown to be physics at all.
 Each check gives its reason in words; a check with nothing to check (no refined estimate, no added parameter with
 an inert end) passes.
 """
@@ -23,7 +26,7 @@ import math
 
 from .records import DecisionRule, ModelClass
 
-__all__ = ["confirmation_blocks", "evidence_trusted", "sampler_disagrees"]
+__all__ = ["confirmation_blocks", "evidence_trusted", "sampler_disagrees", "numerics_comparable"]
 
 
 def _position(value: float, lower: float, upper: float, kind: str) -> float:
@@ -89,3 +92,24 @@ def confirmation_blocks(cls: ModelClass, enrichment: dict | None, rule: Decision
     if reason:
         blocks.append(reason)
     return blocks
+
+
+def numerics_comparable(base: ModelClass, regions, rule: DecisionRule) -> str:
+    """"" unless the base class's discretisation error (``base.numerical_error``: RMS relative difference per curve
+    between the calibrated and a refined discretisation at its mode) reaches ``rule.numerical_fraction`` of the
+    located misfit (|mean r| of each region; the median ratio over the regions); then the reason in words. No region
+    or no measurement: ""."""
+    error = {(e["test"], e["curve"]): e["rms"] for e in base.numerical_error}
+    ratios = [error[(r.test, r.curve)] / abs(r.mean_relative) for r in regions
+              if (r.test, r.curve) in error and r.mean_relative != 0]
+    if not ratios:
+        return ""
+    ratios.sort()
+    median = ratios[len(ratios) // 2] if len(ratios) % 2 else 0.5 * (ratios[len(ratios) // 2 - 1]
+                                                                         + ratios[len(ratios) // 2])
+    if median < rule.numerical_fraction:
+        return ""
+    worst = max(base.numerical_error, key=lambda e: e["rms"])
+    return (f"the forward model's discretisation error at the base's mode is {100 * median:.0f} % of the located "
+            f"misfit (median over the regions; largest on {worst['test']} {worst['curve']}: RMS "
+            f"{100 * worst['rms']:.2g} %): the misfit may be numerical; confirm with a finer discretisation")
