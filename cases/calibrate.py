@@ -1,4 +1,5 @@
-"""A user's own recordings: calibrate a chosen base model on them and, with ``--diagnose``, run the missing-physics loop.
+"""A user's own recordings: calibrate a chosen base model on them and, with ``--diagnose``,
+run the missing-physics loop.
 
     python -m cases.calibrate study.toml [--diagnose] [--out DIR] [--quick] [--method de|o|both] [--samples N]
                                          [--seed S] [--runs R] [--resume] [--processes P]
@@ -6,9 +7,9 @@
 
 The study file (TOML) names the data files (paths relative to the TOML), the type and conditions of every test, the
 base model with its fixed parameters and the priors of the free ones, the bounds of the error parameter sigma_eps and
-the sampler settings (schema: README "Your own recordings"; reader: ``cases.study.reading.schema``). Everything is checked
-before any solve starts (errors name the TOML file, the table and field, and the bad value; CSV errors name the file,
-the column and the line; one line on stderr, exit status 2, a traceback only with ``--debug``), and nothing is
+the sampler settings (schema: README "Your own recordings"; reader: ``cases.study.reading.schema``). Everything is
+checked before any solve starts (errors name the TOML file, the table and field, and the bad value; CSV errors name the
+file, the column and the line; one line on stderr, exit status 2, a traceback only with ``--debug``), and nothing is
 written in ``--out`` when something is wrong. A second run on the same ``--out`` is refused while the first runs.
 Example studies with SYNTHETIC data are in cases/examples/; the paper's studies are in cases/studies/
 (burswood_sbp.toml, toyoura.toml, simsand_synthetic.toml).

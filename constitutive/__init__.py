@@ -10,4 +10,5 @@ from .mcc import ModifiedCamClay
 from .simsand import SIMSAND
 from .von_mises import VonMises
 
-__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises", "ModifiedCamClay", "ANICREEP", "SIMSAND"]
+__all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises", "ModifiedCamClay",
+           "ANICREEP", "SIMSAND"]

@@ -3,11 +3,12 @@
 
 Compression positive, kPa. Voigt order (11, 22, 33, 12, 23, 31); stresses with tensor shear, strains with
 engineering shear. Per point: elastic trial; if f > 0, Newton with backtracking on the two unknowns
-(y = d eps_v^p, d lambda), residuals r1 = y - d lambda M^2 (2p' - p'_c), r2 = f/p'_cn^2 with p' = p'_n exp(a(d eps_v - y)),
-a = v_n/kappa, p'_c = p'_cn exp(b y), b = v_n/(lambda - kappa), q = q_tr/(1 + 6 G_bar d lambda); the consistent
-tangent from the implicit-function theorem on (r1, r2). A point that fails is sub-stepped (depth-first bisection,
-``max_depth`` levels, the void ratio frozen within each sub-step); where it fails at the deepest level, the
-stability margin of its state there (:func:`stability_margin`) tells whether the continuum problem has a solution.
+(y = d eps_v^p, d lambda), residuals r1 = y - d lambda M^2 (2p' - p'_c), r2 = f/p'_cn^2 with
+p' = p'_n exp(a(d eps_v - y)), a = v_n/kappa, p'_c = p'_cn exp(b y), b = v_n/(lambda - kappa),
+q = q_tr/(1 + 6 G_bar d lambda); the consistent tangent from the implicit-function theorem on (r1, r2). A point that
+fails is sub-stepped (depth-first bisection, ``max_depth`` levels, the void ratio frozen within each sub-step); where
+it fails at the deepest level, the stability margin of its state there (:func:`stability_margin`) tells whether the
+continuum problem has a solution.
 """
 from __future__ import annotations
 

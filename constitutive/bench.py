@@ -111,7 +111,8 @@ def lab_small_batches(n=32, repeats=2):
 
 
 def _simsand_batch(n, seed=0, **options):
-    """SIMSAND parameter sets drawn from the synthetic-study prior box (docs/reference.md section 5), nu, K_0, n fixed."""
+    """SIMSAND parameter sets drawn from the synthetic-study prior box (docs/reference.md section 5), nu, K_0, n
+    fixed."""
     rng = np.random.default_rng(seed)
     bounds = dict(e_ref=(0.5, 1.5), lambda_c=(0.001, 0.1), xi=(0.01, 1.0), phi_mu=(20.0, 50.0), k_p=(1e-4, 1e-2),
                   A_d=(0.5, 2.0), n_p=(0.1, 10.0), n_d=(0.1, 10.0))

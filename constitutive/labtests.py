@@ -40,8 +40,8 @@ import numpy as np
 
 from .mixed_control import NORMAL, adaptive_control, batch_size, mixed_control
 
-__all__ = ["mixed_control", "adaptive_control", "NORMAL", "drained_triaxial", "undrained_triaxial", "isotropic_compression",
-           "oedometer_crs", "oedometer_loading", "triaxial_stages", "batch_size"]
+__all__ = ["mixed_control", "adaptive_control", "NORMAL", "drained_triaxial", "undrained_triaxial",
+           "isotropic_compression", "oedometer_crs", "oedometer_loading", "triaxial_stages", "batch_size"]
 
 #: control rows: True = strain increment prescribed
 AXIAL_STRAIN_CONTROL = np.array([True, False, False, True, True, True])   # triaxial, radial stresses prescribed

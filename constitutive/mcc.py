@@ -52,9 +52,9 @@ class ModifiedCamClay(MaterialModel):
         kappa   : slope of the swelling line in e-ln p' (> 0);
         G or nu : a constant shear modulus G (kPa, > 0) or a constant Poisson's ratio nu (-1 < nu < 0.5); exactly one;
         pc0 or ocr : initial size of the yield surface p'_c0 (kPa). Give either ``pc0`` directly (same for every
-                  initial stress) or ``ocr`` >= 1 (default 1, normally consolidated): p'_c0 = ocr * p'_c(sigma'_0), where
-                  p'_c(sigma'_0) = p' + q^2/(M^2 p') is the size of the surface through the initial stress, so for an
-                  isotropic initial stress ocr = R0 = p'_c0/p'_0 of the undrained closed form.
+                  initial stress) or ``ocr`` >= 1 (default 1, normally consolidated): p'_c0 = ocr * p'_c(sigma'_0),
+                  where p'_c(sigma'_0) = p' + q^2/(M^2 p') is the size of the surface through the initial stress, so for
+                  an isotropic initial stress ocr = R0 = p'_c0/p'_0 of the undrained closed form.
 
     State (dict of arrays over n points): ``pc`` p'_c (kPa), ``void_ratio`` e, ``plastic_strain`` (n, 6).
     """

@@ -92,8 +92,8 @@ class VonMises(MaterialModel):
         unit = s_trial / np.where(plastic, norm_s, 1.0)[:, None]  # s/|s|, stress Voigt
         flow = np.sqrt(1.5) * unit * STRESS_WEIGHTS  # engineering-strain Voigt of 3/2 s/q
         tangent = (K[:, None, None] * np.outer(IDENTITY, IDENTITY)
-                   + (2.0 * G * theta)[:, None, None] * (0.5 * DEVIATORIC_UNIT
-                                                         - plastic[:, None, None] * np.einsum("ni,nj->nij", unit, unit)))
+                   + (2.0 * G * theta)[:, None, None]
+                   * (0.5 * DEVIATORIC_UNIT - plastic[:, None, None] * np.einsum("ni,nj->nij", unit, unit)))
         e = state["void_ratio"]
         new_state = {
             "void_ratio": e - (1.0 + e) * dstrain[:, :3].sum(axis=1),

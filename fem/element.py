@@ -5,9 +5,9 @@
 (eps_rr, eps_zz, eps_tt, gamma_rz).
 
 - Displacements: uniform-strain ("B-bar") one-point formulation of Flanagan & Belytschko (1981):
-  B_bar = (1/V) integral B dV, so the hoop row is (1/V) integral N/r dV = (1/V) integral N dA (docs/reference.md section 7).
-  The 2x2 Gauss rule integrates these exactly for any straight-sided quadrilateral (the integrands adj(J) dN/dxi r
-  are polynomials of degree <= 3 per direction).
+  B_bar = (1/V) integral B dV, so the hoop row is (1/V) integral N/r dV = (1/V) integral N dA
+  (docs/reference.md section 7). The 2x2 Gauss rule integrates these exactly for any straight-sided quadrilateral
+  (the integrands adj(J) dN/dxi r are polynomials of degree <= 3 per direction).
 - Hourglass control, stiffness type: K_hg = c_hg G_hg V (b_r.b_r + b_z.b_z) (gamma gamma^T (x) I_2) with the
   Flanagan-Belytschko vector gamma = h - (h.r) b_r - (h.z) b_z, h = (1, -1, 1, -1), b_r, b_z the averaged
   gradients (rows of B_bar); gamma is orthogonal to every linear field.

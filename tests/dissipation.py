@@ -1,5 +1,6 @@
-"""The Randolph & Wroth (1979) dissipation set-up shared by the FE holding-phase tests (tests/fem/test_fem_dissipation.py)
-and the study library's SBP hold stage (tests/cases/test_sbp_stages.py): the soil, the series at the wall and its T50.
+"""The Randolph & Wroth (1979) dissipation set-up shared by the FE holding-phase tests
+(tests/fem/test_fem_dissipation.py) and the study library's SBP hold stage (tests/cases/test_sbp_stages.py): the soil,
+the series at the wall and its T50.
 """
 import numpy as np
 

@@ -2,14 +2,14 @@
 calibrate -> locate -> explain -> enrich -> compare loop that must name the effect without being told. Run from the
 checkout (``validation/`` is not installed with the package).
 
-    python -m validation.concealed --effect anisotropy --quick --diagnose              # twelve triaxial tests (lab scale)
+    python -m validation.concealed --effect anisotropy --quick --diagnose            # twelve triaxial tests (lab scale)
     python -m validation.concealed --effect destructuration --quick --diagnose
-    python -m validation.concealed --control --quick --diagnose                        # data from the base class
-    python -m validation.concealed --confusion --seeds 2 --quick                       # every effect and the control
-    python -m validation.concealed --programme rates --quick --diagnose                # seven tests at seven rates
-    python -m validation.concealed --scale sbp --effect "partial drainage"             # two SBP expansions
-    python -m validation.concealed --scale sbp --effect viscosity --pressure-only      # without the wall pore pressure
-    python -m validation.concealed [...] --generate                                     # rewrite the shipped data
+    python -m validation.concealed --control --quick --diagnose                      # data from the base class
+    python -m validation.concealed --confusion --seeds 2 --quick                     # every effect and the control
+    python -m validation.concealed --programme rates --quick --diagnose              # seven tests at seven rates
+    python -m validation.concealed --scale sbp --effect "partial drainage"           # two SBP expansions
+    python -m validation.concealed --scale sbp --effect viscosity --pressure-only    # without the wall pore pressure
+    python -m validation.concealed [...] --generate                                  # rewrite the shipped data
 
 The study library's common options (:func:`cases.study.cli.arguments`) plus the proofs' own, dispatched to the
 proof's ``run(args)``:

@@ -6,8 +6,9 @@
 The study files give the programmes: ``sand_lab``: twelve drained triaxial tests of a dense Toyoura-like sand, six in
 compression and six in extension, e0 0.76-0.86 at p'0 100 and 300 kPa; ``sand_density``: eight drained compression
 tests from dense to loose, e0 0.70-0.95 at p'0 100 and 400 kPa. Both record q and e to 15 % axial strain, 20 records
-each, computed by this project's SIMSAND through ``cases.study.synthetic.generate.generate`` (the same forward model a calibration
-uses) at the generating values below, times independent multiplicative noise c ~ N(1, 0.02^2) per point (Eq. 1).
+each, computed by this project's SIMSAND through ``cases.study.synthetic.generate.generate`` (the same forward model a
+calibration uses) at the generating values below, times independent multiplicative noise c ~ N(1, 0.02^2)
+per point (Eq. 1).
 
 Generating models (stated here only; the data files say where they come from but not what the model contains), each
 differing from its study's base class by at most one switch:

@@ -78,8 +78,8 @@ def _options(ap, study_path, route=None):
         g.add_argument("--layers", type=positive_int, help="FE cell layers, >= 1")
         g.add_argument("--increments", type=positive_int, help="FE load increments to 10 %% cavity strain, >= 1")
         g.add_argument("--max-stages", type=positive_int, help="stop after this many stages (default 200)")
-        g.add_argument("--timeout", type=quantity("time per forward evaluation", "s"), help="seconds per forward evaluation (then a failed "
-                       "particle)")
+        g.add_argument("--timeout", type=quantity("time per forward evaluation", "s"),
+                       help="seconds per forward evaluation (then a failed particle)")
         g.add_argument("--throughput", type=positive_int, metavar="N",
                        help="benchmark: time N forward evaluations (prior draws) on this executor and exit")
 

@@ -116,7 +116,8 @@ def run(study, run_settings, args) -> int:
     fixed = pairs(args.fixed, "--fixed",
                   units={k: (f"fixed {k}", UNITS.get(k, "-")) for k in study.fixed})
     check_fixed(study, fixed)
-    rates = pairs(args.rates, "--rates", units={"": ("cavity strain rate", "1/s")}) or {t.name: t.strain_rate for t in study.tests}
+    rates = (pairs(args.rates, "--rates", units={"": ("cavity strain rate", "1/s")})
+             or {t.name: t.strain_rate for t in study.tests})
     for test, rate in rates.items():
         if not rate > 0:
             raise UsageError(f"--rates: {test}={rate:g}: a cavity expansion needs a strain rate > 0 (1/s)")

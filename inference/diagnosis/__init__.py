@@ -47,7 +47,8 @@ from .screening import (
 from .structure import Region, lag1_test, runs_test, scale_test, scan_test, segment
 
 __all__ = [
-    "KINDS", "SCOPES", "Attribution", "attribute", "expand_covariates", "holm", "per_curve", "split_spec", "PredictiveBand", "predictive_bands",
+    "KINDS", "SCOPES", "Attribution", "attribute", "expand_covariates", "holm", "per_curve", "split_spec",
+    "PredictiveBand", "predictive_bands",
     "diagnose_directory", "read_input", "recorded_rule", "write_diagnosis", "write_input", "ENRICH", "LoopProblem",
     "LoopResult", "run_loop", "conclude", "rank_candidates", "STRONG_LOG_BAYES", "CandidateDecision", "CandidateScore",
     "ClassSummary", "Conclusion", "DecisionRule", "DiagnosedCandidate", "Diagnosis", "MismatchRegion", "ModelClass",

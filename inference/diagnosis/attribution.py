@@ -34,12 +34,12 @@ autocorrelation:
   logging: 0.052 / 0.053, 0.029 / 0.050, 0.051 / 0.044; numeric: 2 tests as categorical, 3 tests 0.030 / 0.045
   (same), 0.035 / 0.029 (different), 4 tests 0.045 / 0.056, 0.048 / 0.035 (binomial SE 0.007; the step of
   `contrast.mean_test` did not change one of these rates against the line alone: it stays out of noise).
-  tests/inference/test_diagnosis_power.py checks 6 of them over 400 programmes at alpha + 3 SE. Earlier measurement for the rate trend, 2 tests x 40
-  points, 3000 pairs (tests/inference/test_covariates_contrast.py): white 0.036, AR(1) phi 0.3 0.047, 0.5 0.057, 0.7 0.060;
-  with 20 points 0.038, 0.061, 0.068, 0.091 (read the p-value as approximate below about 30 points). Power at 40
-  points: a 1-sigma offset in white noise 0.98, 2 sigma in AR(1) phi 0.5 0.90, a difference growing 0 -> 3 sigma
-  0.98; +9 % / -15 % offsets over the last 70 % of two tests logged at different points, noise 2 %: 20/20.
-  With 5 or more tests nothing changes (permutation null).
+  tests/inference/test_diagnosis_power.py checks 6 of them over 400 programmes at alpha + 3 SE. Earlier measurement for
+  the rate trend, 2 tests x 40 points, 3000 pairs (tests/inference/test_covariates_contrast.py): white 0.036, AR(1) phi
+  0.3 0.047, 0.5 0.057, 0.7 0.060; with 20 points 0.038, 0.061, 0.068, 0.091 (read the p-value as approximate below
+  about 30 points). Power at 40 points: a 1-sigma offset in white noise 0.98, 2 sigma in AR(1) phi 0.5 0.90, a
+  difference growing 0 -> 3 sigma 0.98; +9 % / -15 % offsets over the last 70 % of two tests logged at different points,
+  noise 2 %: 20/20. With 5 or more tests nothing changes (permutation null).
 - within-test covariates declared with scope "within" (post-peak strain, unloading branch, hold time, stage kind):
   besides the pooled R^2 above, the p-value is one circular-shift test per curve, Bonferroni over the curves of a
   test (valid whatever their dependence), Stouffer over the tests (independent; weights sqrt(points), each z
@@ -125,7 +125,8 @@ def split_spec(name, spec) -> tuple:
     from the declared form {"values": ..., "kind": ..., "scope": ..., "order": ..., "abscissa": ...} (module
     docstring: covariate specs), empty for the plain form."""
     if not isinstance(spec, dict):
-        raise TypeError(f"covariate {name!r}: expected a dict keyed by (test, curve) or test, got {type(spec).__name__}")
+        raise TypeError(f"covariate {name!r}: expected a dict keyed by (test, curve) or test, "
+                        f"got {type(spec).__name__}")
     if "values" not in spec or not set(spec) <= set(SPEC_KEYS):
         return spec, {}
     meta = {k: spec[k] for k in SPEC_KEYS[1:] if spec.get(k) is not None}

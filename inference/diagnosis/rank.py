@@ -42,13 +42,13 @@ by the leader by the margin, its pattern left, not separated from another). A na
 implemented enrichment is "candidate named, enrichment not available".
 
 Threshold and margin. Default 3 for both (``DecisionRule()``, STRONG_LOG_BAYES: 2 ln B > 6, "strong" on the Kass &
-Raftery 1995 scale). Under a misspecified error model (independent errors where the residuals are autocorrelated, one sigma for
-curves of different scatter) Bayes factors are over-confident (Brynjarsdottir & O'Hagan 2014; docs/reference.md
-section 9), so the threshold must be calibrated on negative controls: run the loop on control programmes of each
-kind (the same tests, logging and noise, no hidden effect, >= 3 noise seeds each), record the largest ln B of any
-enriched class over the base on each control, and set ``threshold`` (and ``margin``) above the largest control value
-with room for the seed-to-seed scatter (e.g. max + 2 standard deviations, never below 3); state the controls and
-the value used in the study's notes.
+Raftery 1995 scale). Under a misspecified error model (independent errors where the residuals are autocorrelated, one
+sigma for curves of different scatter) Bayes factors are over-confident (Brynjarsdottir & O'Hagan 2014;
+docs/reference.md section 9), so the threshold must be calibrated on negative controls: run the loop on control
+programmes of each kind (the same tests, logging and noise, no hidden effect, >= 3 noise seeds each), record the largest
+ln B of any enriched class over the base on each control, and set ``threshold`` (and ``margin``) above the largest
+control value with room for the seed-to-seed scatter (e.g. max + 2 standard deviations, never below 3); state the
+controls and the value used in the study's notes.
 """
 from __future__ import annotations
 
@@ -228,9 +228,9 @@ def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, re
     regions: the base class's mismatch regions (``structure.Region``: test, curve, i_start, i_stop);
     base_residuals, enriched_residuals: {(test, curve): r} relative residuals of the two classes at the records.
     For each region the ratio |mean r_enriched| / |mean r_base| over its points; explained when the median ratio over
-    the regions is at most ``reduction`` (no region: not explained, a check with nothing to check). The median, not a weighted mean: a region where the
-    simulated value passes near zero (a deviator stress turning from compression to extension) has relative
-    residuals of any size and must not decide alone. reasons: the regions left, in words."""
+    the regions is at most ``reduction`` (no region: not explained, a check with nothing to check). The median, not a
+    weighted mean: a region where the simulated value passes near zero (a deviator stress turning from compression to
+    extension) has relative residuals of any size and must not decide alone. reasons: the regions left, in words."""
     if not regions:
         return False, ["the base's screening located no misfit, so none can be shown to be explained"]
     ratios = []

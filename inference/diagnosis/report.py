@@ -3,14 +3,14 @@ class, the conclusion by the Bayes factor; as a record (`records.Diagnosis`, JSO
 an engineer reads (Markdown).
 
 `diagnose` works in memory on the recorded curves' Likelihood, the model-class records, the base class's covariates
-and the candidates (plain data, `rank.rank_candidates`). Its record (`records.Diagnosis`) holds: the screening verdict of the base class,
-the mismatch regions, the covariate attribution, the ranked candidates with their decisions, per class the
-log-evidence, ln B against the base, J_g at the MAP, parameters and residual-structure statistics (before/after),
-the full screening of every class, the omitted physics ("none" when nothing is confirmed, by ln B, the margin and
-the candidate's own pattern: `rank.conclude`, whose docstring states how to calibrate the threshold on negative
-controls), the recommendation, the poor-fit warnings of the classes and, per candidate not named, what the records
-lack to test it (`next_tests`). Every class is screened with the covariates (the enriched classes' screenings tell
-whether the candidate's own pattern is gone). The Markdown report says, when no catalog entry explains the
+and the candidates (plain data, `rank.rank_candidates`). Its record (`records.Diagnosis`) holds: the screening verdict
+of the base class, the mismatch regions, the covariate attribution, the ranked candidates with their decisions, per
+class the log-evidence, ln B against the base, J_g at the MAP, parameters and residual-structure statistics
+(before/after), the full screening of every class, the omitted physics ("none" when nothing is confirmed, by ln B, the
+margin and the candidate's own pattern: `rank.conclude`, whose docstring states how to calibrate the threshold on
+negative controls), the recommendation, the poor-fit warnings of the classes and, per candidate not named, what the
+records lack to test it (`next_tests`). Every class is screened with the covariates (the enriched classes' screenings
+tell whether the candidate's own pattern is gone). The Markdown report says, when no catalog entry explains the
 structure, where (test, curve, abscissa range), how (sign and size) and which covariates the residual follows.
 """
 from __future__ import annotations
@@ -268,8 +268,9 @@ def markdown(d: Diagnosis) -> str:
     lines += ["## Conclusion", ""] + _engineer_summary(d) + ["", f"Omitted physics: **{d.omitted_physics}**. "
                                                               f"Recommendation: {d.recommendation}.", ""]
     lines += ["## Model classes (before / after)", "",
-              "| class | role | ln Z | ln B vs base | J_g at MAP (per test) | sigma_eps | verdict | structured curves | "
-              "regions | mean lag-1 | coverage (95 %) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| class | role | ln Z | ln B vs base | J_g at MAP (per test) | sigma_eps | verdict | "
+              "structured curves | regions | mean lag-1 | coverage (95 %) |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in d.classes:
         s = c.structure
         jg = ", ".join(f"{t} {v:.3g}" for t, v in (c.J_g or {}).items() if isinstance(v, float))
@@ -279,15 +280,16 @@ def markdown(d: Diagnosis) -> str:
                      f"{_fmt(None if s['coverage'] is None else 100 * s['coverage'], '.0f')} % |")
     for c in d.classes:
         if c.role == "enriched" and c.parameters:
-            lines += ["", f"Parameters of {c.name} (posterior):", "", "| parameter | MAP | mean | std | 95 % interval |",
-                      "|---|---|---|---|---|"]
+            lines += ["", f"Parameters of {c.name} (posterior):", "",
+                      "| parameter | MAP | mean | std | 95 % interval |", "|---|---|---|---|---|"]
             for n, p in c.parameters.items():
                 lines.append(f"| {n} | {p['map']:.4g} | {p['mean']:.4g} | {p['std']:.3g} | "
                              f"[{p.get('q2.5', float('nan')):.4g}, {p.get('q97.5', float('nan')):.4g}] |")
     lines += ["", "## Candidate physics ranked by signature score", "",
               "Score = sum of weight x R^2 over the signature items the screening supports (significant after Holm and "
               "in the expected direction), divided by the sum of the weights (inference.diagnosis.rank).", "",
-              "| rank | candidate | score | named | decision | items (covariate: status) |", "|---|---|---|---|---|---|"]
+              "| rank | candidate | score | named | decision | items (covariate: status) |",
+              "|---|---|---|---|---|---|"]
     for k, c in enumerate(d.candidates, 1):
         items = "; ".join(f"{i.covariate}: {i.status}" for i in c.items)
         lines.append(f"| {k} | {c.name} | {c.score:.3f} | {'yes' if c.named else 'no'} | {c.decision} | {items} |")

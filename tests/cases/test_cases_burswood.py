@@ -65,7 +65,8 @@ def _write(path, text):
 
 
 @pytest.mark.parametrize("body, message", [
-    ("cavity_strain_pct,cavity_pressure_kPa\n1,100\n0.5,110\n", "line 3, column 'cavity_strain': value 0.5 does not increase"),
+    ("cavity_strain_pct,cavity_pressure_kPa\n1,100\n0.5,110\n",
+     "line 3, column 'cavity_strain': value 0.5 does not increase"),
     ("cavity_strain,cavity_pressure_kPa\n0.01,100\n0.02,110\n", "'cavity_strain' is in unit '-', expected '%'"),
     ("strain_pct,cavity_pressure_kPa\n1,100\n2,110\n", "column 'strain'"),
     ("cavity_strain_pct,cavity_pressure_kPa\n1,100\n2,-5\n", "line 3, column 'cavity_pressure': value -5 must be > 0"),

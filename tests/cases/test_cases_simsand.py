@@ -141,7 +141,8 @@ def test_toyoura_data_match_source_note():
         assert f"| {name[-1]} | {TOY_FILES[name].name} | {p0:g} | {e0:.3f} |" in source
         assert t.curves["q"].y[0] == 0.0 and t.curves["q"].x.max() > 25.0
     # TMD1 (test6) first row: eps_a 0, sr 1, eps_v 0.0617 % -> e = 0.81 - 1.81 * 0.000617
-    assert sand_route.load_stress_ratio("test6", TOY_FILES["test6"]).curves["e"].y[0] == pytest.approx(0.81 - 1.81 * 0.000617, rel=1e-12)
+    assert (sand_route.load_stress_ratio("test6", TOY_FILES["test6"]).curves["e"].y[0]
+            == pytest.approx(0.81 - 1.81 * 0.000617, rel=1e-12))
 
 
 def test_user_undrained_csv_is_calibrated_with_the_undrained_route(tmp_path):

@@ -86,7 +86,8 @@ def test_1d_creep_slope_equals_c_alpha_e():
 
 @pytest.mark.parametrize("anisotropy", [True, False])
 def test_crs_rate_effect_on_ncl(anisotropy):
-    """CRS at 1e-6 and 1e-5 /s: at equal total strain on the NCL sigma'_v2/sigma'_v1 = 10^(C_alpha_e/lambda) = 1.1220."""
+    """CRS at 1e-6 and 1e-5 /s: at equal total strain on the NCL sigma'_v2/sigma'_v1 = 10^(C_alpha_e/lambda) =
+    1.1220."""
     m = ANICREEP(M=1.2, sigma_p0=40.0, C_alpha_e=0.020, anisotropy=anisotropy, **BURSWOOD)
     strains = np.linspace(0.005, 0.35, 70)
     sv = [labtests.oedometer_crs(m, 2.0, 31.0, strains, rate, k0=m.k0_nc, substeps=4)["axial_stress"][0]
@@ -617,8 +618,8 @@ def _isotropic_structured_closed_form(eps_v, p0, pm0, chi0, xi, c_p, c_e):
 def test_isotropic_compression_of_structured_clay_follows_the_closed_form(n_steps):
     """Independent oracle of (D): strain-controlled isotropic compression (eps_1 = eps_2 = eps_3) of the rate-
     independent isotropic model with bonding: the exact exponential laws of (E), (H) and (D) make the update exact
-    for any step (errors at the local Newton tolerance for 40 and 400 steps), through yield, the post-yield collapse of structure
-    (p' falls while the specimen is compressed: chi0 = 5, xi = 15) and the approach to the intrinsic line."""
+    for any step (errors at the local Newton tolerance for 40 and 400 steps), through yield, the post-yield collapse of
+    structure (p' falls while the specimen is compressed: chi0 = 5, xi = 15) and the approach to the intrinsic line."""
     chi0, xi = 5.0, 15.0
     m = ANICREEP(M=1.2, sigma_p0=60.0, viscous=False, anisotropy=False, **BURSWOOD,
                  destructuration=True, chi0=chi0, xi=xi, xi_d=0.3)

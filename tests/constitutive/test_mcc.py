@@ -12,7 +12,8 @@ M, LAM, KAP, V, P0, R0, G = 1.2, 0.2, 0.04, 2.0, 100.0, 1.5, 2000.0
 
 
 def closed_form(eta):
-    """p'/p'_0 and eps_q (elastic q/(3G) + plastic from first yield) of the undrained MCC test (docs/reference.md section 4)."""
+    """p'/p'_0 and eps_q (elastic q/(3G) + plastic from first yield) of the undrained MCC test (docs/reference.md
+    section 4)."""
     Lam = (LAM - KAP) / LAM
     ratio = (R0 / (1 + eta**2 / M**2)) ** Lam
     eta_y = M * np.sqrt(R0 - 1)
@@ -22,7 +23,8 @@ def closed_form(eta):
 
 
 def test_closed_form_reproduces_published_check_values():
-    """The formula coded in this test reproduces the check values of docs/reference.md section 4 (guards the oracle itself)."""
+    """The formula coded in this test reproduces the check values of docs/reference.md section 4 (guards the oracle
+    itself)."""
     r, e = closed_form(np.array([1.0, 1.15]))
     np.testing.assert_allclose(r, [0.90709, 0.82134], atol=5e-6)
     np.testing.assert_allclose(e, [0.021473, 0.039610], atol=5e-7)

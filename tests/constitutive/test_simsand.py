@@ -317,8 +317,8 @@ def test_compiled_triaxial_path_runs_in_forked_worker_processes():
 @pytest.mark.parametrize("stol", [1e-3, 1e-5])
 def test_compiled_triaxial_path_equals_the_numpy_reference(stol):
     """The compiled kernel against the numpy integrator in the triaxial space (its oracle, triaxial_integrator="numpy"):
-    the same failures; the same curves point by point (IMPLEMENTATIONS_RTOL); in a batch within 1e-6 of the curve scale (the
-    numpy crossing iteration runs until every crossing point of the batch has converged; measured <= 8e-9)."""
+    the same failures; the same curves point by point (IMPLEMENTATIONS_RTOL); in a batch within 1e-6 of the curve scale
+    (the numpy crossing iteration runs until every crossing point of the batch has converged; measured <= 8e-9)."""
     params = sample_prior(SYNTHETIC_BOUNDS, 12 if stol >= 1e-3 else 6, seed=11)
     ea = np.linspace(0.005, 0.25, 50)
     for drained, e0, p0 in ((True, 0.7, 200.0), (False, 0.8, 25.0), (True, 0.6, 800.0))[:3 if stol >= 1e-3 else 1]:

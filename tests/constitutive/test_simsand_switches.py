@@ -30,8 +30,8 @@ def triaxial_stress(sa, sr):
 @pytest.mark.parametrize("e0, p0", [(0.6, 800.0), (0.8, 25.0), (0.7, 200.0)])
 def test_drained_extension_reaches_M_c_without_and_c_M_c_with_lode_dependence(e0, p0):
     """Drained triaxial extension to 100 % axial strain tends to eta = q/p' = -M_c(phi_mu) on a circular deviatoric
-    section and to -c M_c with the Sheng et al. rule (same tolerance as the compression test of tests/constitutive/test_simsand.py:
-    H ~ 0.997 and the final state is within 2e-3 of e_c)."""
+    section and to -c M_c with the Sheng et al. rule (same tolerance as the compression test of
+    tests/constitutive/test_simsand.py: H ~ 0.997 and the final state is within 2e-3 of e_c)."""
     for lode, expected in ((False, -M_C), (True, -C_LODE * M_C)):
         c = labtests.drained_triaxial(SIMSAND(**TRUE, lode_dependence=lode), e0, p0, -LARGE)
         assert c["q"][0, -1] / c["p"][0, -1] == pytest.approx(expected, abs=0.005), lode
@@ -100,8 +100,8 @@ def test_six_component_yield_gradient_has_no_lode_part_without_lode_dependence()
 # ----------------------------------------------------------------------------------------------- dilatancy
 def test_dense_sample_has_no_peak_above_M_mu_without_state_dependent_dilatancy():
     """Dense sample (e0 0.6, p'0 800 kPa, denser than critical): with (VII) it peaks above M_mu (measured 1.282,
-    tests/constitutive/test_simsand.py); without interlocking eta = M_mu H stays below M_mu = 1.2 along the whole path, rising
-    monotonically, and the sample never dilates (A_d (M_mu - eta) > 0 and p' rises)."""
+    tests/constitutive/test_simsand.py); without interlocking eta = M_mu H stays below M_mu = 1.2 along the whole path,
+    rising monotonically, and the sample never dilates (A_d (M_mu - eta) > 0 and p' rises)."""
     ea = np.linspace(0.0025, 0.25, 100)
     assert np.max(SIMSAND(**TRUE).triaxial_test(0.6, 800.0, ea)["q"] / 800.0) > M_C  # eta > M_C since p' >= 800
     c = SIMSAND(**PLAIN, state_dependent_dilatancy=False).triaxial_test(0.6, 800.0, ea)

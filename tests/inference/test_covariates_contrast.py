@@ -1,6 +1,6 @@
-"""The few-test contrast of inference.diagnosis.attribution (a between-test covariate with fewer than 5 tests, e.g. the two-rate
-SBP): false-alarm rate on white and AR(1) residuals, power on a planted contrast, direction, and no change with 5 or
-more tests."""
+"""The few-test contrast of inference.diagnosis.attribution (a between-test covariate with fewer than 5 tests, e.g. the
+two-rate SBP): false-alarm rate on white and AR(1) residuals, power on a planted contrast, direction, and no change with
+5 or more tests."""
 import math
 
 import numpy as np
@@ -44,8 +44,8 @@ def two_tests(rng, phi, shift=0.0, shape=None, curves=("cavity_pressure",)):
 @pytest.mark.parametrize("phi", [0.0, 0.3, 0.5])
 def test_false_alarm_rate_close_to_nominal(phi):
     """Pure noise (white, AR(1) phi 0.3 and 0.5), 2 tests x 40 points, 1000 simulated pairs: rate at alpha 0.05 at
-    most 0.07 (binomial SE 0.007; measured over 3000 pairs: 0.036, 0.047, 0.057, inference.diagnosis.attribution docstring),
-    and not absurdly conservative."""
+    most 0.07 (binomial SE 0.007; measured over 3000 pairs: 0.036, 0.047, 0.057, inference.diagnosis.attribution
+    docstring), and not absurdly conservative."""
     rng = np.random.default_rng(2024)
     p = np.array([rate_attribution(two_tests(rng, phi)).p_value for _ in range(1000)])
     rate = np.mean(p <= 0.05)

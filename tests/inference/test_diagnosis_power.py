@@ -229,7 +229,8 @@ def test_misfit_explained_by_the_located_regions():
     assert not ok and "70 %" in left[0]
     # the calibrated fraction (rank.MISFIT_REDUCTION = 0.6): 55 % left is explained, 65 % is not
     assert diagnosis.rank.misfit_explained(regions, base, {("T", "y"): np.array([0.0] * 2 + [0.055] * 4 + [0.0])})[0]
-    assert not diagnosis.rank.misfit_explained(regions, base, {("T", "y"): np.array([0.0] * 2 + [0.065] * 4 + [0.0])})[0]
+    assert not diagnosis.rank.misfit_explained(regions, base,
+                                               {("T", "y"): np.array([0.0] * 2 + [0.065] * 4 + [0.0])})[0]
     ok, left = diagnosis.rank.misfit_explained([], base, base)  # nothing located: nothing shown to be explained
     assert not ok and "located no misfit" in left[0]
     # the median over regions: one region where the simulated value passes near zero does not decide alone

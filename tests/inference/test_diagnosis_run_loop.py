@@ -133,7 +133,8 @@ def test_the_loop_names_and_confirms_the_curvature(curved):
     assert final.omitted_physics == "curvature"
     decisions = {c.name: c.decision for c in final.candidates}
     assert decisions["offset"] == "candidate named, enrichment not available (not implemented in this toy)"
-    assert decisions["curvature"].startswith("confirmed") and decisions["saturation"].startswith("not confirmed: ln B = -")
+    assert (decisions["curvature"].startswith("confirmed")
+            and decisions["saturation"].startswith("not confirmed: ln B = -"))
     # the enriched class explains the curvature's own residual pattern (its x item no longer supports it)
     curvature = next(c for c in final.candidates if c.name == "curvature")
     assert curvature.confirmed and curvature.pattern_explained and curvature.pattern_left == ()

@@ -84,14 +84,16 @@ def test_nested_start_finds_the_mode_a_lagging_sample_misses():
 def test_a_climb_asked_for_is_made_and_the_highest_mode_kept():
     """Two well-separated Gaussian bumps on the unit square, the sample piled on the lesser one (weight e^-3) and
     the point to climb from on the far slope of the greater one, where g is lower than at the sample's best:
-    climbing only from the best starting value would end on the lesser mode. The estimate is the greater bump's mass (the lesser one
-    lies 20 standard deviations outside the proposal): ln Z = ln(1/(1 + e^-3)) of a mixture normalized to 1."""
+    climbing only from the best starting value would end on the lesser mode. The estimate is the greater bump's mass
+    (the lesser one lies 20 standard deviations outside the proposal): ln Z = ln(1/(1 + e^-3)) of a mixture normalized
+    to 1."""
     prior = Prior([Bound("x", 0.0, 1.0), Bound("y", 0.0, 1.0)])
     s, lesser, greater, w = 0.02, np.array([0.3, 0.3]), np.array([0.7, 0.7]), math.exp(-3.0)
 
     def log_like(theta):
         theta = np.atleast_2d(theta)
-        parts = [np.atleast_1d(stats.multivariate_normal(m, s * s * np.eye(2)).logpdf(theta)) for m in (lesser, greater)]
+        parts = [np.atleast_1d(stats.multivariate_normal(m, s * s * np.eye(2)).logpdf(theta))
+                 for m in (lesser, greater)]
         return np.logaddexp(parts[0] + math.log(w), parts[1]) - math.log(1.0 + w)
 
     sample = _poor_sample(lesser, 0.2 * s, 2, seed=7)

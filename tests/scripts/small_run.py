@@ -1,7 +1,7 @@
 """A small TMCMC run used by the MPI, determinism and kill-and-resume tests.
 
-python tests/scripts/small_run.py OUT.npz [--proposal de|gaussian] [--dispatch dynamic|spmd] [--executor auto|serial|pool]
-    [--checkpoint FILE] [--resume] [--sleep S] [--fail]
+python tests/scripts/small_run.py OUT.npz [--proposal de|gaussian] [--dispatch dynamic|spmd]
+    [--executor auto|serial|pool] [--checkpoint FILE] [--resume] [--sleep S] [--fail]
 """
 import argparse
 import os
@@ -49,8 +49,8 @@ def main():
     a = ap.parse_args()
     prior = UniformPrior({"x": (-2, 2), "y": (-2, 3), "z": (-1, 1)})
     ex = {"auto": None, "serial": SerialExecutor(), "pool": PoolExecutor(2)}[a.executor]
-    post = tmcmc(Banana(a.sleep, a.fail, a.fail_all), prior, n_samples=a.samples, proposal=a.proposal, seed=7, executor=ex,
-                 dispatch=a.dispatch, checkpoint=a.checkpoint, resume=a.resume, checkpoint_evals=5,
+    post = tmcmc(Banana(a.sleep, a.fail, a.fail_all), prior, n_samples=a.samples, proposal=a.proposal, seed=7,
+                 executor=ex, dispatch=a.dispatch, checkpoint=a.checkpoint, resume=a.resume, checkpoint_evals=5,
                  progress=False, max_steps=4)
     comm = mpi_world()
     if comm is None or comm.Get_rank() == 0:

@@ -87,7 +87,7 @@ def test_covariates_report_the_drainage_time_factor():
     assert cov["strain rate"]["fast", "cavity_pressure"] == cs.RATES["fast"]
 
 
-# ------------------------------------------------------------------------------------------------ signatures at SBP scale
+# ---------------------------------------------------------------------------------------------- signatures at SBP scale
 def _planted_sbp(cavity, pore, seed=0):
     """Two SBP tests (fast, slow) with smooth simulated curves; recorded = simulated x (1 + pattern + 2 % noise), the
     pattern rising linearly along the curve to ``cavity[t]`` / ``pore[t]`` at 10 % (relative). Returns

@@ -184,7 +184,7 @@ def test_rank_candidates_rejects_malformed_signatures():
         diagnosis.rank_candidates(report, relative_residuals(like, sim), cov, bad)
 
 
-# ------------------------------------------------------------------------------------------------ command on a run directory
+# ------------------------------------------------------------------------------------ command on a run directory
 def _fake_class(like, sim, name, role, lnz, candidate=None):
     keys = list(sim)
     return {"name": name, "role": role, "candidate": candidate, "log_evidence": lnz, "J_g": {"T0": 0.001},
@@ -292,7 +292,8 @@ def test_lab_case_data_are_labelled_synthetic_and_do_not_name_the_effect():
     assert [d.name for d in sets] == sorted(e["dataset"] for e in lab.EFFECTS.values())
     source = (lab.DATA / "SOURCE.md").read_text().lower()
     assert source.startswith("# synthetic data: not measured")  # it may name the generator (validation.proofs.lab)
-    assert not any(w in source.replace("validation.proofs.lab", "").replace("validation.concealed", "").replace("validation/proofs/lab.py", "") for w in words)
+    assert not any(w in source.replace("validation.proofs.lab", "").replace("validation.concealed", "")
+                   .replace("validation/proofs/lab.py", "") for w in words)
     for directory in sets:
         files = sorted(directory.glob("*"))
         assert [f.name for f in files] == [f"{t.name}.csv" for t in lab.TESTS]

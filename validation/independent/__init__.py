@@ -5,4 +5,5 @@ crime): its own material-point models (:mod:`.models`), its own explicit mixed-c
 solver (:mod:`.sbp_solver`, :mod:`.sbp_material`, :mod:`.sbp`) and an exact undrained strain-path cavity expansion
 (:mod:`.sbp_exact`); the model-form controls, the plain clay written with other conventions (:mod:`.controls`). It
 imports numpy only (scipy in :mod:`.identifiability`; no constitutive, fem, inference or cases.study code);
-``python -m validation.independent --write`` regenerates validation/data/independent/ (the hidden truth in its KEY.json)."""
+``python -m validation.independent --write`` regenerates validation/data/independent/ (the hidden truth in its
+KEY.json)."""

@@ -4,10 +4,10 @@
                                           [--controls effects|model-form|all] [--skip-done] [--stop-at HH:MM]
                                           [--table-only]
 
-Each case of validation/data/independent/ (programme x hidden effect x noise seed; the truth in its KEY.json) goes through
-``python -m cases.calibrate <case>/study.toml --quick --diagnose --out DIR/<case>`` as a subprocess under ``nice``,
-one at a time, exactly as an engineer would run it (Modified Cam Clay base, the study file written from the file
-headers). The named effects (DIR/<case>/loop.json ``named``, in ranked order) and the confirmed one (its
+Each case of validation/data/independent/ (programme x hidden effect x noise seed; the truth in its KEY.json) goes
+through ``python -m cases.calibrate <case>/study.toml --quick --diagnose --out DIR/<case>`` as a subprocess under
+``nice``, one at a time, exactly as an engineer would run it (Modified Cam Clay base, the study file written from the
+file headers). The named effects (DIR/<case>/loop.json ``named``, in ranked order) and the confirmed one (its
 ``omitted_physics``) are compared with the hidden effect:
 
 - named: the hidden effect is among the named candidates (first: it is the best-ranked one);

@@ -79,7 +79,8 @@ def plain_residual(programme: str, truth: list, clay: dict) -> np.ndarray:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m validation.independent.identifiability", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m validation.independent.identifiability",
+                                 description=__doc__.split("\n")[0])
     ap.add_argument("--programmes", nargs="+", default=list(ONE_DIMENSIONAL), choices=ONE_DIMENSIONAL)
     ap.add_argument("--effects", nargs="+", default=["destructuration", "viscosity", "none"],
                     choices=["none", "viscosity", "destructuration"])

@@ -1,8 +1,8 @@
 """Laboratory logging, measurement noise and the files of the independent generator.
 
 Logging (each test and noise seed at its own points): shear and CRS stages every 0.4-0.6 % of axial strain (CRS
-unloading every 0.15-0.25 %) with +-25 % jitter after three early points; consolidation ramps at 6 jittered times (the last
-before 97 % of the ramp: the end state is logged by the next stage);
+unloading every 0.15-0.25 %) with +-25 % jitter after three early points; consolidation ramps at 6 jittered times (the
+last before 97 % of the ramp: the end state is logged by the next stage);
 holds, relaxation and incremental load stages log-spaced in the time since the stage start (3 per decade from about
 6 s, jittered; two records during a load ramp). Values at the logged points are interpolated linearly in time
 between the integrator's sub-steps (sub-steps of at most 2e-5 strain, so the interpolation error is below the
@@ -48,8 +48,8 @@ STRAIN_NOISE = (0.01, 0.002)
 #: the laboratory's logging resolution (module docstring): strain-interval factor, points per decade, stress resolution
 LOGGING = {"spacing": 1.0, "per_decade": 3, "resolution": 0.0}
 HEADER = "SYNTHETIC (independent generator): NOT MEASURED DATA"
-COLUMNS = {"triaxial": ("stage", "time_s", "stage_time_s", "axial_strain_pct", "q_kPa", "p_kPa", "excess_pore_pressure_kPa",
-                        "void_ratio"),
+COLUMNS = {"triaxial": ("stage", "time_s", "stage_time_s", "axial_strain_pct", "q_kPa", "p_kPa",
+                        "excess_pore_pressure_kPa", "void_ratio"),
            "oedometer": ("stage", "time_s", "stage_time_s", "axial_strain_pct", "sigma_v_kPa")}
 
 
@@ -169,7 +169,8 @@ def _round(v, resolution):
 def _describe(stage) -> str:
     f = stage.fields
     parts = {"consolidation": lambda: (f"isotropic to p' {f['p']:g} kPa" if "p" in f else
-                                       f"K0 {f['K0']:g} to sigma'_v {f['sigma_v']:g} kPa") + f" over {f['duration']:g} s",
+                                       f"K0 {f['K0']:g} to sigma'_v {f['sigma_v']:g} kPa")
+                                      + f" over {f['duration']:g} s",
              "creep": lambda: f"drained hold at constant stresses for {f['duration']:g} s",
              "shear": lambda: f"{f['drainage']} {f['direction']} at {f['strain_rate']:g} 1/s to "
                               f"{f['to_axial_strain']:g} % axial strain",

@@ -1,7 +1,7 @@
 """The self-boring pressuremeter (SBP) programme of the independent generator: two expansions of the same clay at
 cavity strain rates a decade apart, each followed by a hold, simulated by the generator's own coupled cavity solver
-(:mod:`validation.independent.sbp_solver`) on the clay of :mod:`validation.independent.programmes` with one hidden effect
-(:data:`EFFECTS`: ``none``, the negative control, or ``viscosity``).
+(:mod:`validation.independent.sbp_solver`) on the clay of :mod:`validation.independent.programmes` with one hidden
+effect (:data:`EFFECTS`: ``none``, the negative control, or ``viscosity``).
 
 Site (:data:`SITE`; kPa, m, m/s): a probe of radius 41.5 mm at 8 m depth, sigma'_v0 60 kPa, K0 0.7, in situ pore
 pressure 70 kPa, void ratio 1.25, permeability 1e-10 m/s; the clay's preconsolidation (100 kPa on the K0 = 0.55 line,
@@ -54,8 +54,8 @@ def _test(name, rate):
 
 TESTS = (_test("SBP_fast", 0.01 / 60.0), _test("SBP_slow", 0.001 / 60.0))
 COLUMNS = ("stage", "time_s", "stage_time_s", "cavity_strain_pct", "cavity_pressure_kPa", "pore_pressure_kPa")
-#: the project's FE discretization written into the study files (cases.study.reading.presets.Preset fields): the full one
-#: and the quick one
+#: the project's FE discretization written into the study files (cases.study.reading.presets.Preset fields): the full
+#: one and the quick one
 FE = {"radial_cells": 40, "layers": 1, "increments": 40, "outer": "field", "outer_radius_a0": 200.0}
 FE_QUICK = {"radial_cells": 30, "layers": 1, "increments": 30, "outer": "field", "outer_radius_a0": 200.0}
 
@@ -160,8 +160,8 @@ def study_text(case) -> str:
     fe = ["[fe]"] + [f"{k} = {_value(v)}" for k, v in FE.items()] + ["", "[fe.quick]"]
     fe += [f"{k} = {_value(v)}" for k, v in FE_QUICK.items()]
     lines = [f"# {HEADER}: {DESCRIPTION}.",
-             "# Written by validation.independent; the study an engineer would write from the file headers, with Modified "
-             "Cam Clay", "# as the base model (lambda_ from oedometer tests on the clay).",
+             "# Written by validation.independent; the study an engineer would write from the file headers, with "
+             "Modified Cam Clay", "# as the base model (lambda_ from oedometer tests on the clay).",
              f'name = "{case}"',
              f'description = "SYNTHETIC (independent generator): {DESCRIPTION}; Modified Cam Clay."',
              "", "[model]", 'name = "ModifiedCamClay"', "", "[model.fixed]", "nu = 0.25",

@@ -1,13 +1,15 @@
 """Concealed physics at lab scale, parametrised by the hidden effect: one laboratory programme, one base
 model class, one negative control, and three hidden effects the missing-physics loop must name without being told.
 
-    python -m validation.concealed --effect anisotropy --quick --diagnose          # = python -m validation.concealed --scale lab ...
-    python -m validation.concealed --scale lab --effect anisotropy --quick --diagnose      # calibrate, locate, explain, enrich
+    python -m validation.concealed --effect anisotropy --quick --diagnose
+        # = python -m validation.concealed --scale lab ...
+    python -m validation.concealed --scale lab --effect anisotropy --quick --diagnose
+        # calibrate, locate, explain, enrich
     python -m validation.concealed --scale lab --effect destructuration --quick --diagnose
     python -m validation.concealed --scale lab --effect viscosity --quick --diagnose
-    python -m validation.concealed --scale lab --control --quick --diagnose                # data from the base class itself
-    python -m validation.concealed --scale lab --confusion --seeds 2 --quick               # every effect and the control x seeds
-    python -m validation.concealed --scale lab --generate                                   # rewrite the shipped SYNTHETIC data
+    python -m validation.concealed --scale lab --control --quick --diagnose     # data from the base class itself
+    python -m validation.concealed --scale lab --confusion --seeds 2 --quick    # every effect and the control x seeds
+    python -m validation.concealed --scale lab --generate                       # rewrite the shipped SYNTHETIC data
 
 The data are SYNTHETIC (not measurements): twelve undrained triaxial tests on a soft clay of Burswood-like properties
 (lambda 0.40, kappa 0.026, e0 2.0, nu 0.25 fixed in every class), run by ``constitutive.labtests`` on one material
@@ -30,10 +32,10 @@ Hidden effects (the generating model differs from the base class by exactly one 
   preconsolidation stress);
 - ``viscosity``: the overstress rate law with C_alpha_e = 0.02 (tau = 1 day);
 - control: the base class itself.
-The loop (``cases.study.loop.problem.run_loop`` on the problem of ``validation.proofs.common``): calibrate the base class by
-DE-TMCMC; screen its residuals with per-point covariates (:func:`covariates`: strain rate, time, strain level, stress
-path direction, consolidation, overconsolidation, and the MAP's stress ratio and p'); rank the candidate physics of
-``constitutive.physics_catalog`` by signature; calibrate the enriched class of the best-ranked named candidate with
+The loop (``cases.study.loop.problem.run_loop`` on the problem of ``validation.proofs.common``): calibrate the base
+class by DE-TMCMC; screen its residuals with per-point covariates (:func:`covariates`: strain rate, time, strain level,
+stress path direction, consolidation, overconsolidation, and the MAP's stress ratio and p'); rank the candidate physics
+of ``constitutive.physics_catalog`` by signature; calibrate the enriched class of the best-ranked named candidate with
 an implemented enrichment; compare log-evidences. The same programme, base class and covariates serve every hidden
 effect, so the tool is told nothing but the data.
 """

@@ -1,10 +1,12 @@
 """Concealed physics at lab scale, six strain rates: the first complete missing-physics loop, on SYNTHETIC data.
 
-    python -m validation.concealed --programme rates --quick --diagnose   # = python -m validation.concealed --programme rates ...
-    python -m validation.concealed --programme rates --quick --diagnose          # calibrate, locate, explain, enrich, compare
-    python -m validation.concealed --programme rates --quick --diagnose --control   # negative control (data from the base model)
-    python -m validation.concealed --programme rates --quick --seeds 3           # detections and false alarms over noise seeds
-    python -m validation.concealed --programme rates --generate                  # rewrite the shipped synthetic data
+    python -m validation.concealed --programme rates --quick --diagnose
+        # = python -m validation.concealed --programme rates ...
+    python -m validation.concealed --programme rates --quick --diagnose  # calibrate, locate, explain, enrich, compare
+    python -m validation.concealed --programme rates --quick --diagnose --control
+        # negative control (data from the base model)
+    python -m validation.concealed --programme rates --quick --seeds 3   # detections and false alarms over noise seeds
+    python -m validation.concealed --programme rates --generate          # rewrite the shipped synthetic data
 
 The data are SYNTHETIC (not measurements): seven laboratory tests on a soft clay of Burswood-like properties, run by
 ``constitutive.labtests`` on one material point with a *generating* model stated in :data:`GENERATING` (this module,
@@ -19,8 +21,8 @@ tests (exactly, up to 7 tests) and fits each curve kind on its own, so a perfect
 triaxial tests has p = 2/6! = 0.0028 (with three tests per curve kind it would still have p = 1/9).
 
 The base model class is the rate-independent ANICREEP (``viscous=False``, anisotropic; lambda, kappa, e0, nu fixed)
-with M, sigma'_p0 and sigma_eps free. The loop (``--diagnose``, ``cases.study.loop.problem.run_loop``): calibrate the base
-class by DE-TMCMC; screen its residuals with per-point covariates (strain rate between tests; time, strain level,
+with M, sigma'_p0 and sigma_eps free. The loop (``--diagnose``, ``cases.study.loop.problem.run_loop``): calibrate the
+base class by DE-TMCMC; screen its residuals with per-point covariates (strain rate between tests; time, strain level,
 stress ratio and p' along the curves); rank the candidate physics of ``constitutive.physics_catalog`` by signature;
 calibrate the enriched class of the best-ranked named candidate that has an implemented enrichment; compare
 log-evidences (Bayes factor). ``--control`` replaces the data by recordings generated from the base class itself

@@ -29,10 +29,10 @@ when the model leaves it to its own triaxial integrator), stress ramps in steps 
 ln(stress). The holds of a rate-dependent model (the kinds with ``StageKind.adaptive_hold``: creep, relaxation and
 the hold of a load stage, whose ramp keeps its equal ln-stress steps; while ``ADAPTIVE_HOLDS``) are stepped
 adaptively, per particle, by ``constitutive.labtests.adaptive_control``: from a first step of ``HOLD_FIRST`` s, each
-step at most the fraction ``HOLD_RATE_CHANGE`` of the time over which the particle's rates change, changing no strain or stress by more than
-that fraction of its change since the hold start (beyond a floor of 1e-4 strain, 1 % of the stress) and no strain
-by more than the strain step. A hold thus takes few steps where nothing moves yet (the early decades of a hold
-after a slow ramp) and about the steps of the geometric grid below where it moves (about 20 per decade of time
+step at most the fraction ``HOLD_RATE_CHANGE`` of the time over which the particle's rates change, changing no strain or
+stress by more than that fraction of its change since the hold start (beyond a floor of 1e-4 strain, 1 % of the stress)
+and no strain by more than the strain step. A hold thus takes few steps where nothing moves yet (the early decades of a
+hold after a slow ramp) and about the steps of the geometric grid below where it moves (about 20 per decade of time
 where it creeps as 1/t; as accurate as that grid, measured at the independent programmes' prior corners); the
 step table (:meth:`StageSteps.steps`) instead places them at times since the hold start growing geometrically
 from ``HOLD_FIRST`` s, ``HOLD_STEPS_PER_DECADE`` per decade (and the recorded times). A rate-independent model

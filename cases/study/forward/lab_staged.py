@@ -6,8 +6,8 @@ the tests that share a stage structure (:func:`simulate_programmes`).
 A test (:class:`cases.study.programme.TestSpec` with ``apparatus``, ``initial`` and ``stages``) starts from its
 initial state and runs its stages in order; stress, model state, strain, excess pore pressure and time are carried
 from one stage to the next. Units kPa, s, 1/s; strains are fractions, compression positive; axial = Voigt 11,
-radial = 22 and 33. The controls, stepping and abscissae of each stage kind: :mod:`cases.study.forward.lab_stage_steps`; a crs
-stage ended by ``to_sigma_v`` is continued here past its last record until sigma'_v reaches the target
+radial = 22 and 33. The controls, stepping and abscissae of each stage kind: :mod:`cases.study.forward.lab_stage_steps`;
+a crs stage ended by ``to_sigma_v`` is continued here past its last record until sigma'_v reaches the target
 (:func:`_to_sigma_v`: strain steps in chunks sized from the strain still needed, the crossing located within its step
 by bracketing iterations). With a rate-dependent model the Newton iterations of a step-table stage start from the
 previous step's increments (``mixed_control(predictor="previous")``).
@@ -309,10 +309,10 @@ def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
     (tests x particles) points, in rounds: each round takes the next stage of the tests whose next stage has the most
     common :func:`stage_signature` (tests of the same stage sequence share every round; a test with a stage fewer
     waits one round), one driver call per round over the points of its tests. Each test keeps the steps it
-    has alone (:class:`cases.study.forward.lab_stage_steps.StageSteps` of its own rows: its targets, rates, durations, records and
-    initial state); the step tables of a round are aligned by step index, a shorter one padded at its end with steps
-    its rows do not take (``mixed_control(active=...)``), and the states are stored at the union of the tests'
-    record steps; an adaptive round (:func:`_adaptive`) chooses every point's steps from that point alone. Every
+    has alone (:class:`cases.study.forward.lab_stage_steps.StageSteps` of its own rows: its targets, rates, durations,
+    records and initial state); the step tables of a round are aligned by step index, a shorter one padded at its end
+    with steps its rows do not take (``mixed_control(active=...)``), and the states are stored at the union of the
+    tests' record steps; an adaptive round (:func:`_adaptive`) chooses every point's steps from that point alone. Every
     point thus takes the same steps as in a call of its own: the curves equal the one-test results to round-off."""
     for spec in specs:
         if spec.apparatus not in ("triaxial", "oedometer"):

@@ -209,9 +209,9 @@ class LoopProblem:
                      prior=None) -> ModelClass:
         """The class as the diagnosis reads it: MAP curves, ``draws`` posterior-sample curves for the predictive
         band (rows drawn with ``seed``); the MAP's raw curves in ``extra["map_curves"]``; the calibration's warnings
-        (:mod:`cases.study.outputs.calibration_warnings`). With error groups, sigma_eps is each curve's sigma at the MAP (a list in the
-        likelihood's curve order). With a refined ``evidence`` (``inference.mode_evidence``) its ln Z and mode are
-        the class's log-evidence and MAP (TMCMC's ln Z is its ``sampler_log_evidence``, also in
+        (:mod:`cases.study.outputs.calibration_warnings`). With error groups, sigma_eps is each curve's sigma at the MAP
+        (a list in the likelihood's curve order). With a refined ``evidence`` (``inference.mode_evidence``) its ln Z and
+        mode are the class's log-evidence and MAP (TMCMC's ln Z is its ``sampler_log_evidence``, also in
         ``extra["log_evidence_tmcmc"]``); ``prior`` gives the ranges the diagnosis checks the mode against; a
         model-form class (a likelihood with a discrepancy) records where its discrepancy lies."""
         map_theta = post.map_theta if evidence is None else np.array(evidence.mode)

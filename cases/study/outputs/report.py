@@ -125,9 +125,9 @@ def plot_stages(post, path):
 
 
 def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, truth: dict | None, summary: dict):
-    """report.md (with the calibration warnings of :mod:`cases.study.outputs.calibration_warnings`, also printed on stdout as
-    ``warning: ...``), curves.png, marginals.png, stages.png of one calibrated class of ``study``; ``cls`` the class
-    record (MAP and posterior-sample curves), ``truth`` the values synthetic recordings were made from (or None),
+    """report.md (with the calibration warnings of :mod:`cases.study.outputs.calibration_warnings`, also printed on
+    stdout as ``warning: ...``), curves.png, marginals.png, stages.png of one calibrated class of ``study``; ``cls`` the
+    class record (MAP and posterior-sample curves), ``truth`` the values synthetic recordings were made from (or None),
     ``summary`` the class's summary.json content (``runner.write_summary``)."""
     out = Path(out)
     tag = "SYNTHETIC recordings" if synthetic else "recordings"

@@ -2,8 +2,8 @@
 its fixed parameters and the priors of the free ones, the error parameter's bounds, the sampler and FE settings,
 the synthetic-record generator, published or generating reference values (``[reference]``,
 :mod:`cases.study.reading.reference`) and the route of the one runner (``[runner]``,
-:mod:`cases.study.reading.runner_table`). Every field is checked before any solve (:mod:`cases.study.reading.checks`). The schema
-is documented in the README ("Your own recordings").
+:mod:`cases.study.reading.runner_table`). Every field is checked before any solve (:mod:`cases.study.reading.checks`).
+The schema is documented in the README ("Your own recordings").
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Modified Cam Clay and its ANICREEP family class with every switch off (constitutive.registry.enrichment_family:
 specific_volume="current") through the study path on staged laboratory programmes: a study file, SYNTHETIC records
-written by cases.study.synthetic.generate (this project's MCC), StudyForward for the base class and FamilyForward (the MCC
-parameters translated per test) for the family class. Programmes: isotropic consolidation 25 -> 200 kPa then
+written by cases.study.synthetic.generate (this project's MCC), StudyForward for the base class and FamilyForward (the
+MCC parameters translated per test) for the family class. Programmes: isotropic consolidation 25 -> 200 kPa then
 undrained compression (CIU); K0 consolidation 20 -> 150 kPa then undrained compression and extension (CK0UC,
 CK0UE); incremental oedometer loading, unloading and reloading (IL); CRS loading, unloading and reloading (CRS)."""
 import numpy as np

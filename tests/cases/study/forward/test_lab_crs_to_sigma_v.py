@@ -1,5 +1,5 @@
-"""Staged oedometer programmes (cases.study.forward.lab_staged) around a crs stage ended by to_sigma_v, and the holds of a
-rate-independent model, against closed forms of Modified Cam Clay's own equations (docs/reference.md section 4).
+"""Staged oedometer programmes (cases.study.forward.lab_staged) around a crs stage ended by to_sigma_v, and the holds of
+a rate-independent model, against closed forms of Modified Cam Clay's own equations (docs/reference.md section 4).
 
 Oracles and tolerances:
 - MCC elasticity K = (1 + e) p'/kappa integrates exactly whatever the step (p' exponential in the elastic volumetric

@@ -1,6 +1,7 @@
-"""The hold stepping of the staged laboratory programmes (cases/study/forward/lab_stage_steps.py, "Stepping"): the adaptive holds
-of a rate-dependent model against closed forms and against the geometric step table refined (Richardson-extrapolated
-from 16 and 32 times its steps per decade), at the independent programmes' generating values and prior corners."""
+"""The hold stepping of the staged laboratory programmes (cases/study/forward/lab_stage_steps.py, "Stepping"): the
+adaptive holds of a rate-dependent model against closed forms and against the geometric step table refined
+(Richardson-extrapolated from 16 and 32 times its steps per decade), at the independent programmes' generating values
+and prior corners."""
 import itertools
 from contextlib import contextmanager
 from pathlib import Path

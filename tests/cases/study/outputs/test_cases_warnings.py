@@ -1,5 +1,5 @@
-"""Warnings of a finished calibration (cases.study.outputs.calibration_warnings) on constructed posteriors: parameters on prior bounds,
-sigma_eps at its ceiling, poor fits with the range where the residual is largest."""
+"""Warnings of a finished calibration (cases.study.outputs.calibration_warnings) on constructed posteriors: parameters
+on prior bounds, sigma_eps at its ceiling, poor fits with the range where the residual is largest."""
 import numpy as np
 import pytest
 

@@ -1,5 +1,6 @@
 """The study file's error groups, per-test weights and prior constraints (cases.study.reading.error_model,
-cases.study.reading.constraints, cases.study.reading.schema): what is accepted, what the likelihood and prior get, and the errors."""
+cases.study.reading.constraints, cases.study.reading.schema): what is accepted, what the likelihood and prior get, and
+the errors."""
 from pathlib import Path
 
 import numpy as np

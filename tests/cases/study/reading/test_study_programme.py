@@ -1,7 +1,7 @@
 """Stage programmes in the study file (cases.study.reading.staged_tests, cases.study.programme) and their records
-(cases.study.reading.stage_records): every stage kind parsed, the flat shorthand equal to its explicit programme, records assigned
-by a stage column and by time, and the one-line refusal of every bad field naming the file, test, stage, field and
-value."""
+(cases.study.reading.stage_records): every stage kind parsed, the flat shorthand equal to its explicit programme,
+records assigned by a stage column and by time, and the one-line refusal of every bad field naming the file, test,
+stage, field and value."""
 from __future__ import annotations
 
 import subprocess
