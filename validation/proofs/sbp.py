@@ -163,7 +163,7 @@ class SBPProblem(LoopProblem):
         self.all_enrichments = all_enrichments
 
     def forward(self, switches):
-        return forward(switches, self.k_assumed, self.curves).batch
+        return forward(switches, self.k_assumed, self.curves)
 
     def map_curves(self, params, switches):
         return forward(switches, self.k_assumed, self.curves)(params)
