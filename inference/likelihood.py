@@ -14,19 +14,15 @@ Near-zero recorded values (the origin of a stress-strain curve) make relative er
 Points with |U_obs| below ``floor`` times the curve's max |U_obs| (default 1 %) are excluded and counted
 (REFERENCE section 1).
 
-A forward model maps a parameter dict (soil parameters, without sigma_eps) to simulated curves:
-``{test: {curve: y_at_observed_x}}`` or ``{test: {curve: (x_sim, y_sim)}}``, the latter interpolated linearly to the
-recorded abscissae (the simulation must cover them). With ``batch=True`` the forward model takes a list of parameter
-dicts and returns a list of such results (an Exception instance in place of a failed one).
-
-Array protocol (optional, for batch forward models, used by :meth:`Likelihood.evaluate_many`): a forward model with
-a method ``simulate_arrays(names, values)`` takes the soil parameter names (a tuple, the prior's order without the
-error parameter) and their values ``(m, k)`` and returns ``(curves, reasons)``: ``curves`` is
-``{test: {curve: (x_sim (n,), y (m, n))}}`` (one abscissa for the whole batch) or ``{test: {curve: y (m, n_rec)}}``
-(at the recorded abscissae), ``reasons`` a list of m entries, None or the message of a failed parameter set (its rows
-are then ignored). The whole batch is then interpolated and scored by Eq. (5) in numpy expressions over the batch,
-with no per-particle Python objects; the per-particle path (dict results) runs through the same interpolation and
-the same :func:`goodness_of_fit`, so both give the same bits.
+The forward model is an :class:`inference.forward.ForwardModel` (``simulate_batch(names, values) -> (curves,
+failed)``), or a callable adapted to one: params dict -> ``{test: {curve: y_at_observed_x}}`` or ``{test: {curve:
+(x_sim, y_sim)}}``, or with ``batch=True`` a list of parameter dicts -> a list of such results (an Exception
+instance in place of a failed one). Simulated curves given on their own abscissae are interpolated linearly to the
+recorded ones (the simulation must cover them). A batch table of curves is interpolated and scored by Eq. (5) in
+numpy expressions over the batch; a list of per-particle results runs through the same interpolation and the same
+:func:`goodness_of_fit`, so both give the same bits. The failure policy (:func:`inference.forward.batch_or_each`):
+a batch that raises is evaluated particle by particle; a particle that fails gets -inf and the reason
+``"<exception class>: <message>"``.
 
 A model-form discrepancy (:class:`inference.Discrepancy`, Eqs. (D1)-(D2) of :mod:`inference.discrepancy`) replaces
 each curve's independent errors by errors plus a smooth Gaussian process marginalized exactly; its parameters
@@ -34,16 +30,15 @@ each curve's independent errors by errors plus a smooth Gaussian process margina
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from .discrepancy import CurveDiscrepancy, Discrepancy, normalized_abscissa
+from .forward import ForwardModelError, as_forward_model, batch_or_each, reason_of
 from .observations import Observations
 
 __all__ = ["ForwardModelError", "Likelihood", "goodness_of_fit", "curve_mean_squares", "log_likelihood_test"]
-
-
-class ForwardModelError(RuntimeError):
-    """The forward model gave no usable curves for this parameter vector (reason in the message)."""
 
 
 def curve_mean_squares(observed, simulated) -> list:
@@ -83,12 +78,13 @@ class Likelihood:
     Parameters
     ----------
     observations: Observations
-    forward: callable, params dict -> {test: {curve: values or (x, y)}} (or a list -> list with batch=True)
+    forward: an inference.forward.ForwardModel, or a callable params dict -> {test: {curve: values or (x, y)}} (or
+        a list -> list with batch=True) adapted to one (inference.forward.as_forward_model)
     weights: {test: w_i} of Eq. (6), default 1 for every test (w_i multiplies the test's log-likelihood: give a test
         recorded much more densely than the others less weight, or a test repeated n times 1/n)
     sigma: name of the error parameter in the prior ("sigma_eps"), or a fixed float (every group)
     floor: relative near-zero floor of Eq. (5) (fraction of the curve's max |U_obs|)
-    batch: the forward model is vectorized over parameter sets
+    batch: a callable ``forward`` takes a list of parameter sets (ignored for a ForwardModel)
     groups: None (one error parameter for every curve, the paper's setting) or {group: [curve name or (test, curve)
         key, ...]}, Eq. (6g): a curve name stands for that curve of every test; every curve falls in exactly one
         group. With two or more groups the error parameters are ``<sigma>_<group>`` (e.g. sigma_eps_volume) in the
@@ -102,8 +98,7 @@ class Likelihood:
         if not isinstance(observations, Observations):
             raise TypeError("observations must be an inference.Observations")
         self.observations = observations
-        self.forward = forward
-        self.batch = bool(batch)
+        self.forward = as_forward_model(forward, batch)
         self.sigma = sigma
         self.floor = float(floor)
         if not 0.0 <= self.floor < 1.0:
@@ -257,9 +252,8 @@ class Likelihood:
 
     def fingerprint(self) -> str:
         groups = "" if len(self.groups) == 1 else f"|groups={sorted(self.group_of.items())}"
-        delta = "" if self.discrepancy is None else f"|delta={self.discrepancy}"
         return (f"{self.observations.fingerprint()}|w={sorted(self.weights.items())}|floor={self.floor}"
-                f"|s={self.sigma}{groups}{delta}")
+                f"|s={self.sigma}{groups}{'' if self.discrepancy is None else f'|delta={self.discrepancy}'}")
 
     # ----------------------------------------------------------------- simulated curves at the recorded abscissae
     def _interpolation(self, test, cname, xs):
@@ -328,7 +322,7 @@ class Likelihood:
                 raise ForwardModelError(f"forward model returned no test {t.name!r}")
             curves = result[t.name]
             for cname in t.curves:
-                sim = curves.get(cname) if hasattr(curves, "get") else None
+                sim = curves.get(cname) if isinstance(curves, Mapping) else None
                 out[t.name, cname], bad, message = self._rows_at_records(t.name, cname, sim, m)
                 if bad.any():
                     failures.append((bad, message))
@@ -344,7 +338,8 @@ class Likelihood:
         return out
 
     def simulated_at_observations(self, result) -> dict:
-        """Forward result -> {(test, curve): simulated values at the recorded abscissae}; ForwardModelError if unusable."""
+        """Forward result -> {(test, curve): simulated values at the recorded abscissae}; ForwardModelError if
+        unusable."""
         return {key: values[0] for key, values in self._simulated_one(result).items()}
 
     # ----------------------------------------------------------------- evaluation
@@ -406,8 +401,7 @@ class Likelihood:
         if self.discrepancy is None:
             return {}
         residuals = self.residuals(theta)
-        sigma = self.sigma_arrays(theta)
-        sigmas = self.curve_sigmas_from(sigma)
+        sigmas = self.curve_sigmas_from(self.sigma_arrays(theta))
         amplitudes, length = self.discrepancy_arrays(theta)
         out = {}
         for i, key in enumerate(self.curve_keys):
@@ -443,59 +437,85 @@ class Likelihood:
             raise ForwardModelError(reason)
         return float(self._log_likelihood(self._simulated_one(result), sigma, delta)[0])
 
-    def _forward_one(self, params):
-        return self.forward([params])[0] if self.batch else self.forward(params)
+    def _simulate(self, thetas) -> tuple:
+        """The forward model's (curves, failed) for the parameter sets ``thetas`` (rows in the prior's order)."""
+        if self.names is None:
+            raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
+        return self.forward.simulate_batch(self._soil_names, thetas[:, self._soil_columns])
+
+    @staticmethod
+    def _particle(curves, failed, i):
+        """Particle i's forward result: its exception, or {test: {curve: values or (x, y)}}."""
+        if failed[i] is not None:
+            return failed[i]
+        if isinstance(curves, Mapping):
+            return {t: {c: (v[0], v[1][i]) if isinstance(v, tuple) else v[i] for c, v in cs.items()}
+                    for t, cs in curves.items()}
+        return curves[i]
+
+    def _forward_one(self, theta):
+        """The forward result of one parameter set (prior order); raises what the forward model raises."""
+        return self._particle(*self._simulate(np.asarray(theta, dtype=float)[None, :]), 0)
 
     def __call__(self, theta) -> float:
-        params, sigma = self.split(theta)
-        return self.log_likelihood_from(self._forward_one(params), sigma, self.discrepancy_arrays(theta))
+        return self.log_likelihood_from(self._forward_one(theta), self.split(theta)[1], self.discrepancy_arrays(theta))
+
+    def simulated_many(self, thetas) -> dict:
+        """{(test, curve): (m, n_recorded)} simulated values at the recorded abscissae of the parameter sets
+        ``thetas`` (rows in the prior's order); raises the first failed set's exception (ForwardModelError for
+        unusable curves)."""
+        thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
+        if self.forward.batched:
+            curves, failed = self._simulate(thetas)
+            results = [self._particle(curves, failed, i) for i in range(len(thetas))]
+        else:
+            results = [self._forward_one(theta) for theta in thetas]
+        per_set = [self.simulated_at_observations(result) for result in results]
+        return {key: np.stack([values[key] for values in per_set]) for key in per_set[0]}
 
     def evaluate_many(self, thetas):
         """Batch evaluation: (values (m,), reasons list) with -inf and a reason for each failed parameter set.
 
-        A batch forward model with ``simulate_arrays`` (module docstring) is evaluated as arrays over the batch;
-        should that call fail as a whole, every parameter set is evaluated on its own to name the culprits."""
+        A batched forward model is given the whole batch; should that call fail as a whole, or for a model that
+        takes one particle at a time, every parameter set is evaluated on its own
+        (:func:`inference.forward.batch_or_each`)."""
         thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
-        if self.batch and hasattr(self.forward, "simulate_arrays"):
-            if self.names is None:
-                raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
-            try:
-                curves, failed = self.forward.simulate_arrays(self._soil_names, thetas[:, self._soil_columns])
-            except Exception:
-                pass
-            else:
-                return self._evaluate_arrays(thetas, curves, failed)
-        split = [self.split(th) for th in thetas]
+        if self.names is None:
+            raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
+        m = len(thetas)
+        whole = (lambda: self._evaluate_batch(thetas)) if self.forward.batched and m > 1 else None
+
+        def alone(i):
+            values, reasons = self._evaluate_batch(thetas[i:i + 1])
+            return values[0], reasons[0]
+
+        return batch_or_each(whole, alone, m)
+
+    def _evaluate_batch(self, thetas):
+        """(values (m,), reasons) of one forward call over ``thetas``; raises what the forward model raises."""
+        curves, failed = self._simulate(thetas)
+        if isinstance(curves, Mapping):
+            return self._evaluate_arrays(thetas, curves, failed)
         values = np.full(len(thetas), -np.inf)
         reasons = [None] * len(thetas)
-        results = None
-        if self.batch:
+        for i, theta in enumerate(thetas):
             try:
-                results = self.forward([p for p, _ in split])
-            except Exception:  # the batch failed as a whole: evaluate one by one to find the culprits
-                results = None
-        for i, (params, sigma) in enumerate(split):
-            try:
-                if results is not None:
-                    res = results[i]
-                else:
-                    res = self._forward_one(params)
-                delta = None if self.discrepancy is None else self.discrepancy_arrays(thetas[i])
-                values[i] = self.log_likelihood_from(res, sigma, delta)
-            except Exception as exc:
-                reasons[i] = f"{type(exc).__name__}: {exc}"
+                values[i] = self.log_likelihood_from(self._particle(curves, failed, i), self.split(theta)[1],
+                                                     self.discrepancy_arrays(theta))
+            except Exception as exc:  # noqa: BLE001 - an unusable result is this particle's zero likelihood
+                reasons[i] = reason_of(exc)
         return values, reasons
 
     def _evaluate_arrays(self, thetas, curves, failed):
-        """Eqs. (4)-(6) for a batch from ``simulate_arrays``' result: the same reasons, in the same precedence, as
-        the per-particle path (sigma_eps, then the forward model's failure, then the first unusable curve)."""
+        """Eqs. (4)-(6) for a batch from a table of curves: the same reasons, in the same precedence, as the
+        per-particle path (sigma_eps, then the forward model's failure, then the first unusable curve)."""
         m = len(thetas)
         sigma = self.sigma_arrays(thetas)
         error = ForwardModelError.__name__
         reasons = []
         for s, r in zip(sigma, failed):
             bad = self._sigma_reason(s)
-            reasons.append(f"{error}: {bad}" if bad else (None if r is None else f"{error}: {r}"))
+            reasons.append(f"{error}: {bad}" if bad else (None if r is None else reason_of(r)))
         try:
             simulated, failures = self._simulated_batch(curves, m)
         except ForwardModelError as exc:  # unusable for every parameter set
@@ -511,9 +531,7 @@ class Likelihood:
     # ----------------------------------------------------------------- diagnostics
     def residuals(self, theta) -> dict:
         """Relative residuals (U_obs - U_num)/U_obs per (test, curve) at theta (excluded points as NaN)."""
-        params, _ = self.split(theta)
-        result = self._forward_one(params)
-        sim = self.simulated_at_observations(result)
+        sim = self.simulated_at_observations(self._forward_one(theta))
         out = {}
         for t in self.observations:
             for c, curve in t.curves.items():
@@ -523,6 +541,4 @@ class Likelihood:
         return out
 
     def summary_goodness(self, theta) -> dict:
-        params, _ = self.split(theta)
-        result = self._forward_one(params)
-        return self.goodness_of_fit(self.simulated_at_observations(result))
+        return self.goodness_of_fit(self.simulated_at_observations(self._forward_one(theta)))

@@ -78,12 +78,7 @@ def simulate_samples(likelihood, thetas):
     each curve's sigma (n_samples, n_curves) in the likelihood's curve order). A failed solve raises: posterior
     samples were all solved once already, so a failure here is an error of the caller.
     """
-    split = [likelihood.split(th) for th in np.atleast_2d(thetas)]
-    params = [p for p, _ in split]
-    results = likelihood.forward(params) if likelihood.batch else [likelihood.forward(p) for p in params]
-    per_sample = [likelihood.simulated_at_observations(res) for res in results]
-    sims = {k: np.stack([ps[k] for ps in per_sample]) for k in per_sample[0]}
-    return sims, likelihood.curve_sigmas(thetas)
+    return likelihood.simulated_many(thetas), likelihood.curve_sigmas(thetas)
 
 
 def sigma_text(sigma_eps) -> str:

@@ -1,4 +1,7 @@
 """The evaluator: a log-likelihood made robust for batches (exceptions, NaN and time-outs become -inf with a reason).
+
+The policy for a batch that raises (each evaluation alone) is :func:`inference.forward.batch_or_each`; the
+evaluator adds the time limits and turns NaN and +inf into -inf.
 """
 from __future__ import annotations
 
@@ -6,6 +9,9 @@ import signal
 import threading
 
 import numpy as np
+
+from ..forward import batch_or_each
+from ..likelihood import Likelihood
 
 __all__ = ["EvaluationTimeout", "Evaluator"]
 
@@ -43,6 +49,16 @@ class Evaluator:
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous)
 
+    def _timed(self, call, m):
+        """``call`` under the time limit of m evaluations."""
+        def timed():
+            previous = self._timer(self.timeout * m if self.timeout else None)
+            try:
+                return call()
+            finally:
+                self._cancel(previous)
+        return timed
+
     def _one(self, theta):
         previous = self._timer(self.timeout)
         try:
@@ -55,35 +71,12 @@ class Evaluator:
     def __call__(self, thetas):
         thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
         m = len(thetas)
-        values = np.full(m, -np.inf)
-        reasons = [None] * m
-        done = False
-        if hasattr(self.loglike, "evaluate_many"):
-            previous = self._timer(self.timeout * m if self.timeout else None)
-            try:
-                values, reasons = self.loglike.evaluate_many(thetas)
-                values = np.array(values, dtype=float)
-                done = True
-            except Exception:
-                done = False
-            finally:
-                self._cancel(previous)
+        whole = None
+        if isinstance(self.loglike, Likelihood):
+            whole = self._timed(lambda: self.loglike.evaluate_many(thetas), m)
         elif self.vectorized and m > 1:
-            previous = self._timer(self.timeout * m if self.timeout else None)
-            try:
-                values = np.asarray(self.loglike(thetas), dtype=float).reshape(m)
-                done = True
-            except Exception:
-                done = False  # evaluate one by one to attribute the failure
-            finally:
-                self._cancel(previous)
-        if not done:
-            for i, th in enumerate(thetas):
-                try:
-                    values[i] = self._one(th)
-                except Exception as exc:
-                    values[i] = -np.inf
-                    reasons[i] = f"{type(exc).__name__}: {exc}"
+            whole = self._timed(lambda: (np.asarray(self.loglike(thetas), dtype=float).reshape(m), [None] * m), m)
+        values, reasons = batch_or_each(whole, lambda i: (self._one(thetas[i]), None), m)
         bad = np.isnan(values) | (values == np.inf)
         for i in np.flatnonzero(bad):
             reasons[i] = f"log-likelihood evaluated to {values[i]}"

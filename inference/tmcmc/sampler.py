@@ -119,8 +119,8 @@ def tmcmc(loglike, prior: Prior, settings: TMCMCSettings | None = None, *, execu
 def _fingerprint(loglike, prior, settings: TMCMCSettings) -> dict:
     """What a checkpoint must match to be resumed: the likelihood's fingerprint (or its name), the prior and the
     settings that decide the numbers."""
-    if hasattr(loglike, "fingerprint"):
-        fp = loglike.fingerprint() if callable(loglike.fingerprint) else loglike.fingerprint
+    if isinstance(loglike, Likelihood):
+        fp = loglike.fingerprint()
     else:
         fp = getattr(loglike, "__qualname__", type(loglike).__qualname__)
     return {"likelihood": str(fp), "prior": str(prior.describe()), **settings.sampling()}

@@ -32,7 +32,7 @@ def _hand_curve_means(like, forward):
     """Eq. (5)'s inner mean per (test, curve) at SOIL, by np.interp of the forward model's simulated curve and the
     1 % floor, independent of the likelihood's interpolation."""
     names = tuple(SOIL)
-    curves, reasons = forward.simulate_arrays(names, np.array([[SOIL[n] for n in names]]))
+    curves, reasons = forward.simulate_batch(names, np.array([[SOIL[n] for n in names]]))
     assert reasons == [None]
     out = {}
     for t in like.observations:

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from inference import Curve, ForwardModelError, Likelihood, Observations, Test
+from inference import Curve, ForwardModel, ForwardModelError, Likelihood, Observations, Test
 
 X = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
 
@@ -20,17 +20,17 @@ def _obs():
     ])
 
 
-class Toy:
+class Toy(ForwardModel):
     """q = 10 a x (relative error (1 - a) at every used point), e = b (0.8 - 0.01 x) (relative error (1 - b))."""
 
-    def simulate_arrays(self, names, values):
+    def simulate_batch(self, names, values):
         a, b = values[:, names.index("a")], values[:, names.index("b")]
         q = 10.0 * a[:, None] * X
         e = b[:, None] * (0.8 - 0.01 * X)
         return {"t1": {"q": (X, q), "e": e}, "t2": {"q": (X, q)}}, [None] * len(a)
 
     def __call__(self, batch):
-        curves, _ = self.simulate_arrays(("a", "b"), np.array([[p["a"], p["b"]] for p in batch]))
+        curves, _ = self.simulate_batch(("a", "b"), np.array([[p["a"], p["b"]] for p in batch]))
         return [{t: {c: (v[0], v[1][i]) if isinstance(v, tuple) else v[i] for c, v in cs.items()}
                  for t, cs in curves.items()} for i in range(len(batch))]
 

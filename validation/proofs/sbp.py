@@ -1,21 +1,21 @@
 """Concealed physics at pressuremeter scale: the two-rate self-boring pressuremeter of the Burswood case,
 SYNTHETIC data with a hidden effect, a rate-independent base class, and the calibrate -> diagnose loop.
 
-    python -m validation.concealed --scale sbp --effect viscosity               # = python -m validation.concealed --scale sbp ...
-    python -m validation.concealed --scale sbp --effect viscosity --diagnose            # set_1: locate, explain, enrich, compare
-    python -m validation.concealed --scale sbp --effect "partial drainage" --diagnose   # set_2 (both candidates calibrated)
-    python -m validation.concealed --scale sbp --effect "partial drainage" --diagnose --pressure-only   # without pore pressure
-    python -m validation.concealed --scale sbp --control --diagnose                     # set_3: data from the base class
-    python -m validation.concealed --scale sbp --confusion --seeds 1                    # every data set x with/without pore p.
-    python -m validation.concealed --scale sbp --generate                               # rewrite the shipped SYNTHETIC data
+    python -m validation.concealed --scale sbp --effect viscosity                 # set_1, calibrated
+    python -m validation.concealed --scale sbp --effect viscosity --diagnose      # locate, explain, enrich, compare
+    python -m validation.concealed --scale sbp --effect "partial drainage" --diagnose   # set_2 (both candidates)
+    python -m validation.concealed --scale sbp --effect "partial drainage" --diagnose --pressure-only
+    python -m validation.concealed --scale sbp --control --diagnose               # set_3: data from the base class
+    python -m validation.concealed --scale sbp --confusion --seeds 1              # every set, with/without pore p.
+    python -m validation.concealed --scale sbp --generate                         # rewrite the shipped SYNTHETIC data
 
-The data are SYNTHETIC (not measurements): two SBP expansions at the Burswood site (docs/reference.md section 5: 0.167 %/s
-and 0.0185 %/s to 10 % cavity strain, sigma'_v0 31 kPa, K0 0.9, u0 38.8 kPa, probe radius 41.5 mm; ANICREEP with
+The data are SYNTHETIC (not measurements): two SBP expansions at the Burswood site (docs/reference.md section 5: 0.167
+%/s and 0.0185 %/s to 10 % cavity strain, sigma'_v0 31 kPa, K0 0.9, u0 38.8 kPa, probe radius 41.5 mm; ANICREEP with
 lambda 0.40, kappa 0.026, e0 2.0, nu 0.3 fixed, M 1.71 and sigma'_p0 58.4 kPa), simulated by the coupled FE of
 ``cases.study.forward.sbp`` with the generating model of :data:`EFFECTS` (stated here, never in the data files), times
 independent multiplicative noise c ~ N(1, 0.02^2) per point on the total cavity pressure and the total wall pore
-pressure (Eq. 1). Data generation and calibration use the SAME coarse FE (:data:`PRESET`: 30 radial cells x 1 layer,
-30 increments, outer boundary moved as the elastic field at 200 a0), so there is no discretization bias.
+pressure (Eq. 1). Data generation and calibration use the SAME coarse FE (:data:`PRESET`: 30 radial cells x 1 layer, 30
+increments, outer boundary moved as the elastic field at 200 a0), so there is no discretization bias.
 
 Base class: rate-independent ANICREEP (``viscous=False``, anisotropic as in the Burswood case) in the coupled FE with
 the permeability held at the value the engineer assumes (:data:`EFFECTS` ``k_assumed``), M, sigma'_p0 and sigma_eps
@@ -32,18 +32,17 @@ from pathlib import Path
 import numpy as np
 
 import inference
+from cases.study.cli import UsageError, arguments
+from cases.study.forward.sbp import SBPForward
+from cases.study.loop.covariates import drainage_time_factor, programme_covariates
+from cases.study.loop.problem import LoopProblem, run_loop
+from cases.study.outputs.report import plot_loop
+from cases.study.programme import TestSpec
+from cases.study.reading.presets import FE_FIELDS, Preset
+from cases.study.reading.records import load_sbp_recordings, write_records
+from cases.study.reading.schema import Settings
 from constitutive import physics_catalog
 from inference import diagnosis
-
-from cases.study.cli import UsageError, arguments
-from cases.study.loop.covariates import drainage_time_factor, programme_covariates
-from cases.study.outputs.report import plot_loop
-from cases.study.reading.presets import FE_FIELDS, Preset
-from cases.study.loop.problem import LoopProblem, run_loop
-from cases.study.programme import TestSpec
-from cases.study.reading.records import load_sbp_recordings, write_records
-from cases.study.forward.sbp import SBPForward
-from cases.study.reading.schema import Settings
 
 CASE = "concealed_sbp"
 DATA = Path(__file__).parents[1] / "data" / "concealed_sbp"
@@ -164,7 +163,7 @@ class SBPProblem(LoopProblem):
         self.all_enrichments = all_enrichments
 
     def forward(self, switches):
-        return forward(switches, self.k_assumed, self.curves).batch
+        return forward(switches, self.k_assumed, self.curves)
 
     def map_curves(self, params, switches):
         return forward(switches, self.k_assumed, self.curves)(params)
@@ -191,8 +190,8 @@ class SBPProblem(LoopProblem):
 
     def curve_covariates(self, like, map_curves) -> dict:
         """Per-point covariates: strain rate (test condition), time since the start of the expansion, cavity strain
-        level (``cases.study.loop.covariates.programme_covariates``) and the drainage time factor T = c_h t / a0^2 (c_h of
-        Randolph & Wroth from the assumed permeability and the in-situ elastic shear modulus of the fixed kappa,
+        level (``cases.study.loop.covariates.programme_covariates``) and the drainage time factor T = c_h t / a0^2
+        (c_h of Randolph & Wroth from the assumed permeability and the in-situ elastic shear modulus of the fixed kappa,
         nu)."""
         p0 = SITE["sigma_v0"] * (1.0 + 2.0 * SITE["K0"]) / 3.0
         bulk = (1.0 + FIXED["e0"]) * p0 / FIXED["kappa"]

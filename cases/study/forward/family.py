@@ -17,9 +17,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from constitutive.registry import class_name, enrichment_family
-
 from cases.study.forward.study import StudyForward
+from constitutive.registry import class_name, enrichment_family
+from inference import ListForward
 
 __all__ = ["FamilyForward", "initial_stress"]
 
@@ -33,8 +33,8 @@ def initial_stress(spec) -> np.ndarray:
     return np.array([init.sigma_v0, init.K0 * init.sigma_v0, init.K0 * init.sigma_v0, 0.0, 0.0, 0.0])
 
 
-class FamilyForward:
-    """Batched forward model (``inference.Likelihood(batch=True)``) of ``study`` (base model ``study.model``) as the
+class FamilyForward(ListForward):
+    """Batched forward model (``inference.ListForward``) of ``study`` (base model ``study.model``) as the
     class of its enrichment family with ``switches`` (the family's switches; those not given keep the family's
     values that reproduce the base model). One :class:`StudyForward` per test (the translated values depend on the
     test's initial state); results merged per particle, a ForwardModelError in place of a particle that fails in any
@@ -71,8 +71,6 @@ class FamilyForward:
     def __call__(self, batch):
         out = [{} for _ in batch]
         for name, overrides, stress0, e0, forward in self.tests:
-            # a model that refuses a batch's values raises, as StudyForward does: the likelihood retries particle by
-            # particle and records each one's reason
             results = forward(self.translated(batch, overrides, stress0, e0))
             for i, result in enumerate(results):
                 if not isinstance(out[i], Exception):

@@ -24,13 +24,11 @@ import math
 
 import numpy as np
 
-from constitutive import ParameterError, labtests
-from inference import ForwardModelError
-
-from constitutive.registry import build_model, class_name
-
 from cases.study.forward.lab_staged import simulate_programmes
 from cases.study.programme import split_key
+from constitutive import ParameterError, labtests
+from constitutive.registry import build_model, class_name
+from inference import ForwardModel, ForwardModelError
 
 __all__ = ["LabForward", "ALIASES", "COVARIATE_CURVES", "LAB_TYPES", "programme_abscissae"]
 
@@ -103,15 +101,15 @@ def _quantities(c, rows):
             "axial_strain": 100.0 * c["axial_strain"][rows], "stress_ratio": q / p, "mean_stress": p}
 
 
-class LabForward:
-    """Batched forward model (``inference.Likelihood(batch=True)``) of laboratory tests for one model class.
+class LabForward(ForwardModel):
+    """Batched forward model (``inference.ForwardModel``) of laboratory tests for one model class.
 
     model: a name of ``cases.study.models.MODELS``; switches: its switches; fixed: parameter values not identified
     (merged under each particle's); tests: TestSpec list (laboratory types and programmes); abscissae: {test: the
     recorded axial strains (-, signed) or times (s)}, in the drivers' units, and for a programme {curve key: the
     stage's recorded abscissae as recorded (axial strain in %, time since the stage start in s, p' or sigma'_v in
-    kPa)} with each stage's ``abscissa`` set (``cases.study.reading.stage_records.recorded_programme``); curves: {test: the recorded
-    curve names};
+    kPa)} with each stage's ``abscissa`` set (``cases.study.reading.stage_records.recorded_programme``); curves:
+    {test: the recorded curve names};
     max_strain_step: see :func:`substeps`; e0_parameter: the void ratio is the model parameter ``e0`` (else each
     test's ``e0``); grid: None (simulate at the recorded abscissae; results at the records) or axial strains in %
     shared by every (triaxial) test, simulated from 0 and returned as (grid %, values) with the initial state first
@@ -119,8 +117,9 @@ class LabForward:
     programmes.
 
     Call: a list of parameter dicts -> a list of {test: {curve: values}} (the recorded curves and the covariate
-    quantities), a ForwardModelError naming the failed tests in place of a failed particle. :meth:`simulate_arrays`
-    is the likelihood's array protocol (the whole batch as arrays).
+    quantities), a ForwardModelError naming the failed tests in place of a failed particle. :meth:`simulate_batch`
+    is the likelihood's protocol (the whole batch as arrays). Both raise a ForwardModelError (the class and the
+    model's message) when the model refuses the values of the batch.
     """
 
     def __init__(self, model, tests, abscissae, curves, fixed, switches=None, *, max_strain_step=None,
@@ -173,6 +172,14 @@ class LabForward:
         """params {name: (m,) array} -> ({test: {quantity: (m, n)}} at the simulated abscissae, {test: failed (m,)}).
         Raises ParameterError/ValueError when the model refuses the values."""
         return self._simulate(params)[:2]
+
+    def _refused(self, params: dict) -> tuple:
+        """:meth:`_simulate`, a ForwardModelError (the class and the model's message) when the model refuses the
+        values."""
+        try:
+            return self._simulate(params)
+        except (ParameterError, ValueError) as exc:
+            raise ForwardModelError(f"{self.label}: {exc}") from exc
 
     def _simulate(self, params: dict) -> tuple:
         """:meth:`simulate` and {test: the reason each particle failed ("" where it did not or none is known)}."""
@@ -250,12 +257,7 @@ class LabForward:
     def __call__(self, batch):
         names = list(batch[0])
         params = {n: np.array([p[n] for p in batch], dtype=float) for n in names}
-        try:
-            curves, failed, why = self._simulate(params)
-        except (ParameterError, ValueError) as exc:
-            if len(batch) == 1:
-                return [ForwardModelError(f"{self.label}: {exc}")]
-            raise  # the likelihood retries particle by particle and records each one's reason
+        curves, failed, why = self._refused(params)
         values, _ = self.particle_values(params)
         table = self.arrays(curves, values)
         out = []
@@ -266,12 +268,14 @@ class LabForward:
                         for t, cs in table.items()})
         return out
 
-    def simulate_arrays(self, names, values):
-        """The array protocol of :class:`inference.Likelihood`: free parameter ``names`` and their ``values``
-        (m, k) -> ({test: {curve: (m, n) or (grid, (m, n + 1))}}, [None or the failure reason per particle])."""
+    def simulate_batch(self, names, values):
+        """The protocol of :class:`inference.ForwardModel`: free parameter ``names`` and their ``values`` (m, k) ->
+        ({test: {curve: (m, n) or (grid, (m, n + 1))}}, [None or a ForwardModelError naming the failed tests per
+        particle])."""
         values = np.asarray(values, dtype=float)
         params = {n: values[:, k] for k, n in enumerate(names) if n != "sigma_eps"}
-        curves, failed, why = self._simulate(params)
+        curves, failed, why = self._refused(params)
         full, m = self.particle_values(params)
         table = self.arrays(curves, full, names=lambda t: self.curves[t.name])
-        return table, [self.failure(failed, why, i) for i in range(m)]
+        reasons = [self.failure(failed, why, i) for i in range(m)]
+        return table, [None if r is None else ForwardModelError(r) for r in reasons]

@@ -22,12 +22,11 @@ from scipy.optimize import brentq
 
 import constitutive
 import fem
-from constitutive import physics_catalog
-from constitutive.registry import build_model, class_name
-from inference import ForwardModelError
-
 from cases.study.programme import curve_key, split_key
 from cases.study.stages.pressuremeter import MAX_CAVITY_STRAIN, SBP_QUANTITIES
+from constitutive import physics_catalog
+from constitutive.registry import build_model
+from inference import ForwardModel
 
 __all__ = ["SBPForward", "pressuremeter_problem", "stage_phases", "hold_growth", "FE_ARGUMENTS"]
 
@@ -85,25 +84,28 @@ def stage_phases(stages, increments: int, abscissae=None) -> list:
     return phases
 
 
-class SBPForward:
-    """params -> {test: {curve: (abscissae, values kPa)}} from one FE solve per test.
+class SBPForward(ForwardModel):
+    """params -> {test: {curve: (abscissae, values kPa)}} from one FE solve per test; an
+    ``inference.ForwardModel`` that takes one particle at a time (``batched = False``).
 
-    preset: FE discretization; site: the in situ state of the tests (:func:`pressuremeter_problem`); rates:
-    {test: cavity strain rate (1/s)} of the flat tests (one expansion to :data:`MAX_CAVITY_STRAIN`, curves against
-    cavity strain %); programmes: {test: a stage programme (cases.study.programme.TestSpec, apparatus ``sbp``)}, its
-    stages checked by :func:`cases.study.stages.sequence.check_sbp_stages`, curves :data:`SBP_QUANTITIES` of every
-    stage under the keys of ``cases.study.programme.curve_key`` (``pore_pressure@hold2``) against the stage's abscissa (cavity strain %, or
-    s since the stage start); abscissae: {test: {curve key: recorded abscissae}} of the programmes (they set a hold's
-    first time step and an unloading to a pressure's end: :func:`stage_phases`); fixed: the model's parameter values
-    not identified (merged under each particle's); model, switches: the model class (``constitutive.registry``); a
-    switch or parameter of :data:`FE_ARGUMENTS` goes to the FE (``permeability``: k in m/s, replacing the site's);
-    void_ratio0: the initial void ratio of the FE (default ``fixed["e0"]``); curves: of the flat tests,
-    "cavity_pressure" (total, kPa) and optionally "pore_pressure" (total pore pressure at the wall, kPa).
+    preset: FE discretization; site: the in situ state of the tests (:func:`pressuremeter_problem`); rates: {test:
+    cavity strain rate (1/s)} of the flat tests (one expansion to :data:`MAX_CAVITY_STRAIN`, curves against cavity
+    strain %); programmes: {test: a stage programme (cases.study.programme.TestSpec, apparatus ``sbp``)}, its stages
+    checked by :func:`cases.study.stages.sequence.check_sbp_stages`, curves :data:`SBP_QUANTITIES` of every stage under
+    the keys of ``cases.study.programme.curve_key`` (``pore_pressure@hold2``) against the stage's abscissa (cavity
+    strain %, or s since the stage start); abscissae: {test: {curve key: recorded abscissae}} of the programmes (they
+    set a hold's first time step and an unloading to a pressure's end: :func:`stage_phases`); fixed: the model's
+    parameter values not identified (merged under each particle's); model, switches: the model class
+    (``constitutive.registry``); a switch or parameter of :data:`FE_ARGUMENTS` goes to the FE (``permeability``: k in
+    m/s, replacing the site's); void_ratio0: the initial void ratio of the FE (default ``fixed["e0"]``); curves: of the
+    flat tests, "cavity_pressure" (total, kPa) and optionally "pore_pressure" (total pore pressure at the wall, kPa).
 
-    ``forward(params)`` is one particle (raises fem.ConvergenceError / IntegrationError on failure);
-    :meth:`batch` is the batched form (a ForwardModelError in place of a failed particle). Picklable: the FE solvers
+    ``forward(params)`` and :meth:`simulate_batch` solve one particle (they raise fem.ConvergenceError /
+    IntegrationError on failure). Picklable: the FE solvers
     are built lazily in each process (or MPI rank) on first use and reused after.
     """
+
+    batched = False
 
     def __init__(self, preset, site: dict, rates: dict, fixed: dict, model="ANICREEP", switches=None,
                  void_ratio0=None, curves=("cavity_pressure",), programmes=None, abscissae=None):
@@ -197,12 +199,7 @@ class SBPForward:
     def __call__(self, params) -> dict:
         return self.curves_of(self.results(params))
 
-    def batch(self, batch) -> list:
-        """A list of parameter dicts -> a list of curves, a ForwardModelError for a failed particle."""
-        out = []
-        for params in batch:
-            try:
-                out.append(self(params))
-            except Exception as exc:  # noqa: BLE001 - an FE failure is this particle's zero likelihood
-                out.append(ForwardModelError(f"{class_name(self.switches, self.model)}: {type(exc).__name__}: {exc}"))
-        return out
+    def simulate_batch(self, names, values) -> tuple:
+        """The protocol of :class:`inference.ForwardModel` for one particle: ``values`` (1, k)."""
+        (row,) = np.atleast_2d(values)
+        return [self({n: float(v) for n, v in zip(names, row)})], [None]

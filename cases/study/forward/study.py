@@ -3,21 +3,21 @@
 :class:`cases.study.forward.sbp.SBPForward` (one coupled FE solve per particle, at the test's site and rate)."""
 from __future__ import annotations
 
-from constitutive.registry import class_name
-from inference import ForwardModelError
-
 from cases.study.forward.lab import LabForward
 from cases.study.forward.sbp import SBPForward
 from cases.study.reading.stage_records import recorded_programme
+from constitutive.registry import class_name
+from inference import ForwardModelError, ListForward
 
 __all__ = ["StudyForward"]
 
 
-class StudyForward:
-    """Batched forward model (``inference.Likelihood(batch=True)``) of a study (``cases.study.reading.schema.Study``: model,
+class StudyForward(ListForward):
+    """Batched forward model (``inference.ListForward``) of a study (``cases.study.reading.schema.Study``: model,
     fixed values, tests) for the model class with ``switches``: a list of parameter dicts (the free ones) -> a list of
     {test: {curve: values at the records, or (cavity strain %, values) for an SBP test}} with the covariate
-    quantities of the laboratory tests, a ForwardModelError naming the failed tests in place of a failed particle.
+    quantities of the laboratory tests, a ForwardModelError naming the failed tests in place of a failed particle
+    (raising when the model refuses the values of the batch).
     ``observations`` give the recorded abscissae and curves; ``preset`` the FE discretization of the SBP tests
     (default: the study's full one). A particle that fails in a laboratory test gets no FE solve."""
 
@@ -43,7 +43,8 @@ class StudyForward:
 
     def sbp_forward(self, t, recorded, preset, e0_parameter) -> SBPForward:
         """The FE forward model of the SBP test ``t`` recorded as ``recorded`` (inference.Test): its flat expansion,
-        or its stage programme with each stage's abscissa as recorded (``cases.study.reading.stage_records.recorded_programme``)."""
+        or its stage programme with each stage's abscissa as recorded
+        (``cases.study.reading.stage_records.recorded_programme``)."""
         staged = {}
         if t.staged:
             staged = {"programmes": {t.name: recorded_programme(t, recorded)},

@@ -104,7 +104,10 @@ def generate(path, noise=None, seed=None, directory=None) -> dict:
                                                                    if k not in study.free}}),
                            observations, settings["switches"])
     free = {k: v for k, v in settings["parameters"].items() if k in study.free}
-    result = forward([free])[0]
+    try:
+        result = forward([free])[0]
+    except inference.ForwardModelError as exc:  # the model refuses the values
+        result = exc
     if isinstance(result, Exception):
         raise StudyError(f"{study.path}: synthetic.parameters = {settings['parameters']}: the generating model failed: "
                          f"{result}")

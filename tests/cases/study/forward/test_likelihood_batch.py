@@ -1,4 +1,5 @@
-"""The likelihood's array path (forward models with ``simulate_arrays``): Eq. (5) over a whole batch in numpy.
+"""The likelihood's array path (forward models whose ``simulate_batch`` gives a table of curves): Eq. (5) over a
+whole batch in numpy.
 
 Checked against (1) a hand-computed Eq. (5) on a toy forward model, (2) a reference written here as the per-particle
 code was before the array path (np.interp per particle and curve, ``rel @ rel`` per curve), on random parameter sets of
@@ -12,7 +13,7 @@ import pytest
 from cases import simsand_synthetic, toyoura
 from cases.study import sand_route
 from cases.study.reading.schema import load_study
-from inference import Curve, ForwardModelError, Likelihood, Observations, Test
+from inference import Curve, ForwardModel, ForwardModelError, Likelihood, Observations, Test
 
 
 # ----------------------------------------------------------------------------------------------- a toy forward model
@@ -24,23 +25,23 @@ def _toy_obs():
     ])
 
 
-class Toy:
+class Toy(ForwardModel):
     """q = 10 a x on a grid (interpolated to the records), e at the recorded strains; a < 0 fails (a reason),
     a > 100 gives a NaN q curve without a reason."""
 
     grid = np.array([0.0, 2.0, 1.0, 3.0, 4.0])  # unsorted on purpose
 
-    def simulate_arrays(self, names, values):
+    def simulate_batch(self, names, values):
         a = values[:, names.index("a")]
         q = 10.0 * a[:, None] * self.grid ** 2 / np.where(self.grid > 0, self.grid, 1.0)  # 10 a x, x = 0 -> 0
         q[a > 100] = np.nan
         e = np.broadcast_to(0.8 - 0.01 * np.arange(5.0), (len(a), 5))
         curves = {"t1": {"q": (self.grid, q), "e": e}, "t2": {"q": (self.grid, q)}}
-        return curves, [f"a = {v} < 0" if v < 0 else None for v in a]
+        return curves, [ForwardModelError(f"a = {v} < 0") if v < 0 else None for v in a]
 
     def __call__(self, batch):
-        curves, reasons = self.simulate_arrays(("a",), np.array([[p["a"]] for p in batch]))
-        return [ForwardModelError(r) if r else {t: {c: (v[0], v[1][i]) if isinstance(v, tuple) else v[i]
+        curves, reasons = self.simulate_batch(("a",), np.array([[p["a"]] for p in batch]))
+        return [r if r is not None else {t: {c: (v[0], v[1][i]) if isinstance(v, tuple) else v[i]
                                                     for c, v in cs.items()} for t, cs in curves.items()}
                 for i, r in enumerate(reasons)]
 
@@ -74,7 +75,7 @@ def test_batch_path_equals_the_per_particle_path_for_the_toy():
     one_by_one = [like.evaluate_many(th[None]) for th in thetas]
     np.testing.assert_array_equal(whole, [v[0] for v, _ in one_by_one])
     assert reasons == [r[0] for _, r in one_by_one]
-    plain = Likelihood(_toy_obs(), lambda b: Toy()(b), batch=True).bind(("a", "sigma_eps"))  # no simulate_arrays
+    plain = Likelihood(_toy_obs(), lambda b: Toy()(b), batch=True).bind(("a", "sigma_eps"))  # a list callable
     values, plain_reasons = plain.evaluate_many(thetas)
     np.testing.assert_array_equal(whole, values)
     assert reasons == plain_reasons
@@ -84,8 +85,8 @@ def test_a_grid_that_does_not_cover_the_record_fails_every_particle():
     class Short(Toy):
         grid = np.array([0.0, 1.0, 2.0, 3.0])
 
-        def simulate_arrays(self, names, values):
-            curves, reasons = super().simulate_arrays(names, values)
+        def simulate_batch(self, names, values):
+            curves, reasons = super().simulate_batch(names, values)
             return {t: {c: (v[0][:4], v[1][:, :4]) if isinstance(v, tuple) else v for c, v in cs.items()}
                     for t, cs in curves.items()}, reasons
 

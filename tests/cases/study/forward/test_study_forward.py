@@ -6,11 +6,11 @@ import pytest
 
 import fem
 from cases.study.forward.lab import LabForward
-from cases.study.reading.presets import Preset
-from cases.study.programme import TestSpec
 from cases.study.forward.sbp import SBPForward, pressuremeter_problem
+from cases.study.programme import TestSpec
+from cases.study.reading.presets import Preset
 from constitutive import ANICREEP, labtests
-from inference import ForwardModelError
+from inference import Curve, ForwardModelError, Likelihood, Observations, Test
 
 FIXED = {"lambda_": 0.40, "kappa": 0.026, "e0": 2.0, "nu": 0.25, "tau": 86400.0}
 TESTS = [
@@ -66,11 +66,19 @@ def test_batched_programme_equals_each_test_driven_alone(switches):
 
 
 def test_a_refused_parameter_set_is_that_particle_s_failure():
+    """The model refusing a batch's values raises a ForwardModelError naming the class (alone or in a batch); the
+    likelihood then solves each particle alone and records the refused one's reason."""
     fw = LabForward("ANICREEP", TESTS[:1], ABSCISSAE, {"cku": ("q",)}, FIXED, {"viscous": False}, e0_parameter=True)
-    (bad,) = fw([{"M": -1.0, "sigma_p0": 100.0}])
-    assert isinstance(bad, ForwardModelError) and "ANICREEP(viscous=False)" in str(bad)
-    with pytest.raises(ValueError):  # a batch: the likelihood then retries particle by particle
+    with pytest.raises(ForwardModelError, match=r"ANICREEP\(viscous=False\)"):
+        fw([{"M": -1.0, "sigma_p0": 100.0}])
+    with pytest.raises(ForwardModelError):
         fw([{"M": -1.0, "sigma_p0": 100.0}, {"M": 1.2, "sigma_p0": 100.0}])
+    (good,) = fw([{"M": 1.2, "sigma_p0": 100.0}])
+    observations = Observations([Test("cku", {"q": Curve(100.0 * ABSCISSAE["cku"], good["cku"]["q"])})])
+    like = Likelihood(observations, fw).bind(("M", "sigma_p0", "sigma_eps"))
+    values, reasons = like.evaluate_many(np.array([[-1.0, 100.0, 0.1], [1.2, 100.0, 0.1]]))
+    assert values[0] == -np.inf and reasons[0].startswith("ForwardModelError: ANICREEP(viscous=False): ")
+    assert np.isfinite(values[1]) and reasons[1] is None
 
 
 def test_sbp_forward_builds_the_material_and_the_problem_it_is_given():

@@ -1,0 +1,76 @@
+"""The failure policy of the likelihood (inference.forward.batch_or_each) with toy forward models, no soil code:
+a batch that raises is evaluated particle by particle; a particle that still fails gets -inf and its reason."""
+import numpy as np
+import pytest
+
+from inference import Curve, ForwardModel, ForwardModelError, Likelihood, Observations, Test
+
+X = np.array([1.0, 2.0, 3.0])
+
+
+def _obs():
+    return Observations([Test("t", {"q": Curve(X, 10.0 * X)})])
+
+
+class Linear(ForwardModel):
+    """q = 10 a x at the records; raises for the whole batch when a batch of more than one holds a >= ``batch_bad``;
+    a particle with a >= ``always_bad`` raises even alone."""
+
+    def __init__(self, batch_bad=np.inf, always_bad=np.inf):
+        self.batch_bad, self.always_bad = batch_bad, always_bad
+        self.calls = []
+
+    def simulate_batch(self, names, values):
+        a = values[:, names.index("a")]
+        self.calls.append(len(a))
+        if (a >= self.always_bad).any():
+            raise ValueError(f"a = {a[a >= self.always_bad][0]} is refused")
+        if len(a) > 1 and (a >= self.batch_bad).any():
+            raise RuntimeError("the batch cannot be solved together")
+        return {"t": {"q": 10.0 * a[:, None] * X}}, [None] * len(a)
+
+
+THETAS = np.array([[1.0, 0.1], [2.0, 0.1], [1.5, 0.1]])
+
+
+def test_a_batch_that_fails_as_a_whole_is_retried_particle_by_particle():
+    reference = Likelihood(_obs(), Linear()).bind(("a", "sigma_eps")).evaluate_many(THETAS)
+    forward = Linear(batch_bad=2.0)
+    values, reasons = Likelihood(_obs(), forward).bind(("a", "sigma_eps")).evaluate_many(THETAS)
+    assert forward.calls == [3, 1, 1, 1]
+    np.testing.assert_array_equal(values, reference[0])
+    assert reasons == [None, None, None] and np.isfinite(values).all()
+
+
+def test_a_particle_that_fails_alone_gets_minus_inf_with_its_reason():
+    forward = Linear(always_bad=2.0)
+    values, reasons = Likelihood(_obs(), forward).bind(("a", "sigma_eps")).evaluate_many(THETAS)
+    assert forward.calls == [3, 1, 1, 1]
+    assert values[1] == -np.inf and reasons[1] == "ValueError: a = 2.0 is refused"
+    assert np.isfinite(values[[0, 2]]).all() and reasons[0] is None and reasons[2] is None
+
+
+def test_a_failed_record_and_the_single_particle_adapter():
+    class Recorded(Linear):
+        def simulate_batch(self, names, values):
+            curves, _ = super().simulate_batch(names, values)
+            return curves, [ForwardModelError("no curve") if v > 1.8 else None for v in values[:, 0]]
+
+    values, reasons = Likelihood(_obs(), Recorded()).bind(("a", "sigma_eps")).evaluate_many(THETAS)
+    assert values[1] == -np.inf and reasons == [None, "ForwardModelError: no curve", None]
+
+    seen = []
+
+    def one(params):  # a single-particle callable: given one parameter set at a time
+        seen.append(params)
+        if params["a"] > 1.8:
+            raise ArithmeticError("diverged")
+        return {"t": {"q": 10.0 * params["a"] * X}}
+
+    like = Likelihood(_obs(), one).bind(("a", "sigma_eps"))
+    values, reasons = like.evaluate_many(THETAS)
+    assert seen == [{"a": 1.0}, {"a": 2.0}, {"a": 1.5}]
+    assert reasons == [None, "ArithmeticError: diverged", None]
+    assert values[0] == pytest.approx(like(THETAS[0])) and values[0] > values[2]
+    with pytest.raises(ArithmeticError):
+        like(THETAS[1])
