@@ -40,7 +40,7 @@ class FamilyForward(ListForward):
     test's initial state); results merged per particle, a ForwardModelError in place of a particle that fails in any
     test."""
 
-    def __init__(self, study, observations, switches: dict, preset=None):
+    def __init__(self, study, observations, switches: dict, preset=None, refinement=1):
         self.family = enrichment_family(study.model)
         switches = {**self.family.switches, **switches}
         self.base_values = dict(study.fixed)
@@ -55,7 +55,7 @@ class FamilyForward(ListForward):
             clean = replace(t, initial=replace(t.initial, ocr=None, preconsolidation=None))
             inner = replace(study, model=self.family.model, switches=dict(switches), fixed={}, tests=(clean,))
             self.tests.append((t.name, overrides, initial_stress(t), e0,
-                               StudyForward(inner, observations, switches, preset)))
+                               StudyForward(inner, observations, switches, preset, refinement)))
 
     def translated(self, batch, overrides, stress0, e0) -> list:
         """The family's values of every particle of ``batch`` for one test."""

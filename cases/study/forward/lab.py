@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from cases.study.forward.lab_stage_steps import FALLBACK_STRAIN_STEP
 from cases.study.forward.lab_staged import simulate_programmes
 from cases.study.programme import split_key
 from constitutive import ParameterError, labtests
@@ -106,15 +107,15 @@ class LabForward(ForwardModel):
 
     model: a name of ``cases.study.models.MODELS``; switches: its switches; fixed: parameter values not identified
     (merged under each particle's); tests: TestSpec list (laboratory types and programmes); abscissae: {test: the
-    recorded axial strains (-, signed) or times (s)}, in the drivers' units, and for a programme {curve key: the
-    stage's recorded abscissae as recorded (axial strain in %, time since the stage start in s, p' or sigma'_v in
-    kPa)} with each stage's ``abscissa`` set (``cases.study.reading.stage_records.recorded_programme``); curves:
-    {test: the recorded curve names};
-    max_strain_step: see :func:`substeps`; e0_parameter: the void ratio is the model parameter ``e0`` (else each
-    test's ``e0``); grid: None (simulate at the recorded abscissae; results at the records) or axial strains in %
-    shared by every (triaxial) test, simulated from 0 and returned as (grid %, values) with the initial state first
-    for the likelihood to interpolate to the records (the grid must reach the largest recorded strain); not for
-    programmes.
+    recorded axial strains (-, signed) or times (s)}, in the drivers' units, and for a programme {curve key: the stage's
+    recorded abscissae as recorded (axial strain in %, time since the stage start in s, p' or sigma'_v in kPa)} with
+    each stage's ``abscissa`` set (``cases.study.reading.stage_records.recorded_programme``); curves: {test: the
+    recorded curve names}; max_strain_step: see :func:`substeps`; refinement: the strain steps are this many times finer
+    (1: the calibration's; the diagnosis measures the discretisation error with 2); e0_parameter: the void ratio is the
+    model parameter ``e0`` (else each test's ``e0``); grid: None (simulate at the recorded abscissae; results at the
+    records) or axial strains in % shared by every (triaxial) test, simulated from 0 and returned as (grid %, values)
+    with the initial state first for the likelihood to interpolate to the records (the grid must reach the largest
+    recorded strain); not for programmes.
 
     Call: a list of parameter dicts -> a list of {test: {curve: values}} (the recorded curves and the covariate
     quantities), a ForwardModelError naming the failed tests in place of a failed particle. :meth:`simulate_batch`
@@ -123,13 +124,15 @@ class LabForward(ForwardModel):
     """
 
     def __init__(self, model, tests, abscissae, curves, fixed, switches=None, *, max_strain_step=None,
-                 e0_parameter=False, grid=None):
+                 e0_parameter=False, grid=None, refinement=1):
         self.model = model
         self.switches = dict(switches or {})
         self.fixed = dict(fixed)
         self.tests = list(tests)
         self.curves = {t.name: tuple(curves[t.name]) for t in self.tests}
-        self.max_strain_step = max_strain_step
+        self.max_strain_step = None if max_strain_step is None else max_strain_step / refinement
+        #: the programmes' largest strain increment: the model's own unless refined
+        self.staged_strain_step = None if refinement == 1 else (max_strain_step or FALLBACK_STRAIN_STEP) / refinement
         self.e0_parameter = e0_parameter
         self.label = class_name(self.switches, model)
         if grid is None:
@@ -196,7 +199,8 @@ class LabForward(ForwardModel):
             if specs[0].staged:  # the programmes share their driver calls (simulate_programmes)
                 model = build_model(self.model, values, self.switches)
                 results = simulate_programmes(model, specs, [self.x[s.name] for s in specs], m,
-                                              e0=values["e0"] if self.e0_parameter else None)
+                                              e0=values["e0"] if self.e0_parameter else None,
+                                              strain_step=self.staged_strain_step)
                 for spec, (curve, bad, reason) in zip(specs, results):
                     curves[spec.name], failed[spec.name], why[spec.name] = curve, bad, reason
                 continue

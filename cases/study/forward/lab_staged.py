@@ -300,10 +300,11 @@ def simulate_programme(model, spec, abscissae: dict, n: int, e0=None):
     return simulate_programmes(model, [spec], [abscissae], n, e0)[0][:2]
 
 
-def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
+def simulate_programmes(model, specs, abscissae, n: int, e0=None, strain_step=None) -> list:
     """:func:`simulate_programme` of several tests for the same n particles: a list of (curves, failed, why), one
     per test of ``specs`` (abscissae: one dict per test; why: the reason each particle failed, "" where it did
-    not).
+    not); ``strain_step``: the largest strain increment (-), default the model's ``max_strain_step`` (else
+    :data:`FALLBACK_STRAIN_STEP`).
 
     Tests in the same apparatus (and whose specimen models have the same parameters set) run together over
     (tests x particles) points, in rounds: each round takes the next stage of the tests whose next stage has the most
@@ -325,7 +326,7 @@ def simulate_programmes(model, specs, abscissae, n: int, e0=None) -> list:
         groups.setdefault((spec.apparatus, set_names), []).append(j)
     results = [None] * len(specs)
     for members in groups.values():
-        done = _simulate_group([prepared[j] for j in members], [abscissae[j] for j in members], n)
+        done = _simulate_group([prepared[j] for j in members], [abscissae[j] for j in members], n, strain_step)
         for j, result in zip(members, done):
             results[j] = result
     return results
@@ -417,7 +418,7 @@ def _put(carried, index, part):
     return out
 
 
-def _simulate_group(prepared, abscissae, n):
+def _simulate_group(prepared, abscissae, n, strain_step=None):
     """simulate_programmes of tests of one group: prepared [(spec, specimen model, start void ratio)]."""
     specs = [spec for spec, _, _ in prepared]
     size = n * len(specs)
@@ -429,7 +430,7 @@ def _simulate_group(prepared, abscissae, n):
     outs = [{k: np.full((n, len(np.atleast_1d(x[k]))), np.nan) for k in x} for x in abscissae]
     if state is None:
         return [(out, np.ones(n, dtype=bool), list(why[j * n:(j + 1) * n])) for j, out in enumerate(outs)]
-    step = model.max_strain_step or FALLBACK_STRAIN_STEP
+    step = strain_step or model.max_strain_step or FALLBACK_STRAIN_STEP
     timed = getattr(model, "rate_dependent", True)
     carried = {"stress": stress0, "state": state, "strain": np.zeros((size, 6)), "u": np.zeros(size),
                "t": np.zeros(size), "failed": why != "", "why": why}

@@ -3,6 +3,8 @@
 :class:`cases.study.forward.sbp.SBPForward` (one coupled FE solve per particle, at the test's site and rate)."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 from cases.study.forward.lab import LabForward
 from cases.study.forward.sbp import SBPForward
 from cases.study.reading.stage_records import recorded_programme
@@ -19,9 +21,11 @@ class StudyForward(ListForward):
     quantities of the laboratory tests, a ForwardModelError naming the failed tests in place of a failed particle
     (raising when the model refuses the values of the batch).
     ``observations`` give the recorded abscissae and curves; ``preset`` the FE discretization of the SBP tests
-    (default: the study's full one). A particle that fails in a laboratory test gets no FE solve."""
+    (default: the study's full one); ``refinement``: a discretisation this many times finer (the laboratory
+    drivers' strain steps; the FE's radial cells and increments), with which the diagnosis measures the calibrated
+    one's error. A particle that fails in a laboratory test gets no FE solve."""
 
-    def __init__(self, study, observations, switches: dict, preset=None):
+    def __init__(self, study, observations, switches: dict, preset=None, refinement=1):
         spec = study.spec
         self.model = study.model
         self.switches = dict(switches)
@@ -36,9 +40,13 @@ class StudyForward(ListForward):
             driver_x = {t.name: {k: c.x for k, c in observations[t.name].curves.items()} if t.staged else
                         x[t.name] if t.type == "oedometer_creep" else x[t.name] / 100.0 for t in lab}
             self.lab = LabForward(self.model, lab, driver_x, curves, self.fixed, self.switches,
-                                  max_strain_step=spec.max_strain_step, e0_parameter=spec.e0_parameter)
-        self.sbp = {t.name: self.sbp_forward(t, observations[t.name], preset or study.preset(False),
-                                             spec.e0_parameter)
+                                  max_strain_step=spec.max_strain_step, e0_parameter=spec.e0_parameter,
+                                  refinement=refinement)
+        preset = preset or study.preset(False)
+        if refinement != 1:
+            preset = replace(preset, radial_cells=refinement * preset.radial_cells,
+                             increments=refinement * preset.increments)
+        self.sbp = {t.name: self.sbp_forward(t, observations[t.name], preset, spec.e0_parameter)
                     for t in study.tests if t.type == "sbp" or t.apparatus == "sbp"}
 
     def sbp_forward(self, t, recorded, preset, e0_parameter) -> SBPForward:

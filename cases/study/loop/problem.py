@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -95,6 +96,31 @@ class LoopProblem:
         """{test: {curve: values at the records or (x, y)}} of one parameter set, with the extra curves the
         covariates use (``stress_ratio``, ``mean_stress``)."""
         raise NotImplementedError
+
+    def refined_curves(self, params: dict, switches: dict) -> dict | None:
+        """:meth:`map_curves` with a discretisation twice as fine (None: the study has no finer one; the diagnosis
+        then does not measure the discretisation error)."""
+        return None
+
+    def numerical_error(self, like, cls: ModelClass, switches: dict) -> list:
+        """The discretisation error of the class ``cls`` at its mode: per curve, the RMS and the largest relative
+        difference |U_fine - U| / |U_obs| between :meth:`refined_curves` and the calibrated discretisation at the
+        records ([{test, curve, rms, max}]; [] when not measured or when the refined solve fails)."""
+        params, _ = like.split(cls.extra["map_theta"])
+        try:
+            fine = self.refined_curves(params, switches)
+            fine = None if fine is None else like.simulated_at_observations(fine)
+        except Exception:  # noqa: BLE001 - no measurement: the diagnosis goes on without it
+            fine = None
+        if fine is None:
+            return []
+        out = []
+        for t in like.observations:
+            for c, curve in t.curves.items():
+                used = like.masks[t.name, c]
+                d = np.abs(fine[t.name, c] - cls.map_simulated[t.name, c])[used] / np.abs(curve.y[used])
+                out.append({"test": t.name, "curve": c, "rms": float(np.sqrt(np.mean(d**2))), "max": float(d.max())})
+        return out
 
     def curve_covariates(self, like, map_curves) -> dict:
         """Per-point covariates (``inference.diagnosis.screen``'s form) from the base class's MAP curves."""
@@ -303,7 +329,7 @@ class LoopProblem:
         self.conventions_compared = [{"convention": w, "switches": s, "class": c.name, "log_evidence": c.log_evidence}
                                      for w, s, c, _, _ in tried]
         self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
-        return cls
+        return replace(cls, numerical_error=self.numerical_error(like, cls, {**self.base_switches, **convention}))
 
     def calibrate_model_form(self) -> ModelClass:
         """The base class with a model-form discrepancy (:meth:`discrepancy`), in DIR/model_form: the alternative
@@ -367,17 +393,23 @@ class StudyProblem(LoopProblem):
         self.synthetic = any("synthetic" in t.conditions for t in observations)
         self.generating = generating_values(observations)
 
-    def forward(self, switches):
+    def forward(self, switches, refinement=1):
         """The study's forward model of the class with ``switches``: the base model's own (switches it has), or its
         enrichment family's with the parameters translated (``cases.study.forward.family``: an MCC study enriched as
-        ANICREEP)."""
+        ANICREEP); ``refinement``: a discretisation this many times finer (``StudyForward``)."""
         own = self.study.spec.switches
         if enrichment_family(self.model).model != self.model and any(k not in own for k in switches):
-            return FamilyForward(self.study, self.observations, switches, self.preset)
-        return StudyForward(self.study, self.observations, switches, self.preset)
+            return FamilyForward(self.study, self.observations, switches, self.preset, refinement)
+        return StudyForward(self.study, self.observations, switches, self.preset, refinement)
 
     def map_curves(self, params, switches):
         return self.forward(switches)([params])[0]
+
+    def refined_curves(self, params, switches):
+        result = self.forward(switches, refinement=2)([params])[0]
+        if isinstance(result, Exception):
+            raise result
+        return result
 
     def catalog_switches(self, switches):
         return {**self.study.spec.catalog, **switches}
