@@ -1,5 +1,6 @@
 """Burswood clay, self-boring pressuremeter: ANICREEP parameters from two expansion rates (docs/reference.md section 5).
-The study is the file cases/studies/burswood_sbp.toml, run by the one runner (``cases.study.routes``, route "sbp").
+The study is the file cases/studies/burswood_sbp.toml, run by the one runner (``cases.study.routes.dispatch``, route
+"sbp").
 
     python -m cases.burswood_sbp --quick            # the README's main job (DE-TMCMC, local process pool)
     mpirun -n 8 python -m cases.burswood_sbp        # the paper's setting, N_s = 2000, whole FE solves per rank
@@ -28,8 +29,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from cases.study import routes
 from cases.study.cli import command
+from cases.study.routes import dispatch as routes
 
 __all__ = ["STUDY", "main"]
 

@@ -14,13 +14,13 @@ written in ``--out`` when something is wrong. A second run on the same ``--out``
 Example studies with SYNTHETIC data are in cases/examples/; the paper's studies are in cases/studies/
 (burswood_sbp.toml, toyoura.toml, simsand_synthetic.toml).
 
-The study file's ``[runner] route`` chooses how it is calibrated (``cases.study.routes``): "study" (the default,
-below), "sand" (SIMSAND triaxial tests on a strain grid with predicted tests: ``--free``, ``--sweeps``,
-``--undrained``, ``--error-groups``, ``--noise``, ``--regenerate``; ``cases.study.sand_route``) or "sbp" (pressuremeter
+The study file's ``[runner] route`` chooses how it is calibrated (``cases.study.routes.dispatch``): "study" (the
+default, below), "sand" (SIMSAND triaxial tests on a strain grid with predicted tests: ``--free``, ``--sweeps``,
+``--undrained``, ``--error-groups``, ``--noise``, ``--regenerate``; ``cases.study.routes.sand``) or "sbp" (pressuremeter
 expansions at one site: ``--recordings``, ``--rates``, ``--pressure-only``, ``--fixed``, ``--radial-cells``,
 ``--layers``, ``--increments``, ``--sweeps``, ``--max-stages``, ``--timeout``, ``--throughput``;
-``cases.study.sbp_route``). ``[reference]`` values (published or generating) are shown beside the posterior in the
-sand and sbp routes' report.md and figures.
+``cases.study.routes.sbp``). ``[reference]`` values (published or generating) are shown beside the posterior in the sand
+and sbp routes' report.md and figures.
 
 Test types (``cases.study.programme``): ``triaxial``, ``oedometer_crs``, ``oedometer_creep`` (laboratory drivers of
 ``constitutive.labtests``) and ``sbp`` (the coupled pressuremeter FE). Base models: ``ModifiedCamClay``, ``ANICREEP``
@@ -40,8 +40,8 @@ from __future__ import annotations
 
 import sys
 
-from cases.study import routes
 from cases.study.cli import command
+from cases.study.routes import dispatch as routes
 
 __all__ = ["main"]
 

@@ -1,6 +1,6 @@
 """Synthetic SIMSAND identification: the paper's section 3.1 (docs/reference.md section 5). ALL DATA HERE IS SYNTHETIC.
-The study is the file cases/studies/simsand_synthetic.toml, run by the one runner (``cases.study.routes``, route
-"sand").
+The study is the file cases/studies/simsand_synthetic.toml, run by the one runner (``cases.study.routes.dispatch``,
+route "sand").
 
     python -m cases.simsand_synthetic [--quick] [--noise 0|0.1] [--method de|o|both] [--samples N] [--seed S]
                                       [--runs R] [--out DIR] [--resume] [--free NAMES] [--sweeps K] [--regenerate]
@@ -28,8 +28,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from cases.study import routes
 from cases.study.cli import command
+from cases.study.routes import dispatch as routes
 
 __all__ = ["STUDY", "main"]
 

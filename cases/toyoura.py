@@ -1,6 +1,6 @@
 """Toyoura sand: SIMSAND identified from Verdugo & Ishihara's (1996) drained triaxial tests (the paper's section 3.2,
 docs/reference.md section 5). The curves are measurements (digitised, CC-BY-4.0; cases/data/toyoura/SOURCE.md). The
-study is the file cases/studies/toyoura.toml, run by the one runner (``cases.study.routes``, route "sand").
+study is the file cases/studies/toyoura.toml, run by the one runner (``cases.study.routes.dispatch``, route "sand").
 
     python -m cases.toyoura [--quick] [--method de|o|both] [--samples N] [--seed S] [--runs R] [--out DIR] [--resume]
                             [--undrained FILE[:E0:P0_KPA] ...] [--free NAMES] [--sweeps K] [--error-groups [FILE]]
@@ -31,8 +31,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from cases.study import routes
 from cases.study.cli import command
+from cases.study.routes import dispatch as routes
 
 __all__ = ["STUDY", "main"]
 

@@ -1,4 +1,4 @@
-"""cases.burswood_sbp (cases/studies/burswood_sbp.toml through cases.study.sbp_route) on a tiny mesh: recordings, bad
+"""cases.burswood_sbp (cases/studies/burswood_sbp.toml through cases.study.routes.sbp) on a tiny mesh: recordings, bad
 input, a small calibration serial and under mpirun -n 2."""
 import json
 import os
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from cases import burswood_sbp
-from cases.study import sbp_route
 from cases.study.reading.presets import Preset
 from cases.study.reading.records import load_sbp_recordings
 from cases.study.reading.schema import load_study
+from cases.study.routes import sbp as sbp_route
 from inference.observations import DataError
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

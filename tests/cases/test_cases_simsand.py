@@ -1,4 +1,4 @@
-"""The SIMSAND studies (cases/studies/simsand_synthetic.toml, toyoura.toml through cases.study.sand_route) and their
+"""The SIMSAND studies (cases/studies/simsand_synthetic.toml, toyoura.toml through cases.study.routes.sand) and their
 forward model (cases.study.forward.lab)."""
 import json
 from pathlib import Path
@@ -8,11 +8,11 @@ import pytest
 
 import inference
 from cases import simsand_synthetic, toyoura
-from cases.study import sand_route
 from cases.study.forward.lab import LabForward
 from cases.study.programme import TestSpec
 from cases.study.reading.schema import load_study
-from cases.study.sand import conditions_of
+from cases.study.routes import sand as sand_route
+from cases.study.routes.sand_study import conditions_of
 from constitutive import SIMSAND
 
 SYN = load_study(simsand_synthetic.STUDY)

@@ -9,8 +9,8 @@ import pytest
 
 import inference
 from cases import toyoura
-from cases.study import sand_route
 from cases.study.reading.schema import load_study
+from cases.study.routes import sand as sand_route
 
 STUDY = load_study(toyoura.STUDY)
 SOIL = dict(STUDY.references["paper_reference"].values)

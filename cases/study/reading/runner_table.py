@@ -1,10 +1,10 @@
-"""The ``[runner]`` table of a study file: which route of the one runner (:mod:`cases.study.routes`) calibrates the
-study, and the settings of that route that are not part of the calibration problem itself.
+"""The ``[runner]`` table of a study file: which route of the one runner (:mod:`cases.study.routes.dispatch`) calibrates
+the study, and the settings of that route that are not part of the calibration problem itself.
 
     [runner]
     route = "study"            # "study": the general route (any model and test type, --diagnose);
                                # "sand": SIMSAND triaxial tests on a strain grid with predicted tests and CSL figures
-                               # (cases.study.sand_route); "sbp": the pressuremeter route (cases.study.sbp_route)
+                               # (cases.study.routes.sand); "sbp": the pressuremeter route (cases.study.routes.sbp)
 
 Sand route fields: ``records`` ("plain": columns eps_a_pct, q_kPa, e; "stress_ratio": eps_a (%), sr =
 sigma'_a/sigma'_r, eps_v (% compression positive) with header e0, sigma3_kPa), ``calibrate`` (tests calibrated, the

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from cases import simsand_synthetic, toyoura
-from cases.study import sand_route
 from cases.study.reading.schema import load_study
+from cases.study.routes import sand as sand_route
 from inference import Curve, ForwardModel, ForwardModelError, Likelihood, Observations, Test
 
 

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cases.study import sand_route
 from cases.study.cli import UsageError
 from cases.study.loop.problem import StudyProblem
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
+from cases.study.routes import sand as sand_route
 
 ROOT = Path(__file__).resolve().parents[4]
 EXAMPLES = ROOT / "cases" / "examples"

@@ -1,7 +1,7 @@
 """The sand route of the one runner (``[runner] route = "sand"``): a study file of SIMSAND triaxial tests from
-isotropic states calibrated on a strain grid (:mod:`cases.study.sand`), with predicted tests, the CSL figure, the
-volumetric strain of the predicted drained tests and, for a synthetic study, its record generator. The paper's
-sections 3.1 (cases/studies/simsand_synthetic.toml) and 3.2 (cases/studies/toyoura.toml) are such studies.
+isotropic states calibrated on a strain grid (:mod:`cases.study.routes.sand_study`), with predicted tests, the CSL
+figure, the volumetric strain of the predicted drained tests and, for a synthetic study, its record generator. The
+paper's sections 3.1 (cases/studies/simsand_synthetic.toml) and 3.2 (cases/studies/toyoura.toml) are such studies.
 
 Records (``[runner] records``): "plain" CSVs (columns eps_a_pct, q_kPa, e; header lines e0, p0_kPa, drained) or
 "stress_ratio" CSVs (columns eps_a (%), sr = sigma'_a/sigma'_r, eps_v (%, compression positive); header lines e0 and
@@ -28,8 +28,7 @@ from cases.study.programme import TestSpec
 from cases.study.reading.checks import Checker, read_toml
 from cases.study.reading.error_model import ErrorModel, read_error_model
 from cases.study.reading.records import write_records
-from cases.study.runner import is_root, method_name, run_all, write_summary
-from cases.study.sand import (
+from cases.study.routes.sand_study import (
     CURVES,
     conditions_of,
     free_subset,
@@ -41,6 +40,7 @@ from cases.study.sand import (
     write_figures,
     write_runs,
 )
+from cases.study.runner import is_root, method_name, run_all, write_summary
 from inference.observations import read_csv_table
 from inference.priors import Bound
 
@@ -265,7 +265,8 @@ def curve_sigmas(like: inference.Likelihood) -> dict:
 
 
 def volume_lines(rows) -> list:
-    """Markdown table of :func:`cases.study.sand.volume_change_table` rows: eps_v (%) measured, MAP, 95 % band."""
+    """Markdown table of :func:`cases.study.routes.sand_study.volume_change_table` rows: eps_v (%) measured, MAP,
+    95 % band."""
     def cell(v):
         return "-" if v is None else f"{v:.2f}"
 

@@ -3,7 +3,7 @@
 
 The study file's ``[runner] route`` (:mod:`cases.study.reading.runner_table`) chooses how it is calibrated:
 "study" (default; any model and test type, ``--diagnose`` the missing-physics loop, ``--generate`` the
-``[synthetic]`` records), "sand" (:mod:`cases.study.sand_route`) or "sbp" (:mod:`cases.study.sbp_route`). Every route
+``[synthetic]`` records), "sand" (:mod:`cases.study.routes.sand`) or "sbp" (:mod:`cases.study.routes.sbp`). Every route
 takes the common options (:func:`cases.study.cli.arguments`); an option of another route is refused with one line
 naming it and the study's route.
 """
@@ -12,11 +12,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from cases.study import sand_route, sbp_route
 from cases.study.cli import UsageError, arguments, non_negative_int, positive_int, quantity, run_settings
 from cases.study.loop.problem import CASE, StudyProblem, run_loop
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
+from cases.study.routes import sand as sand_route
+from cases.study.routes import sbp as sbp_route
 from cases.study.runner import announce_compilation, kernel_files, out_lock, run_all, run_directories
 from cases.study.synthetic.generate import generate
 from constitutive.registry import class_name
