@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 import inference
-from cases.study.reading.checks import StudyError
+from cases.study.checks import StudyError
 from cases.study.runner import PROPOSALS, OutputLocked, RunSettings, is_root
 from constitutive import ParameterError
 from fem import MeshError, ProblemError

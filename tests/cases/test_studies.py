@@ -4,7 +4,7 @@ from pathlib import Path
 import pytest
 
 from cases import burswood_sbp, calibrate, simsand_synthetic, toyoura
-from cases.study.reading.checks import StudyError
+from cases.study.checks import StudyError
 from cases.study.reading.schema import load_study
 
 STUDIES = Path(calibrate.__file__).parent / "studies"

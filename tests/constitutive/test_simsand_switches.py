@@ -263,7 +263,7 @@ def test_study_switches_off_without_n_p_n_d_and_the_initial_state_parameter_cova
     ("", "n_d = [0.1, 10.0]\n", "model.free.n_d.*not used when state_dependent_dilatancy = false"),
 ])
 def test_study_refuses_interlocking_parameters_with_the_switch_off(tmp_path, interlocking, free, message):
-    from cases.study.reading.checks import StudyError
+    from cases.study.checks import StudyError
     from cases.study.reading.schema import load_study
 
     with pytest.raises(StudyError, match=message):
@@ -271,7 +271,7 @@ def test_study_refuses_interlocking_parameters_with_the_switch_off(tmp_path, int
 
 
 def test_study_needs_n_p_n_d_with_state_dependent_dilatancy(tmp_path):
-    from cases.study.reading.checks import StudyError
+    from cases.study.checks import StudyError
     from cases.study.reading.schema import load_study
 
     with pytest.raises(StudyError, match="state_dependent_dilatancy = true needs n_d"):

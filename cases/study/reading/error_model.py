@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from cases.study.checks import StudyError
 from cases.study.programme import split_key
-from cases.study.reading.checks import StudyError
 
 __all__ = ["ErrorModel", "read_error_model", "SIGMA_FIELDS", "DEFAULT_SIGMA"]
 

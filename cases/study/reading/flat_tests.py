@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from cases.study.checks import StudyError
 from cases.study.programme import TEST_TYPES, TestSpec, programme_of
-from cases.study.reading.checks import StudyError
 from cases.study.reading.records import COLUMNS, CURVE_OF, DRAINED_ONLY, UNDRAINED_ONLY
 from cases.study.reading.staged_tests import programme_spec
 from constitutive.registry import SBP_MODELS

@@ -2,7 +2,7 @@
 its fixed parameters and the priors of the free ones, the error parameter's bounds, the sampler and FE settings,
 the synthetic-record generator, published or generating reference values (``[reference]``,
 :mod:`cases.study.reading.reference`) and the route of the one runner (``[runner]``,
-:mod:`cases.study.reading.runner_table`). Every field is checked before any solve (:mod:`cases.study.reading.checks`).
+:mod:`cases.study.reading.runner_table`). Every field is checked before any solve (:mod:`cases.study.checks`).
 The schema is documented in the README ("Your own recordings").
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from cases.study.reading.checks import Checker, StudyError, fe_value, read_toml
+from cases.study.checks import Checker, StudyError, fe_value, read_toml
 from cases.study.reading.constraints import feasible_point, read_constraints
 from cases.study.reading.error_model import DEFAULT_SIGMA, ErrorModel, read_error_model
 from cases.study.reading.flat_tests import test_spec

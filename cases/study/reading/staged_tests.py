@@ -8,8 +8,8 @@ record); compression positive.
 """
 from __future__ import annotations
 
+from cases.study.checks import StudyError
 from cases.study.programme import InitialState, Stage, TestSpec
-from cases.study.reading.checks import StudyError
 from cases.study.stages import KINDS
 from cases.study.stages.sequence import check_sbp_stages, check_sequence
 from constitutive.registry import SBP_MODELS

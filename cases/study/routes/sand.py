@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 
 import inference
+from cases.study.checks import Checker, read_toml
 from cases.study.cli import UsageError, unit_hint
 from cases.study.forward.lab import LabForward
 from cases.study.outputs.report import parameter_table
 from cases.study.programme import TestSpec
-from cases.study.reading.checks import Checker, read_toml
 from cases.study.reading.error_model import ErrorModel, read_error_model
 from cases.study.reading.records import write_records
 from cases.study.routes.sand_study import (

@@ -22,11 +22,11 @@ from dataclasses import replace
 from pathlib import Path
 
 import inference
+from cases.study.checks import StudyError
 from cases.study.cli import UsageError, pairs
 from cases.study.forward.sbp import SBPForward
 from cases.study.outputs.report import runs_table
 from cases.study.outputs.sbp import SBPCase, write_sbp_outputs
-from cases.study.reading.checks import StudyError
 from cases.study.reading.presets import PRESETS
 from cases.study.reading.records import generating_values, has_pore_pressure, load_sbp_recordings
 from cases.study.runner import announce_compilation, is_root, kernel_files, run_all, throughput

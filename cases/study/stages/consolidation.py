@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.reading.checks import StudyError
+from cases.study.checks import StudyError
 from cases.study.stages.base import OEDOMETER_STRESS, TRIAXIAL_STRESS, StageKind, hold_times
 
 __all__ = ["Consolidation", "CONSOLIDATION_DURATION"]

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cases.study.reading.checks import StudyError
+from cases.study.checks import StudyError
 from cases.study.stages.base import LoggingError, StageKind, hold_times, one_end
 
 __all__ = ["Expansion", "Hold", "Unloading", "CavityRamp", "LoadingPhase", "MAX_CAVITY_STRAIN", "SBP_QUANTITIES",

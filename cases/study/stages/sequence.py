@@ -35,7 +35,7 @@ def check_sequence(ck, stages, where: str):
 
 def check_sbp_stages(ck, stages, where: str, test: str = ""):
     """Check the ``stages`` of the SBP programme of test ``test`` before any solve; ``ck``
-    (cases.study.reading.checks.Checker) names the study file, ``where`` the test entry (``tests[2]``). A first
+    (cases.study.checks.Checker) names the study file, ``where`` the test entry (``tests[2]``). A first
     expansion, then any of the kinds of apparatus sbp, each recorded against one of its abscissae and checked from
     the cavity strain at its start (``check_cavity`` of :mod:`cases.study.stages.pressuremeter`). The StudyError
     names the file, the test, the stage, the field (as in the file: ``to_cavity_strain`` in %) and the value."""

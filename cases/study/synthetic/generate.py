@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 
 import inference
+from cases.study.checks import Checker, StudyError
 from cases.study.forward.study import StudyForward
 from cases.study.programme import TestSpec
-from cases.study.reading.checks import Checker, StudyError
 from cases.study.reading.presets import FE_FIELDS
 from cases.study.reading.records import CURVE_OF, SBP_MAX_STRAIN_PCT, X_COLUMN, column_name, write_records
 from cases.study.reading.schema import Study, load_study

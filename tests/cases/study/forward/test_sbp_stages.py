@@ -14,9 +14,9 @@ from dissipation import A0, CH, NU, R_OUT, SU, ElasticDissipation, G, K, series_
 import constitutive as C
 import fem
 import inference
+from cases.study.checks import Checker, StudyError
 from cases.study.forward.sbp import SBPForward, hold_growth, pressuremeter_problem, stage_phases
 from cases.study.programme import Stage, TestSpec
-from cases.study.reading.checks import Checker, StudyError
 from cases.study.reading.presets import Preset
 from cases.study.stages.pressuremeter import HOLD_FIRST_STEP, MAX_CAVITY_STRAIN
 from cases.study.stages.sequence import check_sbp_stages

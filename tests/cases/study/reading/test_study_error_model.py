@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cases.study.checks import StudyError
 from cases.study.loop.problem import StudyProblem
-from cases.study.reading.checks import StudyError
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from tolerances import FE_RTOL, PRINTED_RTOL
 
+from cases.study.checks import StudyError
 from cases.study.programme import Stage, curve_key, programme_of, split_key
-from cases.study.reading.checks import StudyError
 from cases.study.reading.records import load_test
 from cases.study.reading.schema import load_study
 from cases.study.reading.stage_records import recorded_programme

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from cases.study.reading.checks import Checker, StudyError
+from cases.study.checks import Checker, StudyError
 from cases.study.reading.staged_tests import stage
 
 WHERE = "tests[0].stages[1]"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from stage_tables import WHERE, read, refused
 
-from cases.study.reading.checks import Checker, StudyError
+from cases.study.checks import Checker, StudyError
 from cases.study.stages.base import LoggingError
 from cases.study.stages.crs import ConstantRateOfStrain
 

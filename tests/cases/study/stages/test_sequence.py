@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from cases.study.checks import Checker, StudyError
 from cases.study.programme import InitialState, Stage, TestSpec
-from cases.study.reading.checks import Checker, StudyError
 from cases.study.stages.sequence import check_sbp_stages, check_sequence, stage_times
 
 
