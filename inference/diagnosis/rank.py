@@ -249,14 +249,14 @@ def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, re
 def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, numerics="") -> Conclusion:
     """The omitted physics from ranked candidates [CandidateScore] and model classes [ModelClass] (module docstring:
     confirmation) under ``rule`` (its threshold and margin; the reductions are applied by `pattern_explained` and
-    `misfit_explained`, whose verdicts come in ``explained``: {candidate: (explained, reasons)}, missing: explained;
-    the checks of `trust` block a class that cannot confirm). With a class of role "model form" (the base with a
-    model-form discrepancy), the chosen enrichment must also beat it by the threshold; when nothing is confirmed and
-    it beats the base by the threshold, the misfit is of model form (``Conclusion.model_form["prevails"]``).
-    ``numerics``: why the located misfit may be the forward model's own discretisation error (`trust`), which then
-    blocks every candidate.
+    `misfit_explained`, whose verdicts come in ``explained``: {candidate: (explained, reasons)}, missing: explained; the
+    checks of `trust` block a class that cannot confirm). With a class of role "model form" (the base with a model-form
+    discrepancy), the chosen enrichment must also beat it by ``rule.model_form_lead``; when nothing is confirmed and it
+    beats the base by the threshold, the misfit is of model form (``Conclusion.model_form["prevails"]``). ``numerics``:
+    why the located misfit may be the forward model's own discretisation error (`trust`), which then blocks every
+    candidate.
     """
-    threshold, margin = float(rule.threshold), rule.lead
+    threshold, margin, form_lead = float(rule.threshold), rule.lead, rule.model_form_lead
     explained = explained or {}
     base = [c for c in classes if c.role == "base"]
     if len(base) != 1:
@@ -278,11 +278,11 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
         reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule)
         if numerics:
             reasons.append(numerics)
-        if rule.sampler_agrees:
-            for other in (base, model_form):
-                disagree = "" if other is None else sampler_disagrees(cl, other)
-                if disagree:
-                    reasons.append(disagree)
+        if rule.sampler_agrees:  # against the base only: the model-form class has several parameters more, and a
+            # sampler's estimate with few particles lags the more the more parameters a class has
+            disagree = sampler_disagrees(cl, base)
+            if disagree:
+                reasons.append(disagree)
         blocks[name] = reasons
     # the candidates within the margin of the best ln B; among several, the best-ranked one named by its signature
     contenders = [k for k in order if by_candidate[k] > by_candidate[leader] - margin] if order else []
@@ -291,7 +291,7 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
     omitted = "none"
     if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] \
             and explained.get(chosen, (True, []))[0] and not blocks[chosen] \
-            and over_form.get(chosen, threshold) >= threshold:
+            and over_form.get(chosen, form_lead) >= form_lead:
         omitted = chosen
     decisions = []
     for r in ranked:
@@ -317,8 +317,8 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
             decision = f"{prefix}: ln B = {lnb:.2f} but its signature points the other way: {against[name]}"
         elif blocks[name]:
             decision = f"{prefix}: ln B = {lnb:.2f} but {'; '.join(blocks[name])}"
-        elif over_form.get(name, threshold) < threshold:
-            decision = (f"{prefix}: ln B = {lnb:.2f} over the base but {over_form[name]:.2f} < {threshold:g} over the "
+        elif over_form.get(name, form_lead) < form_lead:
+            decision = (f"{prefix}: ln B = {lnb:.2f} over the base but {over_form[name]:.2f} < {form_lead:g} over the "
                         "model-form class (a smooth discrepancy without physics explains the misfit as well)")
         elif omitted != "none":
             decision = f"also raises the evidence: ln B = {lnb:.2f} (the omitted physics is {omitted})"

@@ -55,9 +55,11 @@ class DecisionRule:
     base's effect size to which each supporting primary item must fall on the enriched class; misfit_reduction: the
     fraction of the base's located misfit (median region of |mean r|) to which it must fall; inert_fraction,
     ess_fraction, collapse_fraction: the checks of an enriched class's evidence and mode (`trust`);
-    numerical_fraction: the base's discretisation error, as a fraction of the located misfit, at which the misfit
+    model_form_margin: ln B by which the chosen enrichment must beat the model-form class when there is one (None:
+    the threshold); numerical_fraction: the base's discretisation error, as a fraction of the located misfit, at which
+    the misfit
     counts as numerical (no enrichment is confirmed on it; `trust.numerics_comparable`); sampler_agrees:
-    the sampler's own ln Z must not favour the class compared with (the refined estimates decide the size of ln B,
+    the sampler's own ln Z must not favour the base class (the refined estimates decide the size of ln B,
     not its sign alone). A study calibrates the threshold and margin on negative controls (`rank` module docstring)
     and passes its rule to the loop, which records it in DIR/diagnosis_input.json (`to_dict`, `from_dict`) for the
     re-diagnosis of the directory. With a model-form class among the classes, the chosen enrichment must beat it,
@@ -68,6 +70,7 @@ class DecisionRule:
     margin: float | None = None
     pattern_reduction: float = PATTERN_REDUCTION
     misfit_reduction: float = MISFIT_REDUCTION
+    model_form_margin: float | None = None
     inert_fraction: float = INERT_FRACTION
     ess_fraction: float = ESS_FRACTION
     collapse_fraction: float = COLLAPSE_FRACTION
@@ -75,7 +78,7 @@ class DecisionRule:
     sampler_agrees: bool = True
 
     def __post_init__(self):
-        if not self.threshold >= 0 or (self.margin is not None and not self.margin >= 0):
+        if not self.threshold >= 0 or any(m is not None and not m >= 0 for m in (self.margin, self.model_form_margin)):
             raise ValueError(f"decision rule: threshold {self.threshold} and margin {self.margin} must be >= 0")
         if not (0 < self.pattern_reduction <= 1 and 0 < self.misfit_reduction <= 1):
             raise ValueError(f"decision rule: reductions {self.pattern_reduction}, {self.misfit_reduction} must be in "
@@ -88,6 +91,11 @@ class DecisionRule:
     def lead(self) -> float:
         """The margin in force (ln B): the margin, or the threshold when none is set."""
         return float(self.threshold if self.margin is None else self.margin)
+
+    @property
+    def model_form_lead(self) -> float:
+        """The ln B an enrichment needs over the model-form class: ``model_form_margin``, or the threshold."""
+        return float(self.threshold if self.model_form_margin is None else self.model_form_margin)
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -119,3 +119,15 @@ def test_a_misfit_the_size_of_the_discretisation_error_confirms_nothing():
     d = diagnosis.conclude(_ranked("A"), [base, _class("e", "enriched", "A", 50.0, _params(M=1.2, xi=8.0))], RULE,
                            numerics=why)
     assert d.omitted_physics == "none" and "may be numerical" in d.candidates[0].decision
+
+
+def test_the_margin_over_the_model_form_class_is_a_setting_of_the_rule():
+    """The CRS programme with hidden viscosity: 72.1 over the base, 14.8 over the model-form class (57.4)."""
+    base = _class("base", "base", None, 205.4, sampler=200.1)
+    form = _class("base + delta", "model form", None, 262.7, sampler=249.1)
+    viscous = _class("base + A", "enriched", "A", 277.5, _params(M=1.2, xi=8.0), sampler=240.0)
+    assert diagnosis.conclude(_ranked("A"), [base, form, viscous], RULE).omitted_physics == "none"
+    rule = replace(RULE, model_form_margin=10.0)
+    d = diagnosis.conclude(_ranked("A"), [base, form, viscous], rule)
+    assert d.omitted_physics == "A" and "14.76 over the model-form class" in d.candidates[0].decision
+    assert DecisionRule.from_dict(rule.to_dict()).model_form_lead == 10.0
