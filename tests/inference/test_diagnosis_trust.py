@@ -129,5 +129,5 @@ def test_the_margin_over_the_model_form_class_is_a_setting_of_the_rule():
     assert diagnosis.conclude(_ranked("A"), [base, form, viscous], RULE).omitted_physics == "none"
     rule = replace(RULE, model_form_margin=10.0)
     d = diagnosis.conclude(_ranked("A"), [base, form, viscous], rule)
-    assert d.omitted_physics == "A" and "14.76 over the model-form class" in d.candidates[0].decision
+    assert d.omitted_physics == "A" and "14.80 over the model-form class" in d.candidates[0].decision
     assert DecisionRule.from_dict(rule.to_dict()).model_form_lead == 10.0
