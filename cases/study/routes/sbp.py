@@ -90,7 +90,8 @@ def generate_recordings(study, directory=None, params=None, noise=None, seed=Non
     return generate_sbp(directory or Path(study.tests[0].file).resolve().parent,
                         sbp_forward(study, preset or study.preset(False), fixed), params,
                         synthetic["noise"] if noise is None else noise, synthetic["seed"] if seed is None else seed,
-                        n_points or synthetic["points"], f"{study.path.name} [synthetic]",
+                        n_points or synthetic["points"],
+                        f"python -m cases.calibrate {study.path.name} --generate ([synthetic])",
                         f" ({study.references[study.runner['truth']].source})"
                         if params == truth and study.runner["truth"] else "",
                         [f"depth_m: {d:g}" for d in depth])
