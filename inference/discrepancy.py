@@ -20,8 +20,9 @@ discrepancy class nests the base class, and the evidences of both (and of any en
 are of the same likelihood family and comparable.
 
 Priors (``amplitude`` and ``length`` bounds, log-uniform) keep delta from being confounded with the physics
-(Brynjarsdottir & O'Hagan 2014): the amplitude is bounded near the noise scale and the length scale from below, so
-that the discrepancy is a smooth misfit of model form, not a second noise term.
+(Brynjarsdottir & O'Hagan 2014): the amplitude is bounded near the noise scale (5 % by default) and the length scale
+from below, so that the discrepancy is a smooth misfit of model form, neither a second noise term nor a stand-in for
+an effect that moves curves by tens of percent.
 """
 from __future__ import annotations
 
@@ -41,14 +42,18 @@ class Discrepancy:
 
     groups: None (one amplitude per curve name) or {group: [curve name or (test, curve) key, ...]}, every curve in
         exactly one group (as the error groups of :class:`inference.Likelihood`);
-    amplitude: bounds of each group's amplitude a_k (relative, as the residuals), log-uniform prior;
+    amplitude: bounds of each group's amplitude a_k (relative, as the residuals), log-uniform prior: by default
+        0.1 % to 5 %, the scale of the noise and of the model-form misfits the discrepancy stands for (a convention
+        or a coarse discretisation moves curves by 1-8 %); an amplitude free up to 30 % let it mimic physics (the
+        creep of every incremental load stage in log time: ln Z 4 above the viscous class on an independent IL
+        programme);
     length: bounds of the shared length scale l, a fraction of the normalized abscissa, log-uniform prior;
     min_spacings: the length scale of a curve is at least this many of its median record spacings;
     prefix: the parameters are ``<prefix>_<group>`` (amplitudes) and ``<prefix>_length``.
     """
 
     groups: dict | None = None
-    amplitude: tuple = (1e-3, 0.3)
+    amplitude: tuple = (1e-3, 0.05)
     length: tuple = (0.05, 1.0)
     min_spacings: float = 3.0
     prefix: str = "delta"
