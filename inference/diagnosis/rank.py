@@ -52,6 +52,8 @@ controls and the value used in the study's notes.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from scipy import stats
 
@@ -222,13 +224,43 @@ def pattern_explained(base_entry: CandidateScore, enriched_entry: CandidateScore
     return not left, left
 
 
+class CurveSpan(NamedTuple):
+    """A whole structured curve standing for a mismatch region where the screening located none: points
+    ``i_start:i_stop`` of curve ``curve`` of test ``test``."""
+
+    test: str
+    curve: str
+    i_start: int
+    i_stop: int
+
+
+def located_misfit(report: ScreenReport, residuals: dict) -> list:
+    """What the misfit check compares: the screening's mismatch regions, or, where it located none but found
+    structured curves, each structured curve whole (`CurveSpan`); ``residuals``: {(test, curve): r} of the class
+    screened."""
+    if report.regions:
+        return list(report.regions)
+    return [CurveSpan(c.test, c.curve, 0, len(residuals[c.test, c.curve])) for c in report.curves if c.structured]
+
+
+def _abs_mean(r) -> float:
+    return abs(float(np.nanmean(r)))
+
+
+def _rms(r) -> float:
+    return float(np.sqrt(np.nanmean(np.square(r))))
+
+
 def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, reduction=MISFIT_REDUCTION) -> tuple:
     """(explained, reasons): does an enriched class remove the misfit the base class's screening located?
 
     regions: the base class's mismatch regions (``structure.Region``: test, curve, i_start, i_stop);
     base_residuals, enriched_residuals: {(test, curve): r} relative residuals of the two classes at the records.
     For each region the ratio |mean r_enriched| / |mean r_base| over its points; explained when the median ratio over
-    the regions is at most ``reduction`` (no region: not explained, a check with nothing to check). The median, not a
+    the regions is at most ``reduction`` (no region: not explained, a check with nothing to check; `located_misfit`
+    gives the structured curves whole when the screening located no region, and for them the ratio is of the RMS
+    residual: a misfit of shape, as a relaxation curve's early and late errors of opposite sign, has a mean near zero).
+    The median, not a
     weighted mean: a region where the simulated value passes near zero (a deviator stress turning from compression to
     extension) has relative residuals of any size and must not decide alone. reasons: the regions left, in words."""
     if not regions:
@@ -236,8 +268,8 @@ def misfit_explained(regions, base_residuals: dict, enriched_residuals: dict, re
     ratios = []
     for g in regions:
         key, sl = (g.test, g.curve), slice(g.i_start, g.i_stop)
-        before = abs(float(np.nanmean(base_residuals[key][sl])))
-        after = abs(float(np.nanmean(enriched_residuals[key][sl])))
+        size = _rms if isinstance(g, CurveSpan) else _abs_mean
+        before, after = size(base_residuals[key][sl]), size(enriched_residuals[key][sl])
         ratios.append(after / before if before > 0 else 1.0)
     median = float(np.median(ratios))
     if median <= reduction:

@@ -22,7 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from .attribution import expand_covariates, split_spec
-from .rank import conclude, misfit_explained, names_curve, pattern_explained, rank_candidates
+from .rank import conclude, located_misfit, misfit_explained, names_curve, pattern_explained, rank_candidates
 from .records import ClassSummary, DecisionRule, DiagnosedCandidate, Diagnosis, MismatchRegion, ModelClass, NextTest
 from .screening import POSITION, relative_residuals, screen
 from .trust import numerics_comparable
@@ -78,7 +78,7 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
             entry = next((r for r in ranked if r.name == cl.candidate), None)
             if entry is not None:
                 ok, left = pattern_explained(entry, own.get(cl.candidate), rule.pattern_reduction)
-                ok2, left2 = misfit_explained(base_screen.regions, base_r,
+                ok2, left2 = misfit_explained(located_misfit(base_screen, base_r), base_r,
                                               relative_residuals(likelihood, cl.map_simulated), rule.misfit_reduction)
                 explained[cl.candidate] = (ok and ok2, left + left2)
     verdict = conclude(ranked, classes, rule, explained, numerics_comparable(base, base_screen.regions, rule))
