@@ -131,3 +131,22 @@ def test_the_margin_over_the_model_form_class_is_a_setting_of_the_rule():
     d = diagnosis.conclude(_ranked("A"), [base, form, viscous], rule)
     assert d.omitted_physics == "A" and "14.80 over the model-form class" in d.candidates[0].decision
     assert DecisionRule.from_dict(rule.to_dict()).model_form_lead == 10.0
+
+
+def test_structured_curves_stand_for_regions_when_none_was_located():
+    """A relaxation curve misfit in shape (+5 % early, -5 % late: mean 0) with no contiguous region located: the
+    structured curve is compared whole by its RMS residual."""
+    from types import SimpleNamespace
+
+    from inference.diagnosis.rank import CurveSpan, located_misfit, misfit_explained
+    base = {("T", "relax"): np.array([0.05] * 5 + [-0.05] * 5), ("T", "load"): np.full(10, 0.001)}
+    report = SimpleNamespace(regions=[], curves=[SimpleNamespace(test="T", curve="relax", structured=True),
+                                                 SimpleNamespace(test="T", curve="load", structured=False)])
+    spans = located_misfit(report, base)
+    assert spans == [CurveSpan("T", "relax", 0, 10)]
+    better = {("T", "relax"): np.array([0.01, -0.01] * 5), ("T", "load"): base["T", "load"]}
+    assert misfit_explained(spans, base, better)[0]
+    ok, left = misfit_explained(spans, base, base)
+    assert not ok and "100 %" in left[0]
+    nothing = SimpleNamespace(regions=[], curves=[SimpleNamespace(test="T", curve="load", structured=False)])
+    assert not misfit_explained(located_misfit(nothing, base), base, better)[0]
