@@ -65,8 +65,8 @@ def test_enriched_forward_reproduces_the_data_noise_free_at_the_generating_value
     problem = cs.SBPProblem(cs.EFFECTS[effect]["k_assumed"], True)
     params = {**cs.GENERATING, "permeability": cs.EFFECTS[effect]["k_true"]}
     like_x = cs.strains()
-    sim = problem.forward(switches)([params])[0]
-    base = problem.forward(cs.BASE_SWITCHES)([cs.GENERATING])[0]
+    sim = problem.forward(switches)(params)
+    base = problem.forward(cs.BASE_SWITCHES)(cs.GENERATING)
     for t in cs.RATES:
         for c in cs.CURVES:
             x, y = sim[t][c]
