@@ -15,6 +15,7 @@ import numpy as np
 
 from .attribution import Attribution
 from .screening import ScreenReport
+from .structure import Region
 
 __all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "DecisionRule", "ModelClass", "MismatchRegion",
            "SignatureItem", "CandidateScore", "CandidateDecision", "Conclusion", "DiagnosedCandidate", "ClassSummary",
@@ -174,8 +175,8 @@ class ModelClass:
         return cls(**{k: v for k, v in model_class.items() if k in names})
 
 
-@dataclass(frozen=True)
-class MismatchRegion:
+@dataclass
+class MismatchRegion(Region):
     """A mismatch region of the base class (`structure.Region`) with its abscissa unit.
 
     x_start, x_end: abscissa range in ``x_unit``; i_start, i_stop: point indices (stop exclusive); sign: "+" when the
@@ -183,18 +184,6 @@ class MismatchRegion:
     statistic, p_value: its scan statistic and p-value; p_adjusted: Bonferroni over the screening's family.
     """
 
-    test: str
-    curve: str
-    x_start: float
-    x_end: float
-    i_start: int
-    i_stop: int
-    sign: str
-    mean_relative: float
-    n_points: int
-    statistic: float
-    p_value: float
-    p_adjusted: float
     x_unit: str
 
 
