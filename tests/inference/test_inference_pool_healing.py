@@ -91,7 +91,10 @@ def test_a_worker_that_dies_between_batches_is_replaced(capsys):
         values, reasons, ranks = ex.evaluate(evaluator, thetas)
     assert np.all(np.isfinite(values)) and victim not in values.astype(int) and reasons == [None] * 8
     err = capsys.readouterr().err
-    assert f"pool worker {victim} " in err and "no evaluation of this batch was in flight" in err
+    # whether the pool notices the death before or after it hands the dead worker a chunk of the new batch depends
+    # on the machine's load: both are the same answer, the line says which
+    assert f"pool worker {victim} " in err and "replaced by worker" in err
+    assert "no evaluation of this batch was in flight" in err or "redone" in err
 
 
 def _killing_always(x_above):
