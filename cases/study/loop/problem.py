@@ -49,12 +49,12 @@ LOG_BAYES_THRESHOLD = 20.0
 #: ln B by which another convention of the base model (``constitutive.registry.conventions``) must beat the base's
 #: own to replace it (Kass & Raftery's "strong": the same physics, so no Occam penalty separates them)
 CONVENTION_LOG_BAYES = 3.0
-#: ln B by which a confirmed enrichment must beat the model-form class (the base plus a smooth discrepancy per recorded
-#: quantity), set on the independent generator's first seed (notes/precision.md): the hidden effects' enriched classes
-#: beat it by +14.8 (CRS viscosity, the smallest) to +127.8, while on the controls no enrichment that reached the base
-#: threshold was within reach and the best class over it reached +4.8 (swelling on a CK0U control, ln B over the base
-#: -1.5). A discrepancy per curve can absorb part of a between-test effect, so the full threshold would miss effects
-MODEL_FORM_LOG_BAYES = 10.0
+#: ln B by which a confirmed enrichment must beat the model-form class (the base plus a smooth discrepancy per curve):
+#: 0, it must explain the records at least as well. Set on the independent generator's first seed (notes/precision.md):
+#: a per-curve discrepancy absorbs much of some effects (IL destructuration: the enriched class only +0.6 above it at
+#: +58.9 over the base; CRS viscosity +14.7), while no control's enriched class reached the base threshold, so a margin
+#: above 0 bought no precision there and cost effects
+MODEL_FORM_LOG_BAYES = 0.0
 #: the decision rule of a soil study's loop (threshold and margin LOG_BAYES_THRESHOLD, MODEL_FORM_LOG_BAYES over the
 #: model-form class), recorded in its directory's diagnosis_input.json so that ``python -m inference.diagnosis DIR``
 #: reaches the loop's conclusion
