@@ -374,7 +374,7 @@ class Likelihood:
     def _log_likelihood_discrepancy(self, simulated, sigma, delta):
         """(D2) summed over the curves of each test, times the test's weight."""
         amplitudes, length = delta
-        sigmas = self.curve_sigmas_from(sigma)
+        sigmas = dict(zip(self.curve_keys, self.curve_sigmas_from(sigma)))
         total = 0.0
         for t in self.observations:
             term = 0.0
@@ -383,8 +383,7 @@ class Likelihood:
                 used = self._used[key]
                 residuals = (used - simulated[key][..., self._kept[key]]) / used
                 term = term + self._curve_discrepancy[key].log_density(
-                    residuals, sigmas[self.curve_keys.index(key)], amplitudes[:, self._discrepancy_column[key]],
-                    length)
+                    residuals, sigmas[key], amplitudes[:, self._discrepancy_column[key]], length)
             total = total + self.weights[t.name] * term
         return total
 

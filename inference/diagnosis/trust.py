@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .records import DecisionRule, ModelClass
 
 __all__ = ["confirmation_blocks", "evidence_trusted", "sampler_disagrees", "numerics_comparable"]
@@ -106,9 +108,7 @@ def numerics_comparable(base: ModelClass, regions, rule: DecisionRule) -> str:
               if (r.test, r.curve) in error and r.mean_relative != 0]
     if not ratios:
         return ""
-    ratios.sort()
-    median = ratios[len(ratios) // 2] if len(ratios) % 2 else 0.5 * (ratios[len(ratios) // 2 - 1]
-                                                                         + ratios[len(ratios) // 2])
+    median = float(np.median(ratios))
     if median < rule.numerical_fraction:
         return ""
     worst = max(base.numerical_error, key=lambda e: e["rms"])
