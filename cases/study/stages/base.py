@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Stage", "StageKind", "LoggingError", "kind_named", "hold_times", "one_end", "TRIAXIAL_STRESS",
+__all__ = ["Stage", "StageKind", "LoggingError", "kind_named", "hold_times", "one_end", "rate_to", "TRIAXIAL_STRESS",
            "TRIAXIAL_AXIAL", "OEDOMETER_STRESS", "OEDOMETER_STRAIN", "CHOICES"]
 
 STRAIN, STRESS = True, False
@@ -227,6 +227,14 @@ class StageKind:
         where not known beforehand, updated to the stage's end; ``n`` points; ``settings`` the [synthetic] table;
         ``where`` names the stage in a LoggingError."""
         raise NotImplementedError(f"{where}: no synthetic records of a {cls.name} stage")
+
+
+def rate_to(stage, end: str, unit: str) -> str:
+    """A ramp at a strain rate in words: "<rate> 1/s to <strain> %" when it ends at a strain (``stage.to_strain``, a
+    fraction), else to the stage's field ``end`` in ``unit`` (e.g. "80 kPa")."""
+    if stage.to_strain is not None:
+        return f"{stage.strain_rate:g} 1/s to {100 * stage.to_strain:g} %"
+    return f"{stage.strain_rate:g} 1/s to {getattr(stage, end):g} {unit}"
 
 
 def one_end(ck, table: dict, where: str, ends: tuple):

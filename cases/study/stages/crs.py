@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.stages.base import OEDOMETER_STRAIN, LoggingError, StageKind, one_end
+from cases.study.stages.base import OEDOMETER_STRAIN, LoggingError, StageKind, one_end, rate_to
 
 __all__ = ["ConstantRateOfStrain"]
 
@@ -49,8 +49,7 @@ class ConstantRateOfStrain(StageKind):
 
     @classmethod
     def describe(cls, stage):
-        return f"{stage.strain_rate:g} 1/s to " + (f"{100 * stage.to_strain:g} %" if stage.to_strain is not None
-                                                   else f"{stage.to_sigma_v:g} kPa")
+        return rate_to(stage, "to_sigma_v", "kPa")
 
     @classmethod
     def elapsed(cls, stage, strain, cavity):

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cases.study.checks import StudyError
-from cases.study.stages.base import LoggingError, StageKind, hold_times, one_end
+from cases.study.stages.base import LoggingError, StageKind, hold_times, one_end, rate_to
 
 __all__ = ["Expansion", "Hold", "Unloading", "CavityRamp", "LoadingPhase", "MAX_CAVITY_STRAIN", "SBP_QUANTITIES",
            "HOLD_FIRST_STEP"]
@@ -163,8 +163,7 @@ class Unloading(CavityRamp):
 
     @classmethod
     def describe(cls, stage):
-        return f"{stage.strain_rate:g} 1/s to " + (f"{100 * stage.to_strain:g} %" if stage.to_strain is not None
-                                                   else f"{stage.to_pressure:g} kPa")
+        return rate_to(stage, "to_pressure", "kPa")
 
     @classmethod
     def loading_phase(cls, stage, current):
