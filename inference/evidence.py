@@ -25,10 +25,21 @@ only as a starting point:
    centred at u* with scale matrices (-H)^-1 and WIDE^2 (-H)^-1 (a defensive mixture for curved posteriors):
    ln Z_IS = ln mean_i exp(g(u_i) - ln q(u_i)), u_i ~ q, unbiased in Z whatever the posterior's shape; its
    spread is given by the effective sample size ESS = (sum w)^2 / sum w^2 and the delta-method standard error
-   sqrt((mean w^2 / (mean w)^2 - 1) / N). The reported ln Z is ln Z_IS when ESS >= ``min_ess`` N, else ln Z_L.
+   sqrt((mean w^2 / (mean w)^2 - 1) / N);
+5. when the effective sample size falls short of ``min_ess`` N (a skewed or bounded posterior that the curvature at
+   the mode misplaces: a destructuration class's (chi0, xi), measured ESS 2-25 of 256), up to ``adapt_rounds``
+   further batches of N draws follow, each from a Student-t proposal with the weighted mean and covariance of all
+   draws so far (adaptive multiple importance sampling, Cornuet, Marin, Mira & Robert 2012), the covariance shrunk
+   toward (-H)^-1 by d / (ESS + d) while the weights are few. Every draw of every batch is weighted against the
+   mixture of all the batches' proposals in proportion to their draws (the deterministic-mixture, or balance
+   heuristic, weights: Veach & Guibas 1995; Owen & Zhou 2000), so the first batch's defensive proposal stays in the
+   denominator of every weight; ESS, standard error and ln Z_IS are those of the pooled weights, N their number.
+   The rounds stop as soon as the pooled ESS reaches ``min_ess`` N. The reported ln Z is ln Z_IS when it does,
+   else ln Z_L.
 
 References: Tierney & Kadane (1986) Laplace's method; Geweke (1989) importance sampling with a Student-t proposal
-fitted at the mode; Llorente, Martino, Delgado & Lopez-Santiago (2023, SIAM Review 65) sections 3 and 5.
+fitted at the mode; Cornuet et al. (2012, Scand. J. Stat. 39) adaptive multiple importance sampling; Llorente,
+Martino, Delgado & Lopez-Santiago (2023, SIAM Review 65) sections 3 and 5.
 """
 from __future__ import annotations
 
@@ -43,6 +54,8 @@ __all__ = ["EvidenceEstimate", "mode_evidence"]
 STEP_FRACTION = 0.2
 #: the wide half of the importance proposal has this many times the local standard deviations
 WIDE = 3.0
+#: the further importance batches, each fitted to the pooled weighted draws, when the first falls short of its ESS
+ADAPT_ROUNDS = 3
 #: the largest Newton step along any u_i (u is a logit: 1 moves a parameter in mid-range by about a quarter of its
 #: prior range)
 MAX_STEP = 1.0
@@ -135,24 +148,64 @@ def _derivatives(g, u, h):
 
 
 class _DefensiveMixture:
-    """The importance proposal: an equal mixture of Student-t distributions at the mode with scale matrices
-    (-H)^-1 and WIDE^2 (-H)^-1, the wide half covering the tails of a curved or skewed posterior that the local
-    curvature underestimates (a defensive mixture, Hesterberg 1995)."""
+    """The importance proposal: an equal mixture of Student-t distributions centred at ``mode`` with the scale
+    matrices ``covs``: at the mode, (-H)^-1 and WIDE^2 (-H)^-1, the wide half covering the tails of a curved or skewed
+    posterior that the local curvature underestimates (a defensive mixture, Hesterberg 1995); one matrix for an
+    adapted batch (module docstring, step 5)."""
 
-    def __init__(self, mode, cov, df):
-        self.parts = [stats.multivariate_t(loc=mode, shape=c, df=df) for c in (cov, WIDE ** 2 * cov)]
+    def __init__(self, mode, covs, df):
+        self.parts = [stats.multivariate_t(loc=mode, shape=c, df=df) for c in covs]
 
     def rvs(self, n, rng):
         d = len(self.parts[0].loc)
-        wide = rng.random(n) < 0.5
+        which = len(self.parts) - 1 - np.floor(rng.random(n) * len(self.parts)).astype(int)
         out = np.empty((n, d))
-        for part, rows in zip(self.parts, (~wide, wide)):
+        for k, part in enumerate(self.parts):
+            rows = which == k
             if rows.any():
                 out[rows] = np.atleast_2d(part.rvs(size=int(rows.sum()), random_state=rng)).reshape(-1, d)
         return out
 
     def logpdf(self, x):
-        return np.logaddexp(*(part.logpdf(x) for part in self.parts)) - np.log(2.0)
+        return np.logaddexp.reduce([part.logpdf(x) for part in self.parts], axis=0) - np.log(len(self.parts))
+
+
+def _weights(log_w):
+    """(ln mean w, ESS, standard error of ln mean w) of importance log-weights (-inf for no weight); ln mean w is
+    None when no draw has weight."""
+    finite = np.isfinite(log_w)
+    if not finite.any():
+        return None, 0.0, np.inf
+    w = np.exp(np.where(finite, log_w - log_w[finite].max(), -np.inf))
+    ess = float(w.sum() ** 2 / (w ** 2).sum())
+    error = float(np.sqrt(max(np.mean(w ** 2) / np.mean(w) ** 2 - 1.0, 0.0) / len(w)))
+    return float(special.logsumexp(log_w[finite]) - np.log(len(w))), ess, error
+
+
+def _importance(t, mode, cov, n_draws, min_ess, rounds, df, rng):
+    """Importance sampling of g from the defensive mixture at ``mode``, adapted by up to ``rounds`` further batches
+    while the pooled ESS stays under ``min_ess`` of the draws (module docstring, steps 4-5): (ln Z_IS or None, ESS,
+    standard error, number of draws)."""
+    proposals = [_DefensiveMixture(mode, (cov, WIDE ** 2 * cov), df)]
+    draws = proposals[0].rvs(n_draws, rng)
+    log_g = t.g(draws)
+    d = len(mode)
+    while True:
+        # the balance heuristic: each draw against the mixture of every batch's proposal (equal batch sizes)
+        log_q = np.logaddexp.reduce([p.logpdf(draws) for p in proposals], axis=0) - np.log(len(proposals))
+        log_w = log_g - log_q
+        log_is, ess, error = _weights(log_w)
+        if log_is is None or ess >= min_ess * len(draws) or len(proposals) > rounds:
+            return log_is, ess, error, len(draws)
+        w = np.exp(log_w - log_w[np.isfinite(log_w)].max())
+        w = np.where(np.isfinite(w), w, 0.0) / np.where(np.isfinite(w), w, 0.0).sum()
+        mean = w @ draws
+        centred = draws - mean
+        shrink = d / (ess + d)
+        fitted = (1.0 - shrink) * (centred.T * w) @ centred + shrink * cov
+        proposals.append(_DefensiveMixture(mean, (0.5 * (fitted + fitted.T),), df))
+        batch = proposals[-1].rvs(n_draws, rng)
+        draws, log_g = np.vstack([draws, batch]), np.concatenate([log_g, t.g(batch)])
 
 
 def _negative_definite(H):
@@ -190,7 +243,7 @@ def _climb(t, u, h, iterations):
 
 
 def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, climbs=None, iterations=10,
-                  n_draws=256, min_ess=0.1, seed=0, df=4.0) -> EvidenceEstimate | None:
+                  n_draws=256, min_ess=0.1, seed=0, df=4.0, adapt_rounds=ADAPT_ROUNDS) -> EvidenceEstimate | None:
     """ln Z of one model class (module docstring).
 
     log_likelihood: thetas (m, d) -> (m,) log-likelihoods (-inf for a failed solve); prior: an ``inference.Prior``
@@ -200,8 +253,9 @@ def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, 
     the best of the sample and these; climbs: (m, d) points from each of which the mode is climbed as well, whatever
     their starting value (e.g. the added parameters at mid-prior); the highest mode found is kept, each climb
     costing up to ``iterations`` batches of 2 d^2 + 6 solves; iterations: at most this many Newton steps per climb;
-    n_draws: importance draws; min_ess: the fraction of n_draws the effective sample size must reach for ln Z_IS to
-    be reported; seed: of the draws; df: the proposal's degrees of freedom. Returns None when no finite difference
+    n_draws: importance draws per batch; min_ess: the fraction of the draws the effective sample size must reach for
+    ln Z_IS to be reported; seed: of the draws; df: the proposals' degrees of freedom; adapt_rounds: the further
+    adapted batches at most (module docstring, step 5; 0: the first batch only). Returns None when no finite difference
     around any climb's end can be taken inside the support."""
     t = _Unbounded(prior, log_likelihood)
     samples = np.atleast_2d(np.asarray(samples, dtype=float))
@@ -224,18 +278,10 @@ def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, 
     A, cov = _negative_definite(H)
     d = len(u)
     log_laplace = float(f0 + 0.5 * d * np.log(2.0 * np.pi) - 0.5 * np.linalg.slogdet(A)[1])
-    proposal = _DefensiveMixture(u, cov, df)
-    draws = proposal.rvs(n_draws, np.random.default_rng(seed))
-    log_w = t.g(draws) - proposal.logpdf(draws)
-    log_is, error, ess = None, np.inf, 0.0
-    if np.isfinite(log_w).any():
-        w = np.exp(log_w - log_w[np.isfinite(log_w)].max())
-        w = np.where(np.isfinite(w), w, 0.0)
-        log_is = float(special.logsumexp(log_w[np.isfinite(log_w)]) - np.log(n_draws))
-        ess = float(w.sum() ** 2 / (w ** 2).sum())
-        error = float(np.sqrt(max(np.mean(w ** 2) / np.mean(w) ** 2 - 1.0, 0.0) / n_draws))
-    use_is = log_is is not None and ess >= min_ess * n_draws
+    log_is, ess, error, drawn = _importance(t, u, cov, n_draws, min_ess, adapt_rounds, df,
+                                            np.random.default_rng(seed))
+    use_is = log_is is not None and ess >= min_ess * drawn
     return EvidenceEstimate(log_is if use_is else log_laplace, "importance sampling" if use_is else "Laplace",
-                            log_laplace, log_is, error, ess, n_draws, t.n_solves, float(f0),
+                            log_laplace, log_is, error, ess, drawn, t.n_solves, float(f0),
                             tuple(float(v) for v in t.to_theta(u)))
 

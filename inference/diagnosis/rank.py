@@ -70,7 +70,7 @@ from .records import (
     SignatureItem,
 )
 from .screening import ScreenReport
-from .trust import confirmation_blocks, sampler_disagrees
+from .trust import confirmation_blocks, importance_checked, sampler_disagrees
 
 __all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "rank_candidates", "pattern_explained",
            "misfit_explained", "conclude"]
@@ -310,8 +310,9 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
         reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule)
         if numerics:
             reasons.append(numerics)
-        if rule.sampler_agrees:  # against the base only: the model-form class has several parameters more, and a
-            # sampler's estimate with few particles lags the more the more parameters a class has
+        # against the base only, and not when both refined estimates passed an importance check: a sampler's
+        # estimate with few particles lags the more the more parameters a class has (`trust`, check 4)
+        if rule.sampler_agrees and not (importance_checked(cl, rule) and importance_checked(base, rule)):
             disagree = sampler_disagrees(cl, base)
             if disagree:
                 reasons.append(disagree)

@@ -7,7 +7,7 @@ import numpy as np
 
 from inference import diagnosis
 from inference.diagnosis import DecisionRule, ModelClass
-from inference.diagnosis.trust import confirmation_blocks, evidence_trusted, sampler_disagrees
+from inference.diagnosis.trust import confirmation_blocks, evidence_check, evidence_trusted, sampler_disagrees
 
 RULE = DecisionRule(threshold=20.0)
 ENRICHMENT = {"inert_at": {"xi": "lower", "tau": "lower"}}
@@ -150,3 +150,32 @@ def test_structured_curves_stand_for_regions_when_none_was_located():
     assert not ok and "100 %" in left[0]
     nothing = SimpleNamespace(regions=[], curves=[SimpleNamespace(test="T", curve="load", structured=False)])
     assert not misfit_explained(located_misfit(nothing, base), base, better)[0]
+
+
+def test_laplace_is_checked_by_an_importance_estimate_that_agrees():
+    """A destructuration class of a CRS programme: Laplace 270.41, importance sampling 270.08 (ESS 25 of 256,
+    standard error 0.19), the sampler 174.3: two independent refined estimates agree, the lagging sampler does not."""
+    ev = {"log_evidence": 270.41, "method": "Laplace", "log_laplace": 270.41, "log_is": 270.08, "ess": 24.9,
+          "n_draws": 256, "std_error": 0.19}
+    cls = _class("e", "enriched", "A", 270.41, sampler=174.3, evidence=ev)
+    assert evidence_check(cls, RULE) == "Laplace and importance sampling agree" and evidence_trusted(cls, RULE) == ""
+    apart = replace(cls, evidence={**ev, "log_is": 264.67, "std_error": 0.71, "ess": 1.95})   # 4.8 apart
+    why = evidence_trusted(apart, RULE)
+    assert evidence_check(apart, RULE) == "" and "importance sampling differs by -5.7" in why
+
+
+def test_the_sampler_sign_is_not_asked_of_two_importance_checked_estimates():
+    """The same class against the base (importance sampling 246.16, ESS 113 of 256; the sampler 240.9): the sampler
+    favours the base by 66.6, the two checked refined estimates the enriched class by 24.2 (threshold 20)."""
+    base = _class("base", "base", None, 246.16, sampler=240.9,
+                  evidence={"log_evidence": 246.16, "method": "importance sampling", "ess": 113.0, "n_draws": 256,
+                            "std_error": 0.07})
+    ev = {"log_evidence": 270.41, "method": "Laplace", "log_laplace": 270.41, "log_is": 270.08, "ess": 24.9,
+          "n_draws": 256, "std_error": 0.19}
+    enriched = _class("e", "enriched", "A", 270.41, _params(M=1.2, xi=8.0), sampler=174.3, evidence=ev)
+    assert sampler_disagrees(enriched, base)
+    assert diagnosis.conclude(_ranked("A"), [base, enriched], RULE).omitted_physics == "A"
+    # a base whose refined estimate had no importance check: the sampler's sign is asked again
+    unchecked = replace(base, evidence={"log_evidence": 246.16, "method": "Laplace", "std_error": 0.0})
+    d = diagnosis.conclude(_ranked("A"), [unchecked, enriched], RULE)
+    assert d.omitted_physics == "none" and "favours the base class" in d.candidates[0].decision

@@ -102,3 +102,25 @@ def test_a_climb_asked_for_is_made_and_the_highest_mode_kept():
     e = mode_evidence(log_like, prior, sample, climbs=start[None, :], seed=8)
     np.testing.assert_allclose(e.mode, greater, atol=0.05 * s)
     assert abs(e.log_evidence - math.log(1.0 / (1.0 + w))) < 4 * e.std_error + 0.01
+
+
+def test_adapted_batches_recover_a_curved_posterior_the_first_batch_misses():
+    """A twisted Gaussian (Haario et al. 2001): x ~ N(0, 1), y + (x^2 - 1) ~ N(0, 0.3^2), whose mass integrates to 1
+    in the box, so ln Z = -ln(box area) (the tails outside it are below 1e-8). The curvature at the mode misplaces
+    the first batch (ESS under 10 % of 256 draws on 6 of 8 seeds); the adapted batches (weighted against every
+    batch's proposal) bring the ESS over 10 % of the pooled draws, and the estimate within half a nat: the log of an
+    importance estimate errs low on a curved target (measured over 8 seeds: -0.07 to -0.30)."""
+    prior = Prior([Bound("x", -6.0, 6.0), Bound("y", -40.0, 10.0)])
+
+    def log_like(theta):
+        x, y = np.atleast_2d(theta).T
+        return stats.norm.logpdf(x, 0.0, 1.0) + stats.norm.logpdf(y + (x ** 2 - 1.0), 0.0, 0.3)
+
+    exact = -math.log(12.0 * 50.0)
+    rng = np.random.default_rng(1)
+    sample = np.column_stack([rng.normal(0.3, 0.3, 64), rng.normal(0.5, 0.2, 64)])
+    first = mode_evidence(log_like, prior, sample, seed=0, adapt_rounds=0)
+    assert first.method == "Laplace" and first.ess < 0.1 * first.n_draws
+    e = mode_evidence(log_like, prior, sample, seed=0)
+    assert e.method == "importance sampling" and e.n_draws > first.n_draws and e.ess >= 0.1 * e.n_draws
+    assert abs(e.log_evidence - exact) < 0.5
