@@ -11,12 +11,14 @@ Modules, in the order of the loop:
 - ``rank``: candidate physics scored by their residual signatures, the conclusion by the Bayes factor;
 - ``report``: `diagnose` (every class screened, candidates ranked, conclusion) as a `Diagnosis`, its Markdown report;
 - ``files``: the run-directory files (`write_input`, `read_input`, `diagnose_directory`);
-- ``loop``: `run_loop(problem)`, the calibrate -> diagnose loop in memory over a `LoopProblem`;
+- ``loop``: `run_loop(problem)`, the calibrate -> diagnose loop in memory over a `LoopProblem`, step by step;
+- ``chain``: the chain of a stepwise discovery (each step's confirmed class, ln B, the misfit left per curve);
 - ``__main__``: ``python -m inference.diagnosis DIR``, the diagnosis of a finished run directory;
 - ``bench``: ``python -m inference.diagnosis.bench``, the time of a screening.
 """
 from .attribution import KINDS, SCOPES, Attribution, attribute, expand_covariates, holm, per_curve, split_spec
 from .bands import PredictiveBand, predictive_bands
+from .chain import chain_markdown, chain_steps, misfit_per_curve
 from .files import diagnose_directory, read_input, recorded_rule, write_diagnosis, write_input
 from .loop import ENRICH, LoopProblem, LoopResult, run_loop
 from .rank import conclude, rank_candidates
@@ -48,7 +50,7 @@ from .structure import Region, lag1_test, runs_test, scale_test, scan_test, segm
 
 __all__ = [
     "KINDS", "SCOPES", "Attribution", "attribute", "expand_covariates", "holm", "per_curve", "split_spec",
-    "PredictiveBand", "predictive_bands",
+    "PredictiveBand", "predictive_bands", "chain_markdown", "chain_steps", "misfit_per_curve",
     "diagnose_directory", "read_input", "recorded_rule", "write_diagnosis", "write_input", "ENRICH", "LoopProblem",
     "LoopResult", "run_loop", "conclude", "rank_candidates", "STRONG_LOG_BAYES", "CandidateDecision", "CandidateScore",
     "ClassSummary", "Conclusion", "DecisionRule", "DiagnosedCandidate", "Diagnosis", "MismatchRegion", "ModelClass",

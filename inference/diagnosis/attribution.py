@@ -40,6 +40,10 @@ autocorrelation:
   about 30 points). Power at 40 points: a 1-sigma offset in white noise 0.98, 2 sigma in AR(1) phi 0.5 0.90, a
   difference growing 0 -> 3 sigma 0.98; +9 % / -15 % offsets over the last 70 % of two tests logged at different points,
   noise 2 %: 20/20. With 5 or more tests nothing changes (permutation null).
+- stage properties (numeric, constant along each stage's curve "<quantity>@<stage>" but changing between the stages
+  of a test, e.g. a rate step): the between-stage contrast of `stage_contrast` (second differences of the
+  stage-mean residuals against the property's, a permutation among the stages of each test); its per-quantity
+  details fill ``Attribution.contrast`` like a few-test contrast's, so `rank` judges an item on them;
 - within-test covariates declared with scope "within" (post-peak strain, unloading branch, hold time, stage kind):
   besides the pooled R^2 above, the p-value is one circular-shift test per curve, Bonferroni over the curves of a
   test (valid whatever their dependence), Stouffer over the tests (independent; weights sqrt(points), each z
@@ -66,7 +70,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import special, stats
 
-from . import contrast
+from . import contrast, stage_contrast
 
 __all__ = ["Attribution", "attribute", "holm", "per_curve", "split_spec", "expand_covariates", "KINDS", "SCOPES",
            "SPEC_KEYS", "MIN_PERMUTATION_TESTS"]
@@ -397,6 +401,14 @@ def attribute(residuals: dict, covariates: dict, degree=3, n_shifts=1000, seed=0
         if scope == "within" and not varying:
             raise ValueError(f"covariate {name!r}: declared 'within' but constant along every curve")
         per_test = None
+        staged = (stage_contrast.stage_trend(residuals, cov, n_shifts, rng)
+                  if varying and meta["kind"] != "categorical" else None)
+        if staged is not None:   # a stage property: constant along each stage's curve, changing between stages
+            obs, total = staged["explained"], staged["total"]
+            results.append(Attribution(name, "within", float(obs / total) if total > 0 else 0.0, staged["p"],
+                                       staged["p"], staged["n_points"], staged["n_curves"], staged["null"],
+                                       staged["details"], float(math.sqrt(max(obs, 0.0) / staged["n_points"]))))
+            continue
         if varying:
             obs, total, null, n_points, n_curves = _within(residuals, cov, degree, n_shifts, rng)
             null_name = f"{n_shifts} independent circular shifts of each curve's residuals"

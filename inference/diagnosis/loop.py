@@ -23,8 +23,14 @@ Steps of `run_loop`:
 5. when an enriched class was calibrated, the final diagnosis compares every class (`report.diagnose`: a candidate
    is confirmed by its ln B, the margin over the other enriched classes and its own residual pattern explained,
    under the loop's `records.DecisionRule`, `rank.conclude`); else the first is final.
+6. stepwise discovery (a problem with ``adopt``): when an enrichment is confirmed, ``problem.adopt(class)`` makes
+   that enriched class the base of the next step, and steps 2-5 run again on it: the remaining candidates are
+   enriched on top of it (combined classes), beside a model-form class of the new base, and confirmed by the same
+   rule. The discovery stops when a step confirms nothing, when the new base's screening finds no structure (its
+   residual is noise: nothing is calibrated), or after ``max_steps`` steps. Each later step is a `LoopResult` in
+   ``LoopResult.steps`` (the first step is the result itself); ``LoopResult.chain`` lists the confirmed candidates.
 The loop's settings (alpha, level, n_shifts and the rule) stay with its result (``LoopResult.settings``), so that
-``files.write_input(..., **result.settings)`` records them for the re-diagnosis of the run directory.
+``files.write_input(..., **result.settings)`` records them for the re-diagnosis of the run directory (of each step).
 """
 from __future__ import annotations
 
@@ -36,10 +42,12 @@ from ..tmcmc import SamplerError
 from .records import DecisionRule, Diagnosis, ModelClass
 from .report import diagnose
 
-__all__ = ["LoopProblem", "LoopResult", "run_loop", "ENRICH"]
+__all__ = ["LoopProblem", "LoopResult", "run_loop", "ENRICH", "MAX_STEPS"]
 
 #: which candidates the loop enriches (module docstring, step 3)
 ENRICH = ("all", "named")
+#: the most steps of the stepwise discovery (module docstring, step 6): the catalog's clay effects are four
+MAX_STEPS = 3
 
 
 class LoopProblem(Protocol):
@@ -47,8 +55,8 @@ class LoopProblem(Protocol):
 
     likelihood: an inference.Likelihood of the recorded curves (the screening reads its observations and near-zero
     floor); description: one line for the diagnosis report, read after the base class is calibrated.
-    ``also_enrich``, ``calibrate_model_form`` and ``enrich`` ("all" or "named", module docstring step 3) are
-    optional.
+    ``also_enrich``, ``calibrate_model_form``, ``adopt`` and ``enrich`` ("all" or "named", module docstring step 3)
+    are optional.
     """
 
     likelihood: object
@@ -71,6 +79,11 @@ class LoopProblem(Protocol):
         """Further candidates (names, in this order) to enrich after the best-ranked named one, from the first
         diagnosis."""
 
+    def adopt(self, confirmed: ModelClass) -> ModelClass:
+        """Make the confirmed enriched class the base of the next step (module docstring, step 6): later
+        ``calibrate(name)`` enrich it, ``calibrate_model_form()`` adds the discrepancy to it, ``candidates()`` list
+        its physics as in the base; returns it as the new base class's record."""
+
 
 @dataclass
 class LoopResult:
@@ -81,8 +94,10 @@ class LoopResult:
     named: candidates named in the final diagnosis; named_without_enrichment: named candidates ranked above the chosen
     one that have no enrichment for this base class; not_calibrated: {candidate: reason} of the candidates chosen
     under enrich "all" whose enriched class the problem refused; timing: {screen_and_rank_s (the first diagnosis),
-    diagnose_final_s (the second; 0 when none), calibration_s {class: s}, loop_s} in seconds; settings: the
-    diagnosis settings {alpha, level, n_shifts, rule} (the keywords of `files.write_input`).
+    diagnose_final_s (the second; 0 when none), calibration_s {class: s}, loop_s} in seconds (the first step's
+    loop_s: the whole loop's); settings: the diagnosis settings {alpha, level, n_shifts, rule} (the keywords of
+    `files.write_input`); steps: the later steps of the stepwise discovery (module docstring, step 6), each a
+    LoopResult; candidates: the candidates as the step's diagnosis read them (plain data).
     """
 
     first: Diagnosis
@@ -94,6 +109,13 @@ class LoopResult:
     timing: dict
     not_calibrated: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
+    steps: list = field(default_factory=list)
+    candidates: list = field(default_factory=list)
+
+    @property
+    def chain(self) -> list:
+        """The candidates confirmed step by step (module docstring, step 6), in order."""
+        return [s.final.omitted_physics for s in [self, *self.steps] if s.final.omitted_physics != "none"]
 
 
 def _chosen(first: Diagnosis, enrich: str) -> tuple:
@@ -116,21 +138,47 @@ def _chosen(first: Diagnosis, enrich: str) -> tuple:
 
 
 def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), n_shifts=1000,
-             enrich=None) -> LoopResult:
-    """Calibrate, locate, explain, enrich, recalibrate, compare (module docstring); writes no files.
+             enrich=None, max_steps=MAX_STEPS) -> LoopResult:
+    """Calibrate, locate, explain, enrich, recalibrate, compare, and step on from a confirmed enrichment (module
+    docstring); writes no files.
 
     alpha: family-wise false-alarm level of each screening; level: predictive band level; rule: the
     `records.DecisionRule` that confirms an enrichment (`rank.conclude`; calibrate its threshold on negative
-    controls, `rank` module docstring); n_shifts: null draws of the covariate attribution; enrich: "all" or "named"
-    (default: the problem's ``enrich``, else "all").
+    controls, `rank` module docstring); n_shifts: null draws of the attribution; enrich: "all" or "named"
+    (default: the problem's ``enrich``, else "all"); max_steps: the most steps of the stepwise discovery (1: the
+    single-step loop).
     """
     enrich = enrich or getattr(problem, "enrich", "all")
     if enrich not in ENRICH:
         raise ValueError(f"enrich = {enrich!r} must be one of {ENRICH}")
     t_loop = time.perf_counter()
     settings = {"alpha": alpha, "level": level, "rule": rule, "n_shifts": n_shifts}
-    candidates = problem.candidates()
     base = replace(problem.calibrate(None), role="base", candidate=None)
+    result = _step(problem, base, settings, enrich)
+    adopt = getattr(problem, "adopt", None)
+    last = result
+    while adopt is not None and last.final.omitted_physics != "none" and 1 + len(result.steps) < max_steps:
+        confirmed = next(c for c in last.classes if c.role == "enriched" and c.candidate == last.final.omitted_physics)
+        base = replace(adopt(confirmed), role="base", candidate=None)
+        t0 = time.perf_counter()
+        covariates = problem.covariates(base)
+        alone = diagnose(problem.likelihood, [base], covariates, problem.candidates(), problem.description,
+                         **settings)
+        if alone.verdict != "structured mismatch":   # the residual left is noise: nothing to calibrate
+            last = LoopResult(alone, alone, [base], covariates, alone.named, [], {
+                "screen_and_rank_s": time.perf_counter() - t0, "diagnose_final_s": 0.0,
+                "calibration_s": {}, "loop_s": time.perf_counter() - t0}, {}, settings, [], problem.candidates())
+        else:
+            last = _step(problem, base, settings, enrich)
+        result.steps.append(last)
+    result.timing["loop_s"] = time.perf_counter() - t_loop
+    return result
+
+
+def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str) -> LoopResult:
+    """One step of the loop from the calibrated ``base`` class (module docstring, steps 1-5)."""
+    t_step = time.perf_counter()
+    candidates = problem.candidates()
     covariates = problem.covariates(base)
     classes = [base]
     model_form = getattr(problem, "calibrate_model_form", None)
@@ -158,5 +206,6 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), 
         final = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
         final_s = time.perf_counter() - t0
     timing = {"screen_and_rank_s": screen_s, "diagnose_final_s": final_s,
-              "calibration_s": {c.name: c.wall_s for c in classes}, "loop_s": time.perf_counter() - t_loop}
-    return LoopResult(first, final, classes, covariates, final.named, skipped, timing, refused, settings)
+              "calibration_s": {c.name: c.wall_s for c in classes}, "loop_s": time.perf_counter() - t_step}
+    return LoopResult(first, final, classes, covariates, final.named, skipped, timing, refused, settings, [],
+                      candidates)

@@ -10,8 +10,9 @@ import math
 import numpy as np
 import pytest
 from scipy import integrate, special
+from toy_classes import calibrated_class
 
-from inference import Curve, Likelihood, Observations, SerialExecutor, Test, UniformPrior, diagnosis, tmcmc
+from inference import Curve, Likelihood, Observations, Test, diagnosis
 from inference.diagnosis import ModelClass, run_loop
 
 A, B, SIGMA = 2.0, 0.08, 0.01
@@ -66,22 +67,10 @@ class Polynomial:
         bounds = dict(BOUNDS)
         if candidate is not None:
             bounds[ENRICHED[candidate][0]] = ENRICHED[candidate][1]
-        like = Likelihood(self.observations, self.forward(candidate))
-        post = tmcmc(like, UniformPrior({**bounds, "sigma_eps": SIGMA_BOUNDS}), n_samples=300, max_steps=5, seed=7,
-                     executor=SerialExecutor(), progress=False)
-        params, sigma = like.split(post.map_theta)
-        rows = np.random.default_rng(0).choice(len(post.samples), size=40, replace=False)
-        sims, sigmas = diagnosis.simulate_samples(like, post.samples[rows])
-        map_simulated = like.simulated_at_observations(self.forward(candidate)(params))
-        q = post.quantiles()
-        return ModelClass(
-            name="y = a x" if candidate is None else f"y = a x + {candidate}", role="base" if candidate is None
-            else "enriched", candidate=candidate, log_evidence=post.log_evidence,
-            J_g=like.goodness_of_fit(map_simulated),
-            parameters={n: {"map": post.map[n], "mean": post.mean[n], "std": post.std[n], "q2.5": q[n][0],
-                            "q97.5": q[n][2]} for n in post.names},
-            sigma_eps=sigma, map_simulated=map_simulated, sample_simulated=sims, sample_sigma=sigmas,
-            wall_s=post.wall_s, n_forward_solves=post.n_forward_solves, extra={"posterior": post})
+        simulate = self.forward(candidate)
+        return calibrated_class(Likelihood(self.observations, simulate), simulate, bounds,
+                                "y = a x" if candidate is None else f"y = a x + {candidate}",
+                                "base" if candidate is None else "enriched", candidate, SIGMA_BOUNDS)
 
     def covariates(self, base):
         return {"x": {t: x for t, x in X.items()}}

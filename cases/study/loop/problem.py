@@ -7,7 +7,9 @@ record, the enriched classes of ``physics_catalog.enriched_settings``); a study 
 its covariates and its figures (:class:`StudyProblem` for a study file). :func:`run_loop` runs the loop in memory,
 then writes DIR/summary.json etc. of each class (the base class in DIR/<base_dir>, enriched ones in
 DIR/enriched_<candidate>/), DIR/diagnosis_input.json/.npz, DIR/diagnosis.json/.md, DIR/diagnosis.png and
-DIR/loop.json.
+DIR/loop.json. After a confirmed enrichment the loop steps on (``inference.diagnosis.run_loop``, step 6): the
+confirmed class becomes the base (:meth:`LoopProblem.adopt`), and step k's classes and diagnosis files are written in
+DIR/step_<k>/; DIR/chain.md and DIR/chain.png show the chain, the final class's fit beside the first base's.
 """
 from __future__ import annotations
 
@@ -194,6 +196,7 @@ class LoopProblem:
             bounds = {**bounds, **discrepancy.bounds(like.discrepancy_names)}
             log_uniform = tuple(log_uniform) + like.discrepancy_names
         prior = self.prior(bounds, log_uniform)
+        self.calibrated[name] = (like, switches)
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
                                 max_steps=settings.max_steps, progress=False, **sampler)
         evidence = self.refined_evidence(like, prior, post, seed)
@@ -281,25 +284,36 @@ class LoopProblem:
         self.seed, self.settings, self.label = seed, settings, label
         self.likelihood, self.description, self.base_mode = None, "", None
         self.convention, self.conventions_compared = {}, []
+        # the stepwise discovery: the confirmed candidates, their switches, where the step's classes go
+        self.adopted, self.adopted_switches, self.class_root, self.calibrated = (), {}, self.out, {}
+        self.base_name = None
 
     def candidates(self) -> list:
-        return physics_catalog.signatures(self.catalog_switches(self.base_switches), self.model)
+        return physics_catalog.signatures(self.catalog_switches({**self.base_switches, **self.adopted_switches}),
+                                          self.model)
 
     def calibrate(self, candidate: str | None) -> ModelClass:
         """The base class (candidate None, in DIR/<base_dir>: :meth:`calibrate_base`) or the base class enriched
-        with ``candidate`` (``physics_catalog.enriched_settings``, in DIR/enriched_<candidate>), written in the
-        convention the base class adopted."""
+        with ``candidate`` (``physics_catalog.enriched_settings``, in DIR/enriched_<candidate>; on top of the
+        candidates :meth:`adopt` confirmed, in DIR/step_<k>/enriched_<candidate>), written in the convention the
+        base class adopted."""
         if candidate is None:
             return self.calibrate_base()
-        switches, bounds, extra_log = physics_catalog.enriched_settings(candidate, self.base_switches,
-                                                                        self.base_bounds, self.model)
-        switches = {**switches, **self.convention}
-        log_uniform = tuple(self.base_log_uniform) + tuple(extra_log)
-        out = self.out / f"enriched_{candidate.replace(' ', '_')}"
-        name = class_name(switches, enrichment_family(self.model).model)
+        name, switches, bounds, log_uniform, out = self.enriched_class(candidate)
         cls, _, _ = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
                                          self.seed, self.settings, max_failure_fraction=self.enriched_failure_fraction)
         return cls
+
+    def enriched_class(self, candidate: str) -> tuple:
+        """(name, switches, prior bounds, log-uniform names, directory) of the base class enriched with
+        ``candidate``, on top of the candidates :meth:`adopt` confirmed (a combined class), in the base's
+        convention."""
+        switches, bounds, extra_log = physics_catalog.enriched_settings(
+            candidate, {**self.base_switches, **self.adopted_switches}, self.base_bounds, self.model)
+        switches = {**switches, **self.adopted_switches, **self.convention}
+        return (class_name(switches, enrichment_family(self.model).model), switches, bounds,
+                tuple(self.base_log_uniform) + tuple(extra_log),
+                self.class_root / f"enriched_{candidate.replace(' ', '_')}")
 
     def calibrate_base(self) -> ModelClass:
         """The base class in each of its conventions (``constitutive.registry.conventions``: the same model written
@@ -339,14 +353,41 @@ class LoopProblem:
         return replace(cls, numerical_error=self.numerical_error(like, cls, {**self.base_switches, **convention}))
 
     def calibrate_model_form(self) -> ModelClass:
-        """The base class with a model-form discrepancy (:meth:`discrepancy`), in DIR/model_form: the alternative
-        without physics that an enrichment must beat (``inference.diagnosis.rank.conclude``)."""
-        switches = {**self.base_switches, **self.convention}
-        name = class_name(switches, self.model) + " + model-form discrepancy"
-        cls, _, _ = self.calibrate_class(self.observations, name, switches, self.base_bounds,
-                                         tuple(self.base_log_uniform), self.run, self.out / "model_form", self.seed,
-                                         self.settings, discrepancy=self.discrepancy(self.observations))
+        """The base class (after :meth:`adopt`, the confirmed class) with a model-form discrepancy
+        (:meth:`discrepancy`), in DIR/model_form (DIR/step_<k>/model_form): the alternative without physics that an
+        enrichment must beat (``inference.diagnosis.rank.conclude``)."""
+        if self.adopted:
+            _, switches = self.calibrated[self.base_name]
+            name = self.base_name
+        else:
+            switches = {**self.base_switches, **self.convention}
+            name = class_name(switches, self.model)
+        cls, _, _ = self.calibrate_class(self.observations, name + " + model-form discrepancy", switches,
+                                         self.base_bounds, tuple(self.base_log_uniform), self.run,
+                                         self.class_root / "model_form", self.seed, self.settings,
+                                         discrepancy=self.discrepancy(self.observations))
         return cls
+
+    def adopt(self, confirmed: ModelClass) -> ModelClass:
+        """The stepwise discovery (``inference.diagnosis.run_loop``, step 6): the confirmed enriched class becomes
+        the base of the next step. Its switches join every later class, its added parameters join the free ones
+        with the prior it was calibrated with, its mode is where the next classes' refined modes are climbed from,
+        and the next step's classes are written in DIR/step_<k>/. Returns its record with the discretisation error
+        measured at its mode."""
+        enrichment = physics_catalog.candidate(confirmed.candidate).enrichment
+        like, switches = self.calibrated[confirmed.name]
+        self.adopted += (confirmed.candidate,)
+        self.adopted_switches = {**self.adopted_switches, **enrichment.switches}
+        added = {n: confirmed.priors[n] for n in enrichment.parameters if n in confirmed.priors}
+        self.base_bounds = {**self.base_bounds, **{n: (lo, hi) for n, (lo, hi, _) in added.items()}}
+        self.base_log_uniform = tuple(self.base_log_uniform) + tuple(
+            n for n, (_, _, kind) in added.items() if kind == "log-uniform")
+        self.base_mode = dict(zip(confirmed.parameters, confirmed.extra["map_theta"]))
+        self.base_name = confirmed.name
+        self.class_root = self.out / f"step_{len(self.adopted) + 1}"
+        self.description += (f" Step {len(self.adopted) + 1}: the base is the class confirmed at step "
+                             f"{len(self.adopted)}, {confirmed.name}.")
+        return replace(confirmed, numerical_error=self.numerical_error(like, confirmed, switches))
 
     def covariates(self, base: ModelClass) -> dict:
         return self.curve_covariates(self.likelihood, base.extra["map_curves"])
@@ -361,15 +402,28 @@ def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: 
     problem.start(observations, run, out, seed, settings, label)
     result = diagnosis.run_loop(problem, rule=DECISION_RULE)
     like, final = problem.likelihood, result.final
-    diagnosis.write_input(out, like, result.classes, result.covariates, problem.candidates(),
-                          description=problem.description, **result.settings)
-    diagnosis.write_diagnosis(out, final)
-    problem.plot(out / "diagnosis.png", like, result.classes, final, label)
+    for k, step in enumerate([result, *result.steps], start=1):
+        where = out if k == 1 else out / f"step_{k}"
+        diagnosis.write_input(where, like, step.classes, step.covariates, step.candidates,
+                              description=step.final.description, **step.settings)
+        diagnosis.write_diagnosis(where, step.final)
+        problem.plot(where / "diagnosis.png", like, step.classes, step.final,
+                     label if k == 1 else f"{label}, step {k}")
+    chain = diagnosis.chain_steps(like, result)
+    if result.steps:
+        (out / "chain.md").write_text(diagnosis.chain_markdown(chain))
+        step = result.steps[-1]
+        last = next((c for c in step.classes if c.name == chain[-1]["class"]), step.classes[0])
+        problem.plot(out / "chain.png", like, [result.classes[0], replace(
+            last, role="enriched", candidate=" + ".join(result.chain))], final,
+            f"{label}: the chain {' -> '.join(result.chain)}")
     (out / "loop.json").write_text(json.dumps({
         "label": label, "seed": seed, "verdict": final.verdict, "omitted_physics": final.omitted_physics,
+        "confirmed_chain": result.chain, "chain": chain,
         "named": result.named, "named_without_enrichment": result.named_without_enrichment,
         "not_calibrated": result.not_calibrated, "log_bayes": final.log_bayes,
-        "conventions": problem.conventions_compared, "timing": result.timing, "settings": vars(settings)},
+        "conventions": problem.conventions_compared, "timing": result.timing,
+        "steps_timing": [s.timing for s in result.steps], "settings": vars(settings)},
         indent=1, default=float))
     return result
 
