@@ -1,7 +1,8 @@
 """The missing-physics diagnosis on the independent generator's programmes: its confusion table.
 
     python -m validation.independent.confusion [--seeds 1 2 3] [--programmes ciu ck0u ...] [--out DIR]
-                                          [--controls effects|model-form|all] [--skip-done] [--stop-at HH:MM]
+                                          [--controls effects|model-form|all|multi] [--skip-done]
+                                          [--stop-at HH:MM]
                                           [--table-only]
 
 Each case of validation/data/independent/ (programme x hidden effect x noise seed; the truth in its KEY.json) goes
@@ -17,8 +18,15 @@ file headers). The named effects (DIR/<case>/loop.json ``named``, in ranked orde
 ``--controls`` selects the cases: ``effects`` (default) the hidden-effect cases and their negative controls,
 ``model-form`` the model-form-only controls of :mod:`validation.independent.controls` (plain clay written with other
 conventions: every confirmed effect on them is a false alarm; KEY.json ``model_form`` names the variant; the
-programmes crs_load and crs_ur carry only these), ``all`` both. The table has one row per programme, hidden effect
-and model-form variant, and the summary counts the false alarms on the model-form controls on their own.
+programmes crs_load and crs_ur carry only these), ``all`` both, ``multi`` the multi-effect set of
+:mod:`validation.independent.multi` (two effects at once, and the rate-step programme's one-effect case and control;
+KEY.json ``effects`` lists them). The table has one row per programme, hidden effect(s) and model-form variant, and
+the summary counts the false alarms on the model-form controls on their own.
+
+Effects confirmed: the loop's ``confirmed_chain`` (loop.json, the effects confirmed one after another by the stepwise
+diagnosis) where present, else its ``omitted_physics`` unless "none". A case is confirmed (fully detected) when every
+effect it holds is in that list (a control: when it is empty), a false alarm when the list holds an effect the case
+does not; named: every effect it holds is among the named candidates.
 
 Anisotropy in the crs, il and relaxation programmes (one-dimensional compression and relaxation from a K0 state)
 gives the same records as the control by construction: those cells are left out; the SBP pairs (two expansion
@@ -47,8 +55,8 @@ __all__ = ["DATA", "EFFECTS", "PROGRAMMES", "CONTROL_SETS", "LEFT_OUT", "load_ke
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "independent"
 DEFAULT_OUT = Path("results") / "independent"
-PROGRAMMES = ("ciu", "ck0u", "crs", "il", "relaxation", "sbp", "crs_load", "crs_ur")
-CONTROL_SETS = ("effects", "model-form", "all")
+PROGRAMMES = ("ciu", "ck0u", "crs", "il", "relaxation", "sbp", "crs_load", "crs_ur", "ratestep")
+CONTROL_SETS = ("effects", "model-form", "all", "multi")
 EFFECTS = ("none", "viscosity", "anisotropy", "destructuration")
 #: (programme, effect) cells whose records equal the control's by construction, and the SBP cells the generator
 #: does not write (its pressuremeter pairs carry viscosity or nothing)
@@ -60,15 +68,40 @@ RUN_FILE = "confusion_run.json"
 
 
 def load_key(data=DATA) -> dict:
-    """{case id: {"programme", "effect", "seed", "parameters"}} of the generator's KEY.json."""
+    """{case id: {"programme", "effect", "seed", "parameters"}} of the generator's KEY.json (the multi-effect cases
+    with "effects" too, the model-form controls with "model_form")."""
     return json.loads((Path(data) / "KEY.json").read_text())
+
+
+def truth_effects(truth: dict) -> list:
+    """The effects a case holds: KEY.json ``effects``, else its one ``effect`` ([] for "none")."""
+    return list(truth.get("effects", [] if truth["effect"] == "none" else [truth["effect"]]))
+
+
+def truth_label(truth: dict) -> str:
+    """The hidden effect(s) of a case in one cell: "a + b" for a multi-effect case, else its ``effect``."""
+    return (" + ".join(truth_effects(truth)) or "none") if "effects" in truth else truth["effect"]
+
+
+def confirmed_effects(loop: dict) -> list:
+    """The effects the loop confirmed: its ``confirmed_chain``, else [``omitted_physics``] unless "none"."""
+    if "confirmed_chain" in loop:
+        return list(loop["confirmed_chain"])
+    return [] if loop["omitted_physics"] == "none" else [loop["omitted_physics"]]
 
 
 def case_order(key: dict, seeds=SEEDS, programmes=PROGRAMMES, controls="effects") -> list:
     """Case ids to run: seed by seed, in each seed the effects in :data:`ORDER` and the programmes in the order
     given (the :data:`LEFT_OUT` cells skipped), then the model-form controls (variant by variant); ``controls``
-    (:data:`CONTROL_SETS`) selects the effect cases, the model-form controls or both."""
-    by_cell = {(v["programme"], v["effect"], v.get("model_form"), v["seed"]): case for case, v in key.items()}
+    (:data:`CONTROL_SETS`) selects the effect cases, the model-form controls or both, or the multi-effect set (seed
+    by seed, programme by programme, the most effects first)."""
+    if controls == "multi":
+        multi = sorted(((v["seed"], programmes.index(v["programme"]), -len(v["effects"]), case)
+                        for case, v in key.items() if "effects" in v and v["seed"] in seeds
+                        and v["programme"] in programmes))
+        return [m[-1] for m in multi]
+    by_cell = {(v["programme"], v["effect"], v.get("model_form"), v["seed"]): case for case, v in key.items()
+               if "effects" not in v}
     variants = sorted({v["model_form"] for v in key.values() if "model_form" in v})
     out = []
     for s in seeds:
@@ -112,23 +145,25 @@ def outcome(case: str, truth: dict, out: Path) -> dict:
     """One case's row: the truth, what the loop named and confirmed, run times and the diagnosis' reasons."""
     d = out / case
     run = json.loads((d / RUN_FILE).read_text()) if (d / RUN_FILE).exists() else {}
-    row = {"case": case, "programme": truth["programme"], "effect": truth["effect"],
-           "model_form": truth.get("model_form"), "seed": truth["seed"],
+    row = {"case": case, "programme": truth["programme"], "effect": truth_label(truth),
+           "effects": truth_effects(truth), "model_form": truth.get("model_form"), "seed": truth["seed"],
            "wall_s": run.get("wall_s"), "returncode": run.get("returncode"), "started": run.get("started")}
     if not (d / "loop.json").exists() or not (d / "diagnosis.json").exists():
         return {**row, "status": "timed out" if run.get("timed_out") else "failed", "error": _error_tail(out, case)}
     loop = json.loads((d / "loop.json").read_text())
     diag = json.loads((d / "diagnosis.json").read_text())
-    named, confirmed = list(loop["named"]), loop["omitted_physics"]
-    effect = truth["effect"]
+    named, confirmed, held = list(loop["named"]), confirmed_effects(loop), truth_effects(truth)
     lnb = {cl["candidate"]: cl["log_bayes_vs_base"] for cl in diag["classes"] if cl["role"] == "enriched"}
     row.update({
         "status": "ran", "loop_s": loop["timing"]["loop_s"], "calibration_s": loop["timing"]["calibration_s"],
-        "verdict": diag["verdict"], "named": named, "confirmed": confirmed,
-        "named_ok": effect != "none" and effect in named, "named_first": bool(named) and named[0] == effect,
-        "confirmed_ok": confirmed == effect,
-        "false_alarm": confirmed not in ("none", effect),
-        "named_on_control": effect == "none" and bool(named),
+        "verdict": diag["verdict"], "named": named, "confirmed": ", ".join(confirmed) or "none",
+        "confirmed_chain": confirmed,
+        "named_ok": bool(held) and all(e in named for e in held),
+        "named_first": bool(named) and bool(held) and named[0] == held[0],
+        "confirmed_ok": all(e in confirmed for e in held) if held else not confirmed,
+        "confirmed_each": sum(e in confirmed for e in held),
+        "false_alarm": any(c not in held for c in confirmed),
+        "named_on_control": not held and bool(named),
         "ln_B": lnb, "threshold_ln_B": diag.get("threshold_log_bayes"),
         "attribution": [{k: a.get(k) for k in ("name", "p_value", "p_adjusted", "r2")} for a in diag["attribution"]],
         "candidates": [{"name": c["name"], "score": c["score"], "named": c["named"], "plausible": c["plausible"],
@@ -141,15 +176,18 @@ def outcome(case: str, truth: dict, out: Path) -> dict:
 
 
 def summarize(rows: list) -> list:
-    """Per (programme, hidden effect, model-form variant or None): counts over the cases run, and their run times;
-    the effect cases first, then the model-form controls."""
+    """Per (programme, hidden effect(s), model-form variant or None): counts over the cases run, and their run
+    times; the effect cases first (one effect, then several), then the model-form controls."""
     cells = {}
     for r in rows:
         cells.setdefault((r["programme"], r["effect"], r.get("model_form")), []).append(r)
+
+    def order(cell):
+        (prog, effect, form), rs = cell
+        return (form is not None, form or "", PROGRAMMES.index(prog), len(rs[0]["effects"]),
+                EFFECTS.index(effect) if effect in EFFECTS else len(EFFECTS), effect)
     out = []
-    for (prog, effect, form), rs in sorted(cells.items(), key=lambda kv: (kv[0][2] is not None, kv[0][2] or "",
-                                                                         PROGRAMMES.index(kv[0][0]),
-                                                                         EFFECTS.index(kv[0][1]))):
+    for (prog, effect, form), rs in sorted(cells.items(), key=order):
         ran = [r for r in rs if r["status"] == "ran"]
         times = [r["wall_s"] for r in rs if r.get("wall_s") is not None]
         out.append({"programme": prog, "effect": effect, "model_form": form, "cases": len(rs), "ran": len(ran),
@@ -158,6 +196,7 @@ def summarize(rows: list) -> list:
                     "named": sum(r["named_ok"] for r in ran) if effect != "none" else None,
                     "named_on_control": sum(r["named_on_control"] for r in ran) if effect == "none" else None,
                     "confirmed": sum(r["confirmed_ok"] for r in ran),
+                    "effects_confirmed": f"{sum(r['confirmed_each'] for r in ran)}/{len(rs[0]['effects']) * len(ran)}",
                     "false_alarm": sum(r["false_alarm"] for r in ran),
                     "wall_s": times})
     return out
@@ -195,6 +234,9 @@ def write_tables(rows: list, out: Path, settings: dict) -> None:
              "and relaxation is left out (records equal to the control by construction).", "",
              "Model-form controls (true effect `none (variant)`): the plain clay written with another convention "
              "(validation/independent/controls.py); any effect confirmed on them is a false alarm.", "",
+             "Multi-effect cases (true effects `a + b`, validation/independent/multi.py): confirmed when every effect "
+             "they hold is confirmed (loop.json `confirmed_chain`, else `omitted_physics`); the effects confirmed "
+             "over the cases are counted too.", "",
              "| programme | true effect | cases | named | confirmed | false alarm | failed | run time s (mean, max) |",
              "|---|---|---|---|---|---|---|---|"]
     for c in cells:
@@ -210,12 +252,16 @@ def write_tables(rows: list, out: Path, settings: dict) -> None:
     effects = [r for r in ran if r["effect"] != "none"]
     controls = [r for r in ran if r["effect"] == "none" and not r.get("model_form")]
     forms = [r for r in ran if r.get("model_form")]
+    multi = [r for r in ran if len(r["effects"]) > 1]
     lines += ["", f"Effects named {sum(r['named_ok'] for r in effects)}/{len(effects)}, confirmed "
               f"{sum(r['confirmed_ok'] for r in effects)}/{len(effects)}; controls clean "
               f"{sum(r['confirmed_ok'] for r in controls)}/{len(controls)}; model-form controls clean "
               f"{sum(r['confirmed_ok'] for r in forms)}/{len(forms)} (false alarms "
               f"{sum(r['false_alarm'] for r in forms)}/{len(forms)}); false alarms "
-              f"{sum(r['false_alarm'] for r in ran)}/{len(ran)}; failed {len(rows) - len(ran)}.", "",
+              f"{sum(r['false_alarm'] for r in ran)}/{len(ran)}; failed {len(rows) - len(ran)}."
+              + (f" Multi-effect cases fully detected {sum(r['confirmed_ok'] for r in multi)}/{len(multi)} (effects "
+                 f"confirmed {sum(r['confirmed_each'] for r in multi)}/{sum(len(r['effects']) for r in multi)})."
+                 if multi else ""), "",
               "| case | seed | true effect | named (ranked) | confirmed | run time s | reason (screening; attribution; "
               "candidates; ln B vs base) |", "|---|---|---|---|---|---|---|"]
     for r in rows:

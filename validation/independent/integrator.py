@@ -7,7 +7,8 @@ relaxation = axial strain held. In (a, r) components (compression positive, radi
     d sigma_ar = S D T d eps_ar - S c,   T = [[1, 2], [2/3, -2/3]] (eps_v, eps_q from eps_a, eps_r),
                                          S = [[1, 2/3], [1, -1/3]] (sigma_a, sigma_r from p, q),                (1)
 with D the tangent in (p, q) -- elastic De = diag(K, 3G) or elastoplastic De - De n n^T De / (n De n + H) -- and
-c = De d(eps^vp) the viscous part. The unknown half of (d eps, d sigma) follows from the known half by a 2 x 2
+c = De (d(eps^vp) + (d eps_s, 0)) the viscous part (the creep law's viscoplastic strain and delayed swelling, models
+Eq. 6 and 10). The unknown half of (d eps, d sigma) follows from the known half by a 2 x 2
 solve.
 
 Time stepping: forward Euler, one tangent per sub-step, sub-steps sized so that no strain component (controlled,
@@ -95,15 +96,16 @@ def _solve(A, b, ctrl, dt):
 
 
 def _step(point, ctrl, dt, plastic):
-    """One forward-Euler sub-step of length dt; returns (d eps_a, d eps_r, plastic strains) without updating."""
+    """One forward-Euler sub-step of length dt; returns (d eps_a, d eps_r, inelastic strains) without updating: the
+    plastic (d eps_v^p, d eps_q^p), or the viscous (d eps_v^vp, d eps_q^vp, d eps_s)."""
     model, s = point.model, point.state
     A, n, den, (K, G) = _tangent(model, s, plastic)
     dep = (0.0, 0.0)
     b = (0.0, 0.0)
     if model.viscous:
         ev, eq = model.creep_rate(s)
-        dep = (ev * dt, eq * dt)
-        cp, cq = K * dep[0], 3.0 * G * dep[1]
+        dep = (ev * dt, eq * dt, model.swelling_rate(s) * dt)
+        cp, cq = K * (dep[0] + dep[2]), 3.0 * G * dep[1]
         b = (cp + 2.0 * cq / 3.0, cp - cq / 3.0)
     de, _ = _solve(A, b, ctrl, dt)
     if plastic:
@@ -168,8 +170,9 @@ def run_stage(point: Point, ctrl: Control, max_strain=2e-5, max_stress=1e-3, gro
             dt = min(dt, max_stress * point.state.p / max(stress_rates))
         if model.viscous:
             ev, eq = model.creep_rate(point.state)
-            if abs(ev) + abs(eq) > 0:
-                dt = min(dt, max_strain / (abs(ev) + abs(eq)))
+            rate = abs(ev) + abs(eq) + abs(model.swelling_rate(point.state))
+            if rate > 0:
+                dt = min(dt, max_strain / rate)
         out = _step(point, ctrl, dt, False)
         de = out[0]
         if max(abs(de[0]), abs(de[1])) > max_strain:

@@ -38,9 +38,28 @@ rate is
 Under a held isotropic stress the void ratio follows e(t) = e_0 - psi ln(1 + R0^beta t / tau), R0 = p_eq/p_p at the
 start of the hold (Eq. 8): the secondary compression slope de/d(log10 t) tends to C_alpha_e; a tenfold strain rate
 raises the undrained strength by about 10^(1/beta).
+Three optional additions to the creep-rate law, each a parameter (all zero: Eq. 6-7 exactly), for clays showing
+two effects at once:
+- an inclined ellipse (``alpha``; the time lines of an anisotropic creep model, Leoni, Karstunen & Vermeer 2008,
+  ACM in triaxial form without rotational hardening): p_eq of Eq. (2) through (p, q) and its normal
+      p_eq = p + (q - alpha p)^2 / ((M^2 - alpha^2) p),
+      n = ((2 p - p_eq) / p_eq - 2 alpha (q - alpha p) / ((M^2 - alpha^2) p_eq),
+           2 (q - alpha p) / ((M^2 - alpha^2) p_eq));                                                  (9)
+- bonding (``chi0``, ``a``, ``b``; as in Creep-SCLAY1S, Sivasithamparam, Karstunen & Bonnier 2015, triaxial form):
+  the apparent reference size (1 + chi) p_p replaces p_p in Eq. (6), p_p hardening by Eq. (7) and chi degrading
+  with the viscoplastic strain by Eq. (4);
+- delayed swelling (``kappa_s`` (-), ``tau_s`` (s)): a volumetric Kelvin element in series, our own simple form of
+  the time-dependent swelling after unloading that Yin & Graham (1999) model by an elastic visco-plastic law, its
+  strain eps_s (compression positive, so <= 0 after unloading)
+      d eps_s / dt = (eps_s_eq - eps_s) / tau_s,  eps_s_eq = kappa_s / v min(0, ln(p / p_max)),         (10)
+  v the volume factor of the conventions, p_max the largest p reached in the test (the specimen's own history: at
+  the start p_max = p, eps_s = 0, its sampling swelling taken as complete). Under a held p after unloading
+  eps_s(t) = eps_s_eq + (eps_s(0) - eps_s_eq) exp(-t / tau_s) (v constant): with the strain held the effective
+  stress rises, under a held stress the specimen keeps swelling. The viscoplastic strain alone hardens p_p.
 
-Both models expose ``tangent(state)`` -> (elastic matrix, viscous strain rate) and the elastoplastic one also
-``plastic(state)`` for Eq. (5); the mixed-control integrator (:mod:`validation.independent.integrator`) does the rest.
+Both models expose ``moduli(state)`` (Eq. 1) and ``advance``; the elastoplastic one ``plastic(state)`` for Eq. (5),
+the viscous one ``creep_rate(state)`` (Eq. 6, 9) and ``swelling_rate(state)`` (Eq. 10); the mixed-control integrator
+(:mod:`validation.independent.integrator`) does the rest.
 """
 from __future__ import annotations
 
@@ -53,8 +72,9 @@ __all__ = ["ClayState", "ElastoplasticClay", "ViscousClay", "ellipse_size"]
 @dataclass
 class ClayState:
     """Mutable material state: effective p, q (kPa), specific volume v, size of the surface (p_mi: intrinsic size
-    for the elastoplastic model, p_p: the preconsolidation of the creep law, kPa), bonding chi (-) and the initial
-    specific volume v0 (the "initial" specific-volume convention)."""
+    for the elastoplastic model, p_p: the intrinsic preconsolidation of the creep law, kPa), bonding chi (-), the
+    initial specific volume v0 (the "initial" specific-volume convention), the delayed swelling strain eps_s (-,
+    compression positive) and the largest p reached p_max (kPa; None: p) of the creep law's Eq. (10)."""
 
     p: float
     q: float
@@ -62,6 +82,8 @@ class ClayState:
     size: float
     chi: float = 0.0
     v0: float | None = None
+    swell: float = 0.0
+    p_max: float | None = None
 
 
 def ellipse_size(p: float, q: float, M: float, alpha: float = 0.0) -> float:
@@ -135,32 +157,52 @@ class ElastoplasticClay(_Elastic):
 
 
 class ViscousClay(_Elastic):
-    """MCC ellipse with the creep-rate law Eq. (6)-(7) (``C_alpha_e``, reference time ``tau`` in s)."""
+    """MCC ellipse with the creep-rate law Eq. (6)-(7) (``C_alpha_e``, reference time ``tau`` in s), optionally
+    inclined (``alpha``, Eq. 9), bonded (``chi0`` in :meth:`initial_state`, ``a``, ``b``) and with delayed swelling
+    (``kappa_s``, ``tau_s`` in s, Eq. 10)."""
 
     viscous = True
 
-    def __init__(self, M, lambda_, kappa, nu, C_alpha_e, tau=86400.0, **conventions):
+    def __init__(self, M, lambda_, kappa, nu, C_alpha_e, tau=86400.0, alpha=0.0, a=0.0, b=0.0, kappa_s=0.0,
+                 tau_s=86400.0, **conventions):
         super().__init__(kappa, nu, **conventions)
-        self.M, self.lambda_, self.tau = M, lambda_, tau
+        self.M, self.lambda_, self.tau, self.alpha, self.a, self.b = M, lambda_, tau, alpha, a, b
+        self.kappa_s, self.tau_s = kappa_s, tau_s
         self.psi = C_alpha_e / math.log(10.0)
         self.beta = (lambda_ - kappa) / self.psi
 
     def initial_state(self, p, q, v, sigma_p_point, chi0=0.0) -> ClayState:
-        """State at (p, q, v) whose reference surface (the tau time line) passes through ``sigma_p_point``."""
-        return ClayState(p, q, v, ellipse_size(*sigma_p_point, self.M), 0.0, v)
+        """State at (p, q, v) whose apparent reference surface (the tau time line) passes through
+        ``sigma_p_point``; the bonding chi0 splits it into intrinsic and bonded parts."""
+        pm = ellipse_size(*sigma_p_point, self.M, self.alpha)
+        return ClayState(p, q, v, pm / (1.0 + chi0), chi0, v, 0.0, p)
 
     def creep_rate(self, s: ClayState):
-        """(d eps_v^vp/dt, d eps_q^vp/dt) of Eq. (6), 1/s."""
-        peq = ellipse_size(s.p, s.q, self.M)
-        ratio = peq / s.size
+        """(d eps_v^vp/dt, d eps_q^vp/dt) of Eq. (6) and (9), 1/s."""
+        al = self.alpha
+        m2 = self.M * self.M - al * al
+        peq = ellipse_size(s.p, s.q, self.M, al)
+        ratio = peq / ((1.0 + s.chi) * s.size)
         rate = self.psi / (s.v * self.tau) * math.exp(self.beta * math.log(ratio)) if ratio > 0 else 0.0
-        return rate * (2.0 * s.p - peq) / peq, rate * 2.0 * s.q / (self.M ** 2 * peq)
+        return (rate * ((2.0 * s.p - peq) / peq - 2.0 * al * (s.q - al * s.p) / (m2 * peq)),
+                rate * 2.0 * (s.q - al * s.p) / (m2 * peq))
 
-    def advance(self, s: ClayState, dev, deq, dev_p, deq_p):
-        """Update the state for total strain increments (dev, deq) of which (dev_p, deq_p) are viscoplastic:
-        Eq. (1), (7)."""
+    def swelling_rate(self, s: ClayState) -> float:
+        """d eps_s/dt of Eq. (10), 1/s (<= 0 while swelling)."""
+        if self.kappa_s == 0.0:
+            return 0.0
+        p_max = s.p if s.p_max is None else max(s.p_max, s.p)
+        target = self.kappa_s / self.volume(s) * min(0.0, math.log(s.p / p_max))
+        return (target - s.swell) / self.tau_s
+
+    def advance(self, s: ClayState, dev, deq, dev_p, deq_p, dev_s=0.0):
+        """Update the state for total strain increments (dev, deq) of which (dev_p, deq_p) are viscoplastic and
+        dev_s delayed swelling: Eq. (1), (4), (7), (10)."""
         K, G = self.moduli(s)
-        s.p += K * (dev - dev_p)
+        s.p += K * (dev - dev_p - dev_s)
         s.q += 3.0 * G * (deq - deq_p)
         s.size += self.volume(s) * s.size * dev_p / (self.lambda_ - self.kappa)
+        s.chi -= self.a * s.chi * (abs(dev_p) + self.b * abs(deq_p))
+        s.swell += dev_s
+        s.p_max = s.p if s.p_max is None else max(s.p_max, s.p)
         s.v -= s.v * dev

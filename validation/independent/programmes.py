@@ -4,7 +4,9 @@ One clay (Modified Cam Clay base: M = 1.2, lambda = 0.25, kappa = 0.05, nu = 0.2
 preconsolidation 100 kPa on the K0 = 0.55 line) with one hidden effect per data set (:data:`EFFECTS`):
 ``none`` (plain MCC, the negative control), ``viscosity`` (creep-rate law, C_alpha_e = 0.015, tau = 1 day),
 ``anisotropy`` (ellipse inclined at alpha = 0.30), ``destructuration`` (bonding chi0 = 1.5, a = 8, b = 0.4); see
-:mod:`validation.independent.models` for the equations.
+:mod:`validation.independent.models` for the equations. Two effects at once (:data:`COMBINED`, the programmes of
+:mod:`validation.independent.multi`): the creep-rate law with delayed swelling (kappa_s = 0.02, tau_s = 1 day), with
+the inclined ellipse (alpha = 0.30) or with bonding (chi0 = 1.5, a = 8, b = 0.4).
 The K0 of normally consolidated states (:func:`k0_nc`) is the given 0.55 (the in situ preconsolidation line; the
 specimens' stated initial K0); the model-form controls (:mod:`validation.independent.controls`) take Jaky's or the
 flow rule's instead, and the models' other conventions through :func:`material`.
@@ -31,28 +33,33 @@ from dataclasses import dataclass, field
 from .integrator import Control, Point, run_stage
 from .models import ClayState, ElastoplasticClay, ViscousClay
 
-__all__ = ["CLAY", "EFFECTS", "Stage", "Test", "PROGRAMMES", "material", "k0_nc", "simulate"]
+__all__ = ["CLAY", "EFFECTS", "COMBINED", "Stage", "Test", "PROGRAMMES", "material", "k0_nc", "simulate"]
 
 #: base parameters of the clay (kPa), the in situ preconsolidation (vertical, kPa) and its K0 line
 CLAY = {"M": 1.2, "lambda_": 0.25, "kappa": 0.05, "nu": 0.25, "sigma_p": 100.0, "K0_nc": 0.55}
 #: hidden effect -> its generating parameters
 EFFECTS = {"none": {}, "viscosity": {"C_alpha_e": 0.015, "tau": 86400.0}, "anisotropy": {"alpha": 0.30},
            "destructuration": {"chi0": 1.5, "a": 8.0, "b": 0.4}}
+#: delayed swelling after unloading (models Eq. 10): slope in e-ln p' (-) and time constant (s)
+SWELLING = {"kappa_s": 0.02, "tau_s": 86400.0}
+#: two hidden effects at once, named "<effect>+<effect>" -> the generating parameters of both
+COMBINED = {"viscosity+time-dependent swelling": {**EFFECTS["viscosity"], **SWELLING},
+            "viscosity+anisotropy": {**EFFECTS["viscosity"], **EFFECTS["anisotropy"]},
+            "viscosity+destructuration": {**EFFECTS["viscosity"], **EFFECTS["destructuration"]}}
 DAY = 86400.0
 
 
 def material(effect: str, clay: dict | None = None, conventions: dict | None = None):
-    """(model, chi0) of the clay with ``effect``; ``clay`` overrides values of :data:`CLAY`, ``conventions`` are the
-    models' convention options (:mod:`validation.independent.models`; default ours)."""
-    c, e, conv = {**CLAY, **(clay or {})}, EFFECTS[effect], conventions or {}
+    """(model, chi0) of the clay with ``effect`` (of :data:`EFFECTS` or :data:`COMBINED`: the creep-rate law where
+    it holds viscosity, else the elastoplastic clay, with the effect's other parameters); ``clay`` overrides values
+    of :data:`CLAY`, ``conventions`` are the models' convention options (:mod:`validation.independent.models`;
+    default ours)."""
+    c, e, conv = {**CLAY, **(clay or {})}, {**EFFECTS, **COMBINED}[effect], conventions or {}
     base = (c["M"], c["lambda_"], c["kappa"], c["nu"])
-    if effect == "viscosity":
-        return ViscousClay(*base, e["C_alpha_e"], e["tau"], **conv), 0.0
-    if effect == "anisotropy":
-        return ElastoplasticClay(*base, alpha=e["alpha"], **conv), 0.0
-    if effect == "destructuration":
-        return ElastoplasticClay(*base, a=e["a"], b=e["b"], **conv), e["chi0"]
-    return ElastoplasticClay(*base, **conv), 0.0
+    options = {k: v for k, v in e.items() if k not in ("C_alpha_e", "tau", "chi0")}
+    if "C_alpha_e" in e:
+        return ViscousClay(*base, e["C_alpha_e"], e["tau"], **options, **conv), e.get("chi0", 0.0)
+    return ElastoplasticClay(*base, **options, **conv), e.get("chi0", 0.0)
 
 
 def k0_nc(convention: str, clay: dict | None = None) -> float:

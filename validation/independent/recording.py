@@ -22,10 +22,10 @@ Files (per programme x hidden effect x noise seed, in a folder named by an opaqu
 (``#`` header lines with the conditions and the programme, never the hidden effect; columns ``stage`` (1-based
 stage number), ``time_s`` (since the test start), ``stage_time_s`` (since the stage start), ``axial_strain_pct``
 (since the test start; since the stage start in a shear stage), then ``q_kPa``, ``p_kPa`` (effective),
-``excess_pore_pressure_kPa`` (undrained stages), ``void_ratio`` (drained stages) for the triaxial, ``sigma_v_kPa``
-(effective) for the oedometer; an empty cell: not recorded in that stage), a study file ``study.toml`` with a
-Modified Cam Clay base in the staged-programme schema (cases/study/reading/staged_tests.py), and the hidden truth in
-``KEY.json`` at the top of the data folder.
+``excess_pore_pressure_kPa`` (undrained stages; from the start of a run of consecutive undrained stages), ``void_ratio``
+(drained stages) for the triaxial, ``sigma_v_kPa`` (effective) for the oedometer; an empty cell: not recorded in
+that stage), a study file ``study.toml`` with a Modified Cam Clay base in the staged-programme schema
+(cases/study/reading/staged_tests.py), and the hidden truth in ``KEY.json`` at the top of the data folder.
 """
 from __future__ import annotations
 
@@ -126,6 +126,7 @@ def records(test, effect, seed, prog_index, test_index, form: dict | None = None
     resolution = logging.pop("resolution")
     noise = np.random.default_rng([seed, prog_index, test_index, 7])
     out = {c: [] for c in COLUMNS[test.apparatus]}
+    u_start = None          # sigma'_r where the current run of undrained stages started (its excess pore pressure 0)
     sd_rel, sd_abs = STRESS_NOISE[0] * noise_scale, STRESS_NOISE[1] * noise_scale
     for number, stage, seg, times in logged_times(test, spans, rows, seed, prog_index, test_index, **logging):
         t = seg[:, 0]
@@ -151,10 +152,11 @@ def records(test, effect, seed, prog_index, test_index, form: dict | None = None
         out["axial_strain_pct"] += list(strain)
         if test.apparatus == "triaxial":
             undrained = stage.fields.get("drainage") == "undrained"
+            u_start = (seg[0, 4] if u_start is None else u_start) if undrained else None
             stress = measured if stage.kind == "shear" else applied
             out["q_kPa"] += list(stress(sa - sr))
             out["p_kPa"] += list(stress((sa + 2 * sr) / 3.0))
-            out["excess_pore_pressure_kPa"] += list(measured(seg[0, 4] - sr) if undrained else empty)
+            out["excess_pore_pressure_kPa"] += list(measured(u_start - sr) if undrained else empty)
             out["void_ratio"] += list(empty if undrained else e + noise.normal(0.0, 0.002 * noise_scale, n))
         else:
             out["sigma_v_kPa"] += list(sa if stage.kind == "load" else measured(sa))
@@ -189,9 +191,12 @@ def header(case, description, test, seed) -> list:
              f"case: {case}", f"programme: {description}", f"test: {test.name}",
              f"apparatus: {test.apparatus}", f"initial_state: {init} (kPa; effective stresses)"]
     lines += [f"stage_{k}: {_describe(s)}" for k, s in enumerate(test.stages, start=1)]
+    undrained = [s.fields.get("drainage") == "undrained" for s in test.stages]
+    consecutive = any(a and b for a, b in zip(undrained, undrained[1:]))
     lines += ["columns: stage number; time since the test start; compression positive; effective stresses"
-              + ("; excess pore pressure from the start of each undrained stage" if test.apparatus == "triaxial"
-                 else ""), f"noise: about 1.5 % per point, seed {seed}"]
+              + ("" if test.apparatus != "triaxial" else "; excess pore pressure from the start of "
+                 + ("undrained shearing (carried through consecutive undrained stages)" if consecutive
+                    else "each undrained stage")), f"noise: about 1.5 % per point, seed {seed}"]
     return lines
 
 
