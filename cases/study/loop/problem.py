@@ -199,9 +199,14 @@ class LoopProblem:
         self.calibrated[name] = (like, switches)
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
                                 max_steps=settings.max_steps, progress=False, **sampler)
+        t1 = time.perf_counter()
         evidence = self.refined_evidence(like, prior, post, seed)
+        t2 = time.perf_counter()
         cls, _ = self.finish_class(post, like, name, switches, run, out, seed, settings.predictive_draws,
-                                   time.perf_counter() - t0, evidence, prior)
+                                   t2 - t0, evidence, prior)
+        # where the class's time went (s): the sampler, the refined evidence, the record and the figures
+        cls.extra["phases_s"] = {"sampler": t1 - t0, "evidence": t2 - t1, "record_and_outputs":
+                                 time.perf_counter() - t2}
         return cls, post, like
 
     def refined_evidence(self, like, prior, post, seed):
@@ -347,8 +352,8 @@ class LoopProblem:
             compared = "; ".join(f"{w}: ln Z = {c.log_evidence:.1f}" for w, _, c, _, _ in tried)
             self.description += (f" Conventions compared (the same model written another way): {compared}; "
                                  f"the base is written with {words}.")
-        self.conventions_compared = [{"convention": w, "switches": s, "class": c.name, "log_evidence": c.log_evidence}
-                                     for w, s, c, _, _ in tried]
+        self.conventions_compared = [{"convention": w, "switches": s, "class": c.name, "log_evidence": c.log_evidence,
+                                      "wall_s": c.wall_s} for w, s, c, _, _ in tried]
         self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
         return replace(cls, numerical_error=self.numerical_error(like, cls, {**self.base_switches, **convention}))
 
@@ -423,6 +428,7 @@ def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: 
         "named": result.named, "named_without_enrichment": result.named_without_enrichment,
         "not_calibrated": result.not_calibrated, "log_bayes": final.log_bayes,
         "conventions": problem.conventions_compared, "timing": result.timing,
+        "phases_s": {c.name: c.extra.get("phases_s") for step in [result, *result.steps] for c in step.classes},
         "steps_timing": [s.timing for s in result.steps], "settings": vars(settings)},
         indent=1, default=float))
     return result
