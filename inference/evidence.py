@@ -147,7 +147,7 @@ def _derivatives(g, u, h):
     return f0, grad, H, bool(np.all(np.isfinite(v)))
 
 
-class _DefensiveMixture:
+class _StudentMixture:
     """The importance proposal: an equal mixture of Student-t distributions centred at ``mode`` with the scale
     matrices ``covs``: at the mode, (-H)^-1 and WIDE^2 (-H)^-1, the wide half covering the tails of a curved or skewed
     posterior that the local curvature underestimates (a defensive mixture, Hesterberg 1995); one matrix for an
@@ -186,7 +186,7 @@ def _importance(t, mode, cov, n_draws, min_ess, rounds, df, rng):
     """Importance sampling of g from the defensive mixture at ``mode``, adapted by up to ``rounds`` further batches
     while the pooled ESS stays under ``min_ess`` of the draws (module docstring, steps 4-5): (ln Z_IS or None, ESS,
     standard error, number of draws)."""
-    proposals = [_DefensiveMixture(mode, (cov, WIDE ** 2 * cov), df)]
+    proposals = [_StudentMixture(mode, (cov, WIDE ** 2 * cov), df)]
     draws = proposals[0].rvs(n_draws, rng)
     log_g = t.g(draws)
     d = len(mode)
@@ -197,13 +197,14 @@ def _importance(t, mode, cov, n_draws, min_ess, rounds, df, rng):
         log_is, ess, error = _weights(log_w)
         if log_is is None or ess >= min_ess * len(draws) or len(proposals) > rounds:
             return log_is, ess, error, len(draws)
-        w = np.exp(log_w - log_w[np.isfinite(log_w)].max())
-        w = np.where(np.isfinite(w), w, 0.0) / np.where(np.isfinite(w), w, 0.0).sum()
+        finite = np.isfinite(log_w)
+        w = np.exp(np.where(finite, log_w - log_w[finite].max(), -np.inf))
+        w /= w.sum()
         mean = w @ draws
         centred = draws - mean
         shrink = d / (ess + d)
         fitted = (1.0 - shrink) * (centred.T * w) @ centred + shrink * cov
-        proposals.append(_DefensiveMixture(mean, (0.5 * (fitted + fitted.T),), df))
+        proposals.append(_StudentMixture(mean, (0.5 * (fitted + fitted.T),), df))
         batch = proposals[-1].rvs(n_draws, rng)
         draws, log_g = np.vstack([draws, batch]), np.concatenate([log_g, t.g(batch)])
 
