@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from cases.study.checks import Checker, StudyError, fe_value, read_toml
+from cases.study.checks import Checker, StudyError, did_you_mean, fe_value, read_toml
 from cases.study.reading.constraints import feasible_point, read_constraints
 from cases.study.reading.error_model import DEFAULT_SIGMA, ErrorModel, read_error_model
 from cases.study.reading.flat_tests import test_spec
@@ -101,7 +101,8 @@ def load_study(path, check_files=True) -> Study:
             if k == "sigma_eps":
                 ck.fail(f"{table}.{k}", v, "the error parameter has its own table [sigma_eps] (bounds = [lo, hi])")
             if k not in spec.parameters:
-                ck.fail(f"{table}.{k}", v, f"unknown parameter of {model}; its parameters are {known}")
+                ck.fail(f"{table}.{k}", v, f"unknown parameter of {model}; {did_you_mean(k, spec.parameters)}its "
+                        f"parameters are {known}")
     for k in set(fixed_in) & set(free_in):
         ck.fail(f"model.free.{k}", free_in[k], f"{k} is also in [model.fixed]: a parameter is either fixed or free")
     fixed = {k: ck.number(v, f"model.fixed.{k}") for k, v in fixed_in.items()}
@@ -154,7 +155,8 @@ def load_study(path, check_files=True) -> Study:
     names = [t.name for t in tests]
     for i, n in enumerate(names):
         if names.index(n) != i:
-            ck.fail(f"tests[{i}].name", n, "test names must be unique")
+            ck.fail(f"tests[{n!r}].name", n, f"test names must be unique (entries {names.index(n) + 1} and {i + 1} "
+                    "of [[tests]])")
     synthetic = ck.table(doc.get("synthetic", {}), "synthetic",
                          ("parameters", "switches", "noise", "seed", "points", "max_strain_pct"))
     references = read_references(ck, doc.get("reference", {}), spec.parameters)

@@ -26,6 +26,7 @@ from dataclasses import replace
 import numpy as np
 
 import inference
+from cases.study.checks import did_you_mean
 from cases.study.programme import curve_key, split_key
 from cases.study.stages.sequence import stage_times
 from inference import DataError
@@ -51,7 +52,9 @@ def _column(path, col, apparatus):
     if q in known:
         return q, unit
     names = ["stage"] + [q if u == "-" else f"{q}_{'pct' if u == '%' else u}" for q, u in known.items()]
-    raise DataError(f"{path}: column {col!r} is not a column of an {apparatus} programme; known: {', '.join(names)}")
+    hint = did_you_mean(col, names) or did_you_mean(q, known)
+    raise DataError(f"{path}: column {col!r} is not a column of an {apparatus} programme; {hint}known: "
+                    f"{', '.join(names)}")
 
 
 def _read(spec):

@@ -2,7 +2,7 @@
 the same fields in the test's table) and its ``[[tests.stages]]`` in order, checked into a
 :class:`~cases.study.programme.TestSpec` with ``type = "programme"``.
 
-Every field is checked before any solve; a message names the file, ``tests[i].stages[k].field``, the value and what
+Every field is checked before any solve; a message names the file, ``tests['NAME'].stages[k].field``, the value and what
 is supported (for the apparatus, for the stage kind). Units: kPa, s, 1/s; strains in % in the file (fractions in the
 record); compression positive.
 """
@@ -26,9 +26,9 @@ INITIAL_FIELDS = ("e0", "p0", "sigma_v0", "K0", "ocr", "preconsolidation", "u0")
 PRECONSOLIDATION_PARAMETERS = ("ocr", "pc0", "sigma_p0")
 
 
-def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
-    """The TestSpec of the programme entry ``t`` (``tests[i]``) of a study of ``model`` (registry ``spec``)."""
-    where = f"tests[{i}]"
+def programme_spec(ck, t, where, spec, model, file, name) -> TestSpec:
+    """The TestSpec of the programme entry ``t`` (named ``where`` in messages, ``tests['NAME']``) of a study of
+    ``model`` (registry ``spec``)."""
     apparatus = ck.text(t["apparatus"], f"{where}.apparatus", tuple(KINDS))
     if "type" in t:
         ck.fail(f"{where}.type", t["type"], "a test with an apparatus and [[tests.stages]] has no type (type is the "
@@ -67,7 +67,7 @@ def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
               "K0": None if initial.p0 is not None else initial.K0, "u0": initial.u0 if apparatus == "sbp" else None,
               "consolidation": None if apparatus != "triaxial" else ("isotropic" if initial.p0 is not None else "K0"),
               "strain_rate": stages[0].strain_rate if apparatus == "sbp" else None}
-    return TestSpec(name=name, type="programme", file=file, where=f"{ck.path}: {where} ({name})", apparatus=apparatus,
+    return TestSpec(name=name, type="programme", file=file, where=f"{ck.path}: {where}", apparatus=apparatus,
                     initial=initial, stages=stages, weight=weight, **site, **mirror)
 
 
