@@ -274,6 +274,29 @@ LAB_TOMLS = [
     ("K0 with isotropic", edit("p0 = 100.0", "p0 = 100.0\nK0 = 0.5"), ["tests['T1'].K0", "0.5"]),
     ("curves", edit("strain_rate = 1e-5", 'strain_rate = 1e-5\ncurves = ["q", "u"]'), ["tests['T1'].curves"]),
     ("synthetic field", lambda t: t + "\n[synthetic]\nnoize = 0.1\n", ["synthetic.noize"]),
+    ("enrichment typo", lambda t: t + "\n[enrichment.viscosty]\nC_alpha_e = [0.001, 0.05]\n",
+     ["enrichment.viscosty = {'C_alpha_e': [0.001, 0.05]}: not a candidate of the catalog; did you mean "
+      "'viscosity'? candidates with parameters: viscosity, time_dependent_swelling, partial_drainage, "
+      "destructuration"]),
+    ("enrichment parameter typo", lambda t: t + "\n[enrichment.viscosity]\nC_alpha = [0.001, 0.05]\n",
+     ["enrichment.viscosity.C_alpha = [0.001, 0.05]: not a parameter of the 'viscosity' enrichment; did you mean "
+      "'C_alpha_e'? it adds C_alpha_e"]),
+    ("enrichment log-uniform from 0", lambda t: t + "\n[enrichment.viscosity]\nC_alpha_e = [0.0, 0.05]\n",
+     ["enrichment.viscosity.C_alpha_e = [0.0, 0.05]: a log-uniform prior needs a lower bound > 0"]),
+    ("enrichment bounds reversed", lambda t: t + '\n[enrichment."time-dependent swelling"]\ntau_s = [1e6, 1e3]\n',
+     ["enrichment.time-dependent swelling.tau_s = [1000000.0, 1000.0]: lower bound must be < upper bound"]),
+    ("enrichment below the physical range", lambda t: t + "\n[enrichment.destructuration]\n"
+     'chi0 = { bounds = [-1.0, 20.0], prior = "uniform" }\n', ["enrichment.destructuration.chi0", "chi0"]),
+    ("enrichment without parameters", lambda t: t + "\n[enrichment.anisotropy]\nomega = [1, 2]\n",
+     ["enrichment.anisotropy", "the 'anisotropy' enrichment adds no parameter"]),
+    ("enrichment of another family", lambda t: t + "\n[enrichment.state_dependent_dilatancy]\nn_p = [1, 2]\n",
+     ["enrichment.state_dependent_dilatancy", "no enrichment of ModifiedCamClay for 'state-dependent dilatancy'"]),
+    ("enrichment without its forward model", lambda t: t + "\n[enrichment.partial_drainage]\n"
+     "permeability = [1e-10, 1e-7]\n", ["enrichment.partial_drainage", "this study has no pressuremeter test"]),
+    ("enrichment given twice", lambda t: t + "\n[enrichment.time_dependent_swelling]\ntau_s = [1e3, 1e6]\n"
+     '[enrichment."time-dependent swelling"]\nkappa_s = [0.001, 0.01]\n',
+     ["enrichment.time-dependent swelling", "is given twice (as 'time-dependent swelling' and "
+      "'time_dependent_swelling'): keep one"]),
 ]
 
 

@@ -85,6 +85,9 @@ class LoopProblem:
     error_groups = None
     #: {test: weight} of Eq. (6) (tests not named: 1)
     weights: dict = {}
+    #: {candidate: {parameter: (lower, upper, kind)}}: the study's priors of an enrichment's added parameters,
+    #: replacing the catalog's (``cases.study.reading.enrichment_priors``)
+    enrichment_priors: dict = {}
     #: where the base class is calibrated, relative to the loop's directory
     base_dir = "base"
     #: the fraction of a sampler stage's solves that may fail before an enriched class's calibration stops: an
@@ -283,16 +286,35 @@ class LoopProblem:
         self.convention, self.conventions_compared = {}, []
 
     def candidates(self) -> list:
-        return physics_catalog.signatures(self.catalog_switches(self.base_switches), self.model)
+        """The catalog for the base class, an enrichment's added parameters with the priors its class is calibrated
+        under (:meth:`enriched_priors`)."""
+        out = physics_catalog.signatures(self.catalog_switches(self.base_switches), self.model)
+        for c in out:
+            if c["enrichment"] is not None and c["name"] in self.enrichment_priors:
+                bounds, log_uniform = self.enriched_priors(c["name"], c["enrichment"]["parameters"],
+                                                           c["enrichment"]["log_uniform"])
+                c["enrichment"].update(parameters={k: list(v) for k, v in bounds.items()},
+                                       log_uniform=list(log_uniform))
+        return out
+
+    def enriched_priors(self, candidate: str, bounds: dict, log_uniform) -> tuple:
+        """(bounds, log-uniform names) with the study's priors of ``candidate``'s added parameters
+        (:attr:`enrichment_priors`) in place of the catalog's."""
+        own = self.enrichment_priors.get(candidate, {})
+        bounds = {**bounds, **{k: (lo, hi) for k, (lo, hi, _) in own.items()}}
+        log_uniform = tuple(k for k in log_uniform if k not in own) + tuple(
+            k for k, (_, _, kind) in own.items() if kind == "log-uniform")
+        return bounds, log_uniform
 
     def calibrate(self, candidate: str | None) -> ModelClass:
         """The base class (candidate None, in DIR/<base_dir>: :meth:`calibrate_base`) or the base class enriched
-        with ``candidate`` (``physics_catalog.enriched_settings``, in DIR/enriched_<candidate>), written in the
-        convention the base class adopted."""
+        with ``candidate`` (``physics_catalog.enriched_settings``, the study's priors of its added parameters,
+        :meth:`enriched_priors`, in DIR/enriched_<candidate>), written in the convention the base class adopted."""
         if candidate is None:
             return self.calibrate_base()
         switches, bounds, extra_log = physics_catalog.enriched_settings(candidate, self.base_switches,
                                                                         self.base_bounds, self.model)
+        bounds, extra_log = self.enriched_priors(candidate, bounds, extra_log)
         switches = {**switches, **self.convention}
         log_uniform = tuple(self.base_log_uniform) + tuple(extra_log)
         out = self.out / f"enriched_{candidate.replace(' ', '_')}"
@@ -394,6 +416,7 @@ class StudyProblem(LoopProblem):
         self.constraints = study.constraints
         self.error_groups = None if study.error_model is None else study.error_model.curve_groups(observations)
         self.weights = {t.name: t.weight for t in study.tests if t.weight != 1.0}
+        self.enrichment_priors = study.enrichment_priors
         self.base_dir = "."
         self.preset = study.preset(quick)
         self.processes, self.dispatch = processes, dispatch
