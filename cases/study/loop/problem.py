@@ -90,12 +90,14 @@ class LoopProblem:
     enrichment_priors: dict = {}
     #: where the base class is calibrated, relative to the loop's directory
     base_dir = "base"
-    #: the fraction of a sampler stage's solves that may fail before an enriched class's calibration stops: an
-    #: enrichment's prior holds regions where the added physics cannot follow the programme's controls (structure
-    #: collapsing faster than it hardens under stress-controlled compression has no solution nearby); those particles
-    #: are zero-likelihood with their reason recorded. The base class keeps the sampler's default (0.1): there a
-    #: failure rate that high means a broken set-up.
-    enriched_failure_fraction = 0.5
+    #: the fraction of a sampler stage's solves that may fail before a class's calibration stops (every class: base,
+    #: model-form, enriched): a prior holds regions where the model cannot follow the programme's controls (M below
+    #: the stress ratio of a K0 consolidation path; structure collapsing faster than it hardens under
+    #: stress-controlled compression); those draws are zero-likelihood with their reason recorded
+    #: (failed_solves.jsonl, and a warning of the class, :mod:`cases.study.outputs.calibration_warnings`). Only a
+    #: stage where nearly every solve fails stops, with the last reasons: too few particles are left to stand for
+    #: the posterior.
+    failure_fraction = 0.9
 
     # ---------------------------------------------------------------------------------------- what a study supplies
     def forward(self, switches):
@@ -198,7 +200,8 @@ class LoopProblem:
             log_uniform = tuple(log_uniform) + like.discrepancy_names
         prior = self.prior(bounds, log_uniform)
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
-                                max_steps=settings.max_steps, progress=False, **sampler)
+                                max_steps=settings.max_steps, progress=False,
+                                **{"max_failure_fraction": self.failure_fraction, **sampler})
         evidence = self.refined_evidence(like, prior, post, seed)
         cls, _ = self.finish_class(post, like, name, switches, run, out, seed, settings.predictive_draws,
                                    time.perf_counter() - t0, evidence, prior)
@@ -320,7 +323,7 @@ class LoopProblem:
         out = self.out / f"enriched_{candidate.replace(' ', '_')}"
         name = class_name(switches, enrichment_family(self.model).model)
         cls, _, _ = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
-                                         self.seed, self.settings, max_failure_fraction=self.enriched_failure_fraction)
+                                         self.seed, self.settings)
         return cls
 
     def calibrate_base(self) -> ModelClass:
