@@ -8,13 +8,17 @@ record); compression positive.
 """
 from __future__ import annotations
 
-from cases.study.checks import StudyError
+from dataclasses import replace
+
+from cases.study.checks import StudyError, did_you_mean
 from cases.study.programme import InitialState, Stage, TestSpec
+from cases.study.reading.stage_records import COLUMNS, CURVE_OF
 from cases.study.stages import KINDS
 from cases.study.stages.sequence import check_sbp_stages, check_sequence
 from constitutive.registry import SBP_MODELS
 
-__all__ = ["PROGRAMME_FIELDS", "INITIAL_FIELDS", "programme_spec", "PRECONSOLIDATION_PARAMETERS"]
+__all__ = ["PROGRAMME_FIELDS", "INITIAL_FIELDS", "STAGE_FIELDS", "programme_spec", "chosen_curves",
+           "PRECONSOLIDATION_PARAMETERS"]
 
 #: test-level fields of a programme entry besides the initial state (per apparatus)
 PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "initial", "stages"),
@@ -22,6 +26,8 @@ PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "initial
                     "sbp": ("name", "file", "apparatus", "weight", "initial", "stages", "permeability",
                             "probe_radius", "depth")}
 INITIAL_FIELDS = ("e0", "p0", "sigma_v0", "K0", "ocr", "preconsolidation", "u0")
+#: the fields every stage table may have besides its kind's own
+STAGE_FIELDS = ("kind", "name", "abscissa", "curves")
 #: the model parameters a per-test ``ocr`` / ``preconsolidation`` replaces
 PRECONSOLIDATION_PARAMETERS = ("ocr", "pc0", "sigma_p0")
 
@@ -120,10 +126,36 @@ def stage(ck, s, where, number, apparatus) -> Stage:
     if kind_name not in tuple(kinds):
         ck.fail(f"{where}.kind", kind_name, f"supported for apparatus {apparatus!r}: {', '.join(kinds)}")
     kind = kinds[kind_name]
-    ck.table(s, where, ("kind", "name", *kind.required, *kind.optional), kind.required)
+    ck.table(s, where, (*STAGE_FIELDS, *kind.required, *kind.optional), kind.required)
     name = ck.text(s.get("name", f"{kind_name}{number}"), f"{where}.name")
     if "@" in name or name.strip().isdigit():
         ck.fail(f"{where}.name", name, "a stage name has no '@' and is not a number (the stage column takes both)")
-    v = dict(kind.read_value(ck, k, x, f"{where}.{k}") for k, x in s.items() if k not in ("kind", "name"))
+    v = dict(kind.read_value(ck, k, x, f"{where}.{k}") for k, x in s.items() if k not in STAGE_FIELDS)
     kind.check(ck, s, where, apparatus, v)
-    return Stage(kind_name, name, abscissa=kind.abscissa_of(v), **v)
+    chosen = ck.text(s["abscissa"], f"{where}.abscissa", kind.abscissae) if "abscissa" in s else None
+    out = Stage(kind_name, name, abscissa=chosen or kind.abscissa_of(v), chosen_abscissa=chosen, **v)
+    if "curves" in s:
+        out = replace(out, chosen_curves=chosen_curves(ck, s["curves"], f"{where}.curves", out, apparatus))
+    return out
+
+
+def chosen_curves(ck, value, where, stage, apparatus) -> tuple:
+    """The curve names of a stage's ``curves`` list (a CSV quantity such as ``sigma_v`` gives its curve name,
+    ``axial_stress``): each a recorded quantity of the apparatus that the stage neither controls nor holds, once."""
+    names = {q: CURVE_OF.get(q, q) for q in COLUMNS[apparatus] if q not in ("time", "stage_time")}
+    if not isinstance(value, list) or not value:
+        ck.fail(where, value, f"expected a non-empty list of curve names among {', '.join(names.values())}")
+    held = set(stage.procedure.held_quantities(stage)) | {stage.abscissa}
+    out = []
+    for c in value:
+        if not isinstance(c, str) or (c not in names and c not in names.values()):
+            ck.fail(where, value, f"{c!r} is not a curve of an {apparatus} programme; "
+                    f"{did_you_mean(c, [*names.values(), *names])}expected among {', '.join(names.values())}")
+        quantity = c if c in names else next(q for q, n in names.items() if n == c)
+        if quantity in held:
+            ck.fail(where, value, f"{c!r} is not a curve of this {stage.drainage} {stage.kind} stage (recorded "
+                    f"against {stage.abscissa}; it controls or holds {', '.join(sorted(held))})")
+        if names[quantity] in out:
+            ck.fail(where, value, f"{c!r} is given twice")
+        out.append(names[quantity])
+    return tuple(out)
