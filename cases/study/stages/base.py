@@ -62,7 +62,8 @@ class Stage:
     start), ``p``, ``sigma_v``, ``cavity_strain``; curves: the recorded quantities of this stage (from the records).
     chosen_abscissa: the abscissa the study file chose (None: the kind's control variable where recorded, else
     time); chosen_curves: the curves the study file lets into the likelihood (None: every recorded one), by curve
-    name (``q``, ``axial_stress`` for sigma'_v, ...).
+    name (``q``, ``axial_stress`` for sigma'_v, ...). e_end: the void ratio measured at the end of the stage (a
+    laboratory programme's specimen then starts from the void ratio that reaches it, found per parameter set).
     """
 
     kind: str
@@ -82,6 +83,7 @@ class Stage:
     curves: tuple = ()
     chosen_abscissa: str | None = None
     chosen_curves: tuple | None = None
+    e_end: float | None = None
 
     @property
     def procedure(self):

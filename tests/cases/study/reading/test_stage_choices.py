@@ -1,7 +1,8 @@
-"""A stage's ``curves`` (the recorded curves that enter the likelihood) and ``abscissa`` (what its records are
-against) in the study file (cases.study.reading.staged_tests, cases.study.reading.stage_records): read, used, and
-refused with one line naming the file, the test, the stage and the value; a noisy record of the default abscissa is
-refused at load instead of turning the stage to time unasked."""
+"""A stage's ``curves`` (the recorded curves that enter the likelihood), ``abscissa`` (what its records are
+against) and ``e_end`` (the void ratio measured at its end, in place of the test's e0) in the study file
+(cases.study.reading.staged_tests, cases.study.reading.stage_records): read, used, and refused with one line naming
+the file, the test, the stage and the value; a noisy record of the default abscissa is refused at load instead of
+turning the stage to time unasked."""
 from __future__ import annotations
 
 import pytest
@@ -9,6 +10,7 @@ from test_study_programme import CIU, MCC, _programme, refused, study
 
 from cases import calibrate
 from cases.study.reading.records import load_test
+from cases.study.reading.schema import load_study
 from inference import DataError
 
 RECORDS = """stage,time_s,p_kPa,void_ratio,axial_strain_pct,q_kPa,excess_pore_pressure_kPa
@@ -88,3 +90,26 @@ def test_a_bad_choice_exits_2_with_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "tests['CIU'].stages[2].curves = ['qq']: 'qq' is not a curve" in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_study_file_reads_e_end_in_place_of_e0(tmp_path):
+    text = MCC + CIU.replace("e0 = 1.4\n", "").replace('kind = "consolidation"\np = 200.0',
+                                                       'kind = "consolidation"\np = 200.0\ne_end = 1.1')
+    t = load_study(study(tmp_path, text), check_files=False).tests[0]
+    assert t.initial.e0 is None and [s.e_end for s in t.stages] == [1.1, None, None]
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: t.replace('p = 200.0', 'p = 200.0\ne_end = 1.1'),
+     "tests['CIU'].stages[0].e_end = 1.1: the initial state gives e0 as well"),
+    (lambda t: t.replace("e0 = 1.4\n", "").replace('p = 200.0', 'p = 200.0\ne_end = 1.1')
+     .replace('p = 50.0', 'p = 50.0\ne_end = 1.2'),
+     "tests['CIU'].stages[1].e_end = 1.2: the void ratio is already given at the end of stage 'consolidation1'"),
+    (lambda t: t.replace("e0 = 1.4\n", "").replace("to_axial_strain = 10.0\n", "e_end = 1.0\n"),
+     "tests['CIU'].stages[2].e_end = 1.0: the end of stage 'shear3' follows from the material's response"),
+    (lambda t: t.replace("e0 = 1.4\n", ""), "tests['CIU'].e0 is missing: ModifiedCamClay needs the void ratio at the "
+     "start of each test (e0) or where it was measured (a stage's e_end)"),
+    (lambda t: t.replace('p = 200.0', 'p = 200.0\ne_end = -1'), "tests['CIU'].stages[0].e_end = -1: must be > 0"),
+])
+def test_bad_e_end_is_refused(tmp_path, edit, message):
+    refused(study(tmp_path, MCC + edit(CIU)), message)

@@ -384,7 +384,7 @@ BAD_FIELDS = [
     ('to_axial_strain = 10.0', 'to_axial_strain = 150.0',
      "tests['CIU'].stages[2].to_axial_strain = 150.0: a strain in % must be <= 100"),
     ('to_axial_strain = 10.0', 'to_axial_strain = 10.0\nspeed = 3',
-     "tests['CIU'].stages[2].speed = 3: unknown field; expected one of kind, name, abscissa, curves, drainage, "
+     "tests['CIU'].stages[2].speed = 3: unknown field; expected one of kind, name, abscissa, curves, e_end, drainage, "
      "strain_rate"),
     ('name = "swelling"', 'name = "consolidation1"',
      "tests['CIU'].stages[1].name = 'consolidation1': stage names must be unique within a test"),
@@ -422,8 +422,8 @@ BAD_FIELDS = [
      "tests['CIU'].e0 = 1.4: the initial state is given in [tests.initial]: give it there or in the test's table"),
     ('p = 200.0', 'p = 0.0', "tests['CIU'].stages[0].p = 0.0: must be > 0"),
     ('kind = "consolidation"\np = 200.0', 'kind = "consolidation"\np = 200.0\ndrainage = "undrained"',
-     "tests['CIU'].stages[0].drainage = 'undrained': unknown field; expected one of kind, name, abscissa, curves, p, "
-     "sigma_v, K0, duration"),
+     "tests['CIU'].stages[0].drainage = 'undrained': unknown field; expected one of kind, name, abscissa, curves, "
+     "e_end, p, sigma_v, K0, duration"),
     ('kind = "consolidation"\np = 200.0', 'name = "x"\np = 200.0', "tests['CIU'].stages[0].kind is missing"),
     ('name = "swelling"', 'name = "2"', "tests['CIU'].stages[1].name = '2': a stage name has no '@' and is not a "
      "number"),
@@ -431,7 +431,7 @@ BAD_FIELDS = [
      "tests['CIU'].stages[2].duration = 60.0: unknown field"),
     ('drainage = "undrained"', 'drainge = "undrained"',
      "tests['CIU'].stages[2].drainge = 'undrained': unknown field; did you mean 'drainage'? expected one of kind, "
-     "name, abscissa, curves, drainage, strain_rate"),
+     "name, abscissa, curves, e_end, drainage, strain_rate"),
     ('drainage = "undrained"', 'drainage = "undrianed"',
      "tests['CIU'].stages[2].drainage = 'undrianed': did you mean 'undrained'? expected one of drained, undrained"),
     ('e0 = 1.4\np0 = 25.0', 'initial = { e0 = 1.4, p_0 = 25.0 }',
