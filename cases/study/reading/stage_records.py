@@ -45,12 +45,12 @@ __all__ = ["COLUMNS", "END_TOLERANCE", "load_programme_test", "recorded_programm
 #: columns of a programme's CSV per apparatus: quantity -> unit (besides ``stage``)
 COLUMNS = {
     "triaxial": {"time": "s", "stage_time": "s", "axial_strain": "%", "q": "kPa", "p": "kPa", "sigma_v": "kPa",
-                 "excess_pore_pressure": "kPa", "volumetric_strain": "%", "void_ratio": "-"},
+                 "sigma_r": "kPa", "excess_pore_pressure": "kPa", "volumetric_strain": "%", "void_ratio": "-"},
     "oedometer": {"time": "s", "stage_time": "s", "axial_strain": "%", "sigma_v": "kPa", "void_ratio": "-"},
     "sbp": {"time": "s", "stage_time": "s", "cavity_strain": "%", "cavity_pressure": "kPa", "pore_pressure": "kPa"},
 }
-#: CSV quantity -> curve name (sigma'_v is the catalog's "axial_stress")
-CURVE_OF = {"sigma_v": "axial_stress"}
+#: CSV quantity -> curve name (sigma'_v is the catalog's "axial_stress", sigma'_r its "radial_stress")
+CURVE_OF = {"sigma_v": "axial_stress", "sigma_r": "radial_stress"}
 
 
 def _column(path, col, apparatus):
@@ -91,7 +91,7 @@ def _read(spec):
         if q in ("time", "stage_time") and np.any(v < 0):
             i = int(np.argmax(v < 0))
             raise DataError(f"{path}, line {lines[i]}, column {col!r}: value {cells[i]} must be >= 0 s")
-        if q in ("p", "sigma_v", "void_ratio", "cavity_pressure") and np.any(v <= 0):
+        if q in ("p", "sigma_v", "sigma_r", "void_ratio", "cavity_pressure") and np.any(v <= 0):
             i = int(np.argmax(v <= 0))
             raise DataError(f"{path}, line {lines[i]}, column {col!r}: value {cells[i]} must be > 0")
         if COLUMNS[spec.apparatus][q] == "%" and np.any(np.abs(v) > 100.0):

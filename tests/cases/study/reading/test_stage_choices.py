@@ -36,8 +36,8 @@ def test_curves_keep_the_named_curves_of_the_stage(tmp_path):
 @pytest.mark.parametrize("curves, message", [
     ('["excess_pore_presure"]', "tests['CIU'].stages[2].curves = ['excess_pore_presure']: 'excess_pore_presure' is "
                                 "not a curve of an triaxial programme; did you mean 'excess_pore_pressure'? expected "
-                                "among axial_strain, q, p, axial_stress, excess_pore_pressure, volumetric_strain, "
-                                "void_ratio"),
+                                "among axial_strain, q, p, axial_stress, radial_stress, excess_pore_pressure, "
+                                "volumetric_strain, void_ratio"),
     ('["void_ratio"]', "tests['CIU'].stages[2].curves = ['void_ratio']: 'void_ratio' is not a curve of this "
                        "undrained shear stage (recorded against axial_strain; it controls or holds"),
     ('["axial_strain"]', "'axial_strain' is not a curve of this undrained shear stage"),
@@ -113,3 +113,14 @@ def test_the_study_file_reads_e_end_in_place_of_e0(tmp_path):
 ])
 def test_bad_e_end_is_refused(tmp_path, edit, message):
     refused(study(tmp_path, MCC + edit(CIU)), message)
+
+
+def test_a_triaxial_crs_stage_records_the_radial_stress(tmp_path):
+    tests = ('\n[[tests]]\nname = "K0"\nfile = "ciu.csv"\napparatus = "triaxial"\n'
+             'initial = { e0 = 1.4, sigma_v0 = 20.0, K0 = 0.6 }\n'
+             'stages = [{ kind = "crs", strain_rate = 1e-6, to_axial_strain = 5.0 }]\n')
+    spec = _programme(tmp_path, "axial_strain_pct,sigma_v_kPa,sigma_r [kPa],volumetric_strain_pct\n"
+                      "1,40,25,1\n5,100,62,5\n", tests)
+    test, _ = load_test(spec)
+    assert set(test.curves) == {"axial_stress", "radial_stress"}  # the volumetric strain equals the axial: held
+    assert list(test.curves["radial_stress"].y) == [25.0, 62.0]

@@ -373,9 +373,9 @@ duration = 3600.0
 BAD_FIELDS = [
     ('kind = "consolidation"\np = 200.0', 'kind = "torsion"',
      "tests['CIU'].stages[0].kind = 'torsion': supported for apparatus 'triaxial': consolidation, shear, creep, "
-     "relaxation"),
-    ('kind = "consolidation"\np = 200.0', 'kind = "crs"\nstrain_rate = 1e-6',
-     "tests['CIU'].stages[0].kind = 'crs': supported for apparatus 'triaxial'"),
+     "relaxation, crs"),
+    ('kind = "consolidation"\np = 200.0', 'kind = "load"\nsigma_v = 200.0\nduration = 60.0',
+     "tests['CIU'].stages[0].kind = 'load': supported for apparatus 'triaxial'"),
     ('strain_rate = 1.0e-5', 'strain_rate = 0',
      "tests['CIU'].stages[2].strain_rate = 0: must be > 0"),
     ('drainage = "undrained"', 'drainage = "partial"',
