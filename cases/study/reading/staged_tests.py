@@ -69,7 +69,7 @@ def programme_spec(ck, t, where, spec, model, file, name) -> TestSpec:
     if apparatus == "sbp":
         check_sbp_stages(ck, stages, where, name)
     check_sequence(ck, stages, where)
-    measured_void_ratio(ck, t, where, initial, stages, apparatus, spec, model)
+    measured_void_ratio(ck, where, initial, stages, apparatus, spec, model)
     mirror = {"e0": initial.e0, "p0": initial.p0, "sigma_v0": initial.sigma_v0,
               "K0": None if initial.p0 is not None else initial.K0, "u0": initial.u0 if apparatus == "sbp" else None,
               "consolidation": None if apparatus != "triaxial" else ("isotropic" if initial.p0 is not None else "K0"),
@@ -78,7 +78,7 @@ def programme_spec(ck, t, where, spec, model, file, name) -> TestSpec:
                     initial=initial, stages=stages, weight=weight, **site, **mirror)
 
 
-def measured_void_ratio(ck, t, where, initial, stages, apparatus, spec, model):
+def measured_void_ratio(ck, where, initial, stages, apparatus, spec, model):
     """The void ratio of a laboratory programme: ``e0`` at its start or one stage's ``e_end`` (where it was measured,
     e.g. at the end of consolidation), not both; a stage's ``e_end`` needs the stage's duration and its end in its
     abscissa to be known before any solve (:func:`cases.study.stages.sequence.stage_spans`). ``e0`` may be left out
