@@ -41,6 +41,13 @@ p0 = 100.0
 e0 = 1.0
 strain_rate = 1e-5
 """
+PROGRAMME_TOML = LAB_TOML[: LAB_TOML.index("[[tests]]")] + """[[tests]]
+name = "CID_1"
+file = "t1.csv"
+apparatus = "triaxial"
+initial = { e0 = 1.0, p0 = 100.0 }
+stages = [{ kind = "shear", drainage = "drained", strain_rate = 1e-5 }]
+"""
 SBP_CSV = """# a pressuremeter record
 cavity_strain_pct,cavity_pressure_kPa,pore_pressure_kPa,time_s
 1.0,100,40,6
@@ -78,6 +85,12 @@ LAB_CSVS = [
      ["line 1", "'q_psi'", "unit 'psi' is not supported: convert to kPa (1 psi = 6.894757 kPa)"]),
     ("unit kgf/cm2", rows("0.5,0.4", "1.0,0.7", header="axial strain (%),q (kgf/cm2)"),
      ["'q (kgf/cm2)'", "unit 'kgf/cm2' is not supported: convert to kPa (1 kgf/cm2 = 98.0665 kPa)"]),
+    ("unit ksf", rows("0.5,0.8", "1.0,1.5", header="axial_strain_pct,q (ksf)"),
+     ["'q (ksf)'", "unit 'ksf' is not supported: convert to kPa (1 ksf = 47.88026 kPa)"]),
+    ("unit tsf suffix", rows("0.5,0.4", "1.0,0.7", header="axial_strain_pct,q_tsf"),
+     ["'q_tsf'", "unit 'tsf' is not supported: convert to kPa (1 tsf = 95.76052 kPa)"]),
+    ("unit hr", rows("0.5,40,1", "1.0,70,2", header="axial_strain_pct,q_kPa,time [hr]"),
+     ["'time [hr]'", "unit 'hr' is not supported: write it as 'h'"]),
     ("unit in inches", rows("0.5,40,0.1", "1.0,70,0.2", header="axial_strain_pct,q_kPa,displacement [in]"),
      ["'displacement [in]'", "unit 'in' is not supported: convert to mm (1 in = 25.4 mm)"]),
     ("unit kpa", rows("0.5,40", "1.0,70", header="axial_strain_pct,q (kpa)"),
@@ -131,6 +144,18 @@ LAB_CSVS = [
      ["line 3", "150"]),
     ("quoted text", rows('0.5,40,0.99', '1.0,"12a",0.98'), ["line 3", "'12a'"]),
     ("p zero", rows("0.5,40,0", "1,70,100", header="axial_strain_pct,q_kPa,p_kPa"), ["line 2", "'p'", "> 0"]),
+]
+
+#: bad records of a stage programme (the same CSV conventions, read by cases.study.reading.stage_records)
+PROGRAMME_CSVS = [
+    ("unit psi", rows("0.5,5.8", "1.0,10.2", header="axial_strain_pct,q_psi"),
+     ["line 1", "'q_psi'", "unit 'psi' is not supported: convert to kPa (1 psi = 6.894757 kPa)"]),
+    ("unit ksf", rows("0.5,0.8", "1.0,1.5", header="axial strain (%),q (ksf)"),
+     ["'q (ksf)'", "unit 'ksf' is not supported: convert to kPa (1 ksf = 47.88026 kPa)"]),
+    ("typo void_ration", rows("0.5,40,0.99", "1,70,0.98", header="axial_strain_pct,q_kPa,void_ration"),
+     ["column 'void_ration' is not a column of an triaxial programme; did you mean 'void_ratio'?"]),
+    ("typo stage", rows("1,0.5,40", "1,1,70", header="stgae,axial_strain_pct,q_kPa"),
+     ["column 'stgae'", "did you mean 'stage'?"]),
 ]
 
 
@@ -229,32 +254,61 @@ LAB_TOMLS = [
      ["fe.outer_radius_a0", "1"]),
     ("fe unknown field", edit("[sigma_eps]", "[fe]\ncells = 10\n\n[sigma_eps]"), ["fe.cells"]),
     ("no tests", lambda t: "tests = []\n" + t[: t.index("[[tests]]")], ["tests = []"]),
-    ("unknown type", edit('type = "triaxial"', 'type = "triax"'), ["tests[0].type", "'triax'"]),
-    ("missing file", edit('file = "t1.csv"', 'file = "nope.csv"'), ["tests[0].file", "'nope.csv'"]),
-    ("file is a folder", edit('file = "t1.csv"', 'file = "."'), ["tests[0].file", "'.'"]),
-    ("strain rate 0", edit("strain_rate = 1e-5", "strain_rate = 0.0"), ["tests[0].strain_rate", "0.0"]),
-    ("strain rate negative", edit("strain_rate = 1e-5", "strain_rate = -1e-5"), ["tests[0].strain_rate", "-1e-05"]),
-    ("p0 zero", edit("p0 = 100.0", "p0 = 0.0"), ["tests[0].p0", "0.0"]),
-    ("p0 negative", edit("p0 = 100.0", "p0 = -100.0"), ["tests[0].p0", "-100.0"]),
-    ("field typo", edit("strain_rate = 1e-5", "straln_rate = 1e-5"), ["tests[0].straln_rate"]),
-    ("drainage", edit('drainage = "drained"', 'drainage = "partly"'), ["tests[0].drainage", "'partly'"]),
-    ("same test name", lambda t: t + t[t.index("[[tests]]"):], ["tests[1].name", "'T1'"]),
-    ("e0 missing", edit("e0 = 1.0\n", ""), ["tests[0].e0", "missing"]),
-    ("K0 with isotropic", edit("p0 = 100.0", "p0 = 100.0\nK0 = 0.5"), ["tests[0].K0", "0.5"]),
-    ("curves", edit("strain_rate = 1e-5", 'strain_rate = 1e-5\ncurves = ["q", "u"]'), ["tests[0].curves"]),
+    ("unknown type", edit('type = "triaxial"', 'type = "triax"'), ["tests['T1'].type", "'triax'"]),
+    ("missing file", edit('file = "t1.csv"', 'file = "nope.csv"'), ["tests['T1'].file", "'nope.csv'"]),
+    ("file is a folder", edit('file = "t1.csv"', 'file = "."'), ["tests['T1'].file", "'.'"]),
+    ("strain rate 0", edit("strain_rate = 1e-5", "strain_rate = 0.0"), ["tests['T1'].strain_rate", "0.0"]),
+    ("strain rate negative", edit("strain_rate = 1e-5", "strain_rate = -1e-5"), ["tests['T1'].strain_rate", "-1e-05"]),
+    ("p0 zero", edit("p0 = 100.0", "p0 = 0.0"), ["tests['T1'].p0", "0.0"]),
+    ("p0 negative", edit("p0 = 100.0", "p0 = -100.0"), ["tests['T1'].p0", "-100.0"]),
+    ("field typo", edit("strain_rate = 1e-5", "straln_rate = 1e-5"),
+     ["tests['T1'].straln_rate = 1e-05: unknown field; did you mean 'strain_rate'?"]),
+    ("choice typo", edit('drainage = "drained"', 'drainage = "drianed"'),
+     ["tests['T1'].drainage = 'drianed': did you mean 'drained'? expected one of drained, undrained"]),
+    ("table typo", lambda t: t.replace("[sigma_eps]", "[sigma_esp]"), ["sigma_esp", "did you mean 'sigma_eps'?"]),
+    ("parameter typo", edit("kappa = 0.04", "kapa = 0.04"),
+     ["model.fixed.kapa = 0.04: unknown parameter of ModifiedCamClay; did you mean 'kappa'?"]),
+    ("drainage", edit('drainage = "drained"', 'drainage = "partly"'), ["tests['T1'].drainage", "'partly'"]),
+    ("same test name", lambda t: t + t[t.index("[[tests]]"):], ["tests['T1'].name", "'T1'"]),
+    ("e0 missing", edit("e0 = 1.0\n", ""), ["tests['T1'].e0", "missing"]),
+    ("K0 with isotropic", edit("p0 = 100.0", "p0 = 100.0\nK0 = 0.5"), ["tests['T1'].K0", "0.5"]),
+    ("curves", edit("strain_rate = 1e-5", 'strain_rate = 1e-5\ncurves = ["q", "u"]'), ["tests['T1'].curves"]),
     ("synthetic field", lambda t: t + "\n[synthetic]\nnoize = 0.1\n", ["synthetic.noize"]),
+    ("enrichment typo", lambda t: t + "\n[enrichment.viscosty]\nC_alpha_e = [0.001, 0.05]\n",
+     ["enrichment.viscosty = {'C_alpha_e': [0.001, 0.05]}: not a candidate of the catalog; did you mean "
+      "'viscosity'? candidates with parameters: viscosity, time_dependent_swelling, partial_drainage, "
+      "destructuration"]),
+    ("enrichment parameter typo", lambda t: t + "\n[enrichment.viscosity]\nC_alpha = [0.001, 0.05]\n",
+     ["enrichment.viscosity.C_alpha = [0.001, 0.05]: not a parameter of the 'viscosity' enrichment; did you mean "
+      "'C_alpha_e'? it adds C_alpha_e"]),
+    ("enrichment log-uniform from 0", lambda t: t + "\n[enrichment.viscosity]\nC_alpha_e = [0.0, 0.05]\n",
+     ["enrichment.viscosity.C_alpha_e = [0.0, 0.05]: a log-uniform prior needs a lower bound > 0"]),
+    ("enrichment bounds reversed", lambda t: t + '\n[enrichment."time-dependent swelling"]\ntau_s = [1e6, 1e3]\n',
+     ["enrichment.time-dependent swelling.tau_s = [1000000.0, 1000.0]: lower bound must be < upper bound"]),
+    ("enrichment below the physical range", lambda t: t + "\n[enrichment.destructuration]\n"
+     'chi0 = { bounds = [-1.0, 20.0], prior = "uniform" }\n', ["enrichment.destructuration.chi0", "chi0"]),
+    ("enrichment without parameters", lambda t: t + "\n[enrichment.anisotropy]\nomega = [1, 2]\n",
+     ["enrichment.anisotropy", "the 'anisotropy' enrichment adds no parameter"]),
+    ("enrichment of another family", lambda t: t + "\n[enrichment.state_dependent_dilatancy]\nn_p = [1, 2]\n",
+     ["enrichment.state_dependent_dilatancy", "no enrichment of ModifiedCamClay for 'state-dependent dilatancy'"]),
+    ("enrichment without its forward model", lambda t: t + "\n[enrichment.partial_drainage]\n"
+     "permeability = [1e-10, 1e-7]\n", ["enrichment.partial_drainage", "this study has no pressuremeter test"]),
+    ("enrichment given twice", lambda t: t + "\n[enrichment.time_dependent_swelling]\ntau_s = [1e3, 1e6]\n"
+     '[enrichment."time-dependent swelling"]\nkappa_s = [0.001, 0.01]\n',
+     ["enrichment.time-dependent swelling", "is given twice (as 'time-dependent swelling' and "
+      "'time_dependent_swelling'): keep one"]),
 ]
 
 
 SBP_TOMLS = [
-    ("sbp strain rate 0", edit("strain_rate = 0.00167", "strain_rate = 0.0"), ["tests[0].strain_rate"]),
-    ("sbp probe radius", edit("probe_radius = 0.0415", "probe_radius = 0"), ["tests[0].probe_radius"]),
+    ("sbp strain rate 0", edit("strain_rate = 0.00167", "strain_rate = 0.0"), ["tests['SBP_fast'].strain_rate"]),
+    ("sbp probe radius", edit("probe_radius = 0.0415", "probe_radius = 0"), ["tests['SBP_fast'].probe_radius"]),
     ("sbp quick outer radius", edit("[fe.quick]\nradial_cells = 20\nlayers = 1\nincrements = 20\nouter = \"field\"\n"
                                      "outer_radius_a0 = 200.0", "[fe.quick]\nouter_radius_a0 = 0.5"),
      ["fe.quick.outer_radius_a0", "0.5"]),
     ("sbp increments 0", edit("increments = 40", "increments = 0"), ["fe.increments", "0"]),
     ("sbp radial cells -1", edit("radial_cells = 20", "radial_cells = -1"), ["fe.quick.radial_cells", "-1"]),
-    ("sbp permeability", edit("permeability = 3.3e-9", "permeability = -3.3e-9"), ["tests[0].permeability"]),
+    ("sbp permeability", edit("permeability = 3.3e-9", "permeability = -3.3e-9"), ["tests['SBP_fast'].permeability"]),
     ("sbp with MCC", edit('name = "ANICREEP"', 'name = "SIMSAND"'), ["SIMSAND"]),
 ]
 

@@ -2,13 +2,14 @@
 value."""
 from __future__ import annotations
 
+import difflib
 import math
 from pathlib import Path
 
 from inference import DataError
 from inference.observations import read_text
 
-__all__ = ["StudyError", "Checker", "read_toml", "fe_value"]
+__all__ = ["StudyError", "Checker", "read_toml", "fe_value", "did_you_mean"]
 
 
 class StudyError(ValueError):
@@ -41,6 +42,13 @@ def read_toml(path) -> dict:
         raise StudyError(f"{path}: not valid TOML: {exc}") from None
 
 
+def did_you_mean(word, allowed) -> str:
+    """``"did you mean 'closest'? "`` for the allowed name closest to a misspelt ``word`` (difflib's ratio >= 0.75:
+    one or two letters off, not merely a shared stem), else ``""``: the start of an error message's hint."""
+    close = difflib.get_close_matches(str(word), [str(a) for a in allowed], n=1, cutoff=0.75)
+    return f"did you mean {close[0]!r}? " if close else ""
+
+
 class Checker:
     """Error messages that name the TOML file, the table.field and the value."""
 
@@ -57,7 +65,7 @@ class Checker:
             for k in value:
                 if k not in allowed:
                     self.fail(f"{where}.{k}" if where else k, value[k],
-                              f"unknown field; expected one of {', '.join(allowed)}")
+                              f"unknown field; {did_you_mean(k, allowed)}expected one of {', '.join(allowed)}")
         for k in required:
             if k not in value:
                 raise StudyError(f"{self.path}: {where}.{k} is missing" if where else f"{self.path}: {k} is missing")
@@ -81,7 +89,7 @@ class Checker:
         if not isinstance(value, str) or not value.strip():
             self.fail(where, value, "expected a non-empty string")
         if choices is not None and value not in choices:
-            self.fail(where, value, f"expected one of {', '.join(choices)}")
+            self.fail(where, value, f"{did_you_mean(value, choices)}expected one of {', '.join(choices)}")
         return value
 
     def flag(self, value, where):

@@ -13,7 +13,9 @@ by bracketing iterations). With a rate-dependent model the Newton iterations of 
 previous step's increments (``mixed_control(predictor="previous")``).
 
 Initial state per test (``InitialState``): effective stress ``p0`` (isotropic) or ``sigma_v0`` with ``K0``; void
-ratio ``e0`` (else the ``e0`` argument, else the model's own ``e0`` parameter); for a
+ratio ``e0`` (else, where a stage gives the void ratio measured at its end, ``Stage.e_end``, the start that reaches
+it, found per particle by :func:`_measured_start`; else the ``e0`` argument, else the model's own ``e0`` parameter);
+for a
 model whose void ratio is a parameter (ANICREEP: (1 + e0) enters its elasticity, hardening, fluidity mu, omega and the
 void-ratio update) the test's e0 replaces that parameter for the test. Preconsolidation: ``preconsolidation``
 (vertical, kPa) or ``ocr`` (relative to sigma'_v0, or p0 when isotropic); ANICREEP: sigma_p0 = preconsolidation
@@ -33,16 +35,20 @@ stress_ratio (q/p'), mean_stress (p').
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from cases.study.forward.lab_stage_steps import FALLBACK_STRAIN_STEP, StageSteps
 from cases.study.programme import split_key
 from cases.study.stages.base import OEDOMETER_STRAIN
+from cases.study.stages.sequence import stage_spans
 from constitutive import labtests
 from constitutive.base import ParameterError
 
 __all__ = ["simulate_programme", "simulate_programmes", "stage_signature", "specimen_model", "QUANTITIES", "ALIASES",
-           "CROSSING_ITERATIONS", "CROSSING_TOLERANCE", "CHUNKS", "CHUNK_STEPS"]
+           "CROSSING_ITERATIONS", "CROSSING_TOLERANCE", "CHUNKS", "CHUNK_STEPS", "VOID_RATIO_TOLERANCE",
+           "VOID_RATIO_ITERATIONS"]
 
 QUANTITIES = ("q", "p", "void_ratio", "volumetric_strain", "axial_strain", "excess_pore_pressure", "pore_pressure",
               "axial_stress", "radial_stress", "time", "stress_ratio", "mean_stress")
@@ -52,6 +58,10 @@ ALIASES = {"e": "void_ratio", "u": "excess_pore_pressure", "sigma_v": "axial_str
 #: at most in one chunk
 CROSSING_TOLERANCE = 1e-9
 CROSSING_ITERATIONS = 40
+#: a programme whose void ratio is measured at the end of a stage (``Stage.e_end``, :func:`_measured_start`): the
+#: largest miss of that void ratio, and the runs at most of the programme up to it, that find the start void ratio
+VOID_RATIO_TOLERANCE = 1e-10
+VOID_RATIO_ITERATIONS = 8
 CHUNKS = 12
 CHUNK_STEPS = 400
 
@@ -319,6 +329,9 @@ def simulate_programmes(model, specs, abscissae, n: int, e0=None, strain_step=No
         if spec.apparatus not in ("triaxial", "oedometer"):
             raise ValueError(f"test {spec.name}: apparatus {spec.apparatus!r} is not a laboratory cell (triaxial, "
                              f"oedometer)")
+    measured = [_measured_end(spec) for spec in specs]
+    abscissae = [x if m is None else {**x, m[1]: np.array([m[2]])} for x, m in zip(abscissae, measured)]
+    specs = [_measured_start(model, spec, x, n, e0, strain_step) for spec, x in zip(specs, abscissae)]
     prepared = [(spec, *specimen_model(model, spec.initial, e0)) for spec in specs]
     groups = {}
     for j, (spec, specimen, _) in enumerate(prepared):
@@ -329,7 +342,60 @@ def simulate_programmes(model, specs, abscissae, n: int, e0=None, strain_step=No
         done = _simulate_group([prepared[j] for j in members], [abscissae[j] for j in members], n, strain_step)
         for j, result in zip(members, done):
             results[j] = result
+    for j, m in enumerate(measured):
+        if m is not None:
+            curves, failed, why = results[j]
+            results[j] = ({c: v for c, v in curves.items() if c != m[1]}, failed, why)
     return results
+
+
+def _measured_end(spec):
+    """(stage index, curve key, the stage's end in its abscissa) of the stage of ``spec`` whose void ratio at its end
+    was measured (``Stage.e_end``; the key the alias ``e@<stage>``, so that it adds to a recorded void ratio), or
+    None."""
+    k = next((k for k, s in enumerate(spec.stages) if s.e_end is not None), None)
+    if k is None:
+        return None
+    stage = spec.stages[k]
+    span = stage_spans(spec)[k].get(stage.abscissa)
+    if span is None:
+        raise ValueError(f"test {spec.name}: stage {stage.name}: the void ratio at its end (e_end) needs its end in "
+                         f"{stage.abscissa} known before the solve")
+    end = span[1] / 100.0 if stage.abscissa == "axial_strain" else span[1]
+    return k, f"e@{stage.name}", end
+
+
+def _measured_start(model, spec, abscissae, n, e0, strain_step):
+    """``spec`` with the initial void ratio, per particle (n,), that reaches the void ratio measured at the end of
+    its stage with ``e_end`` (:func:`_measured_end`; ``abscissae`` hold its key): the programme up to that stage,
+    with the same records (hence the same steps as in the whole programme), simulated from e0 = e_end, then e0 moved
+    by secant steps on the miss at the stage's end (the first step the miss itself: the change of e over the stage
+    hardly depends on e0) until the miss is within VOID_RATIO_TOLERANCE or after VOID_RATIO_ITERATIONS runs;
+    ``spec`` itself when no stage gives one. A particle whose run fails keeps its last start and fails again in the
+    whole programme, with its reason."""
+    measured = _measured_end(spec)
+    if measured is None:
+        return spec
+    k, key, _ = measured
+    stage = spec.stages[k]
+    index = {s.name: j for j, s in enumerate(spec.stages)}
+    head = replace(spec, stages=spec.stages[:k] + (replace(stage, e_end=None),))
+    x = {c: v for c, v in abscissae.items() if index[split_key(c)[1] or spec.stages[0].name] <= k}
+    start, before = np.full(n, stage.e_end), None
+    for _ in range(VOID_RATIO_ITERATIONS):
+        trial = replace(head, initial=replace(spec.initial, e0=start))
+        e = simulate_programmes(model, [trial], [x], n, e0, strain_step)[0][0][key][:, -1]
+        miss = np.where(np.isfinite(e), stage.e_end - e, 0.0)
+        if np.all(np.abs(miss) <= VOID_RATIO_TOLERANCE):
+            break
+        slope = np.ones(n)
+        if before is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                secant = (e - before[1]) / (start - before[0])
+            slope = np.where(np.isfinite(secant) & (secant > 0.0), secant, 1.0)
+        before = (start, e)
+        start = start + miss / slope
+    return replace(spec, initial=replace(spec.initial, e0=start))
 
 
 def _rounds(specs) -> list:

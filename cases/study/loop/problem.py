@@ -87,14 +87,19 @@ class LoopProblem:
     error_groups = None
     #: {test: weight} of Eq. (6) (tests not named: 1)
     weights: dict = {}
+    #: {candidate: {parameter: (lower, upper, kind)}}: the study's priors of an enrichment's added parameters,
+    #: replacing the catalog's (``cases.study.reading.enrichment_priors``)
+    enrichment_priors: dict = {}
     #: where the base class is calibrated, relative to the loop's directory
     base_dir = "base"
-    #: the fraction of a sampler stage's solves that may fail before an enriched class's calibration stops: an
-    #: enrichment's prior holds regions where the added physics cannot follow the programme's controls (structure
-    #: collapsing faster than it hardens under stress-controlled compression has no solution nearby); those particles
-    #: are zero-likelihood with their reason recorded. The base class keeps the sampler's default (0.1): there a
-    #: failure rate that high means a broken set-up.
-    enriched_failure_fraction = 0.5
+    #: the fraction of a sampler stage's solves that may fail before a class's calibration stops (every class: base,
+    #: model-form, enriched): a prior holds regions where the model cannot follow the programme's controls (M below
+    #: the stress ratio of a K0 consolidation path; structure collapsing faster than it hardens under
+    #: stress-controlled compression); those draws are zero-likelihood with their reason recorded
+    #: (failed_solves.jsonl, and a warning of the class, :mod:`cases.study.outputs.calibration_warnings`). Only a
+    #: stage where nearly every solve fails stops, with the last reasons: too few particles are left to stand for
+    #: the posterior.
+    failure_fraction = 0.9
 
     # ---------------------------------------------------------------------------------------- what a study supplies
     def forward(self, switches):
@@ -198,7 +203,8 @@ class LoopProblem:
         prior = self.prior(bounds, log_uniform)
         self.calibrated[name] = (like, switches)
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
-                                max_steps=settings.max_steps, progress=False, **sampler)
+                                max_steps=settings.max_steps, progress=False,
+                                **{"max_failure_fraction": self.failure_fraction, **sampler})
         t1 = time.perf_counter()
         evidence = self.refined_evidence(like, prior, post, seed)
         t2 = time.perf_counter()
@@ -294,19 +300,37 @@ class LoopProblem:
         self.base_name = None
 
     def candidates(self) -> list:
-        return physics_catalog.signatures(self.catalog_switches({**self.base_switches, **self.adopted_switches}),
-                                          self.model)
+        """The catalog for the base class (with the candidates :meth:`adopt` confirmed in it), an enrichment's added
+        parameters with the priors its class is calibrated under (:meth:`enriched_priors`)."""
+        out = physics_catalog.signatures(self.catalog_switches({**self.base_switches, **self.adopted_switches}),
+                                         self.model)
+        for c in out:
+            if c["enrichment"] is not None and c["name"] in self.enrichment_priors:
+                bounds, log_uniform = self.enriched_priors(c["name"], c["enrichment"]["parameters"],
+                                                           c["enrichment"]["log_uniform"])
+                c["enrichment"].update(parameters={k: list(v) for k, v in bounds.items()},
+                                       log_uniform=list(log_uniform))
+        return out
+
+    def enriched_priors(self, candidate: str, bounds: dict, log_uniform) -> tuple:
+        """(bounds, log-uniform names) with the study's priors of ``candidate``'s added parameters
+        (:attr:`enrichment_priors`) in place of the catalog's."""
+        own = self.enrichment_priors.get(candidate, {})
+        bounds = {**bounds, **{k: (lo, hi) for k, (lo, hi, _) in own.items()}}
+        log_uniform = tuple(k for k in log_uniform if k not in own) + tuple(
+            k for k, (_, _, kind) in own.items() if kind == "log-uniform")
+        return bounds, log_uniform
 
     def calibrate(self, candidate: str | None) -> ModelClass:
         """The base class (candidate None, in DIR/<base_dir>: :meth:`calibrate_base`) or the base class enriched
-        with ``candidate`` (``physics_catalog.enriched_settings``, in DIR/enriched_<candidate>; on top of the
-        candidates :meth:`adopt` confirmed, in DIR/step_<k>/enriched_<candidate>), written in the convention the
-        base class adopted."""
+        with ``candidate`` (:meth:`enriched_class`: ``physics_catalog.enriched_settings`` with the study's priors of
+        its added parameters, in DIR/enriched_<candidate>; on top of the candidates :meth:`adopt` confirmed, in
+        DIR/step_<k>/enriched_<candidate>), written in the convention the base class adopted."""
         if candidate is None:
             return self.calibrate_base()
         name, switches, bounds, log_uniform, out = self.enriched_class(candidate)
         cls, _, _ = self.calibrate_class(self.observations, name, switches, bounds, log_uniform, self.run, out,
-                                         self.seed, self.settings, max_failure_fraction=self.enriched_failure_fraction)
+                                         self.seed, self.settings)
         return cls
 
     def enriched_class(self, candidate: str) -> tuple:
@@ -315,6 +339,7 @@ class LoopProblem:
         convention."""
         switches, bounds, extra_log = physics_catalog.enriched_settings(
             candidate, {**self.base_switches, **self.adopted_switches}, self.base_bounds, self.model)
+        bounds, extra_log = self.enriched_priors(candidate, bounds, extra_log)
         switches = {**switches, **self.adopted_switches, **self.convention}
         return (class_name(switches, enrichment_family(self.model).model), switches, bounds,
                 tuple(self.base_log_uniform) + tuple(extra_log),
@@ -454,6 +479,7 @@ class StudyProblem(LoopProblem):
         self.constraints = study.constraints
         self.error_groups = None if study.error_model is None else study.error_model.curve_groups(observations)
         self.weights = {t.name: t.weight for t in study.tests if t.weight != 1.0}
+        self.enrichment_priors = study.enrichment_priors
         self.base_dir = "."
         self.preset = study.preset(quick)
         self.processes, self.dispatch = processes, dispatch

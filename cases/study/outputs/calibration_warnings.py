@@ -5,6 +5,9 @@
   the bound, not the data, decides its value (an error parameter's upper bound has its own warning, next);
 - an error parameter (sigma_eps or sigma_eps_<group>) whose MAP is within ``SIGMA_TOLERANCE`` (2 %) of the box width
   from its upper bound: the model cannot fit the curves within the noise the prior allows;
+- failed solves: draws on which the model could not follow the programme (a stress path the model cannot reach, an
+  integration that failed) count as zero likelihood; the line gives how many of the run's evaluations failed and
+  the most frequent reason (every failed solve with its parameters is in failed_solves.jsonl);
 - a poor fit: a curve whose RMS relative residual (U_obs - U_num)/U_obs at the MAP, over the points Eq. (5) uses,
   exceeds ``POOR_FIT_RATIO`` (3) times the median over the curves of their error parameter at the MAP (under the
   error model of Eq. (1), docs/reference.md section 1, the RMS is about sigma_eps); the line names the test, the
@@ -13,17 +16,21 @@
 """
 from __future__ import annotations
 
+import re
+from collections import Counter
+
 import numpy as np
 
 from inference.priors import Bound
 
 __all__ = ["BOUND_TOLERANCE", "SIGMA_TOLERANCE", "POOR_FIT_RATIO", "WINDOW", "prior_bounds", "bound_warnings",
-           "sigma_warnings", "fit_warnings", "calibration_warnings"]
+           "sigma_warnings", "failure_warnings", "fit_warnings", "calibration_warnings"]
 
 BOUND_TOLERANCE = 0.01
 SIGMA_TOLERANCE = 0.02
 POOR_FIT_RATIO = 3.0
 WINDOW = 0.2
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
 def _position(bound, value):
@@ -70,6 +77,19 @@ def sigma_warnings(post, sigma_names, tolerance=SIGMA_TOLERANCE) -> list:
     return out
 
 
+def failure_warnings(post) -> list:
+    """One line when some of the run's evaluations failed (zero likelihood): how many, of how many, and the most
+    frequent reason (reasons that differ only in their numbers count as one; the line quotes the first of them)."""
+    if not post.failures:
+        return []
+    groups = Counter(_NUMBER.sub("#", str(f["reason"])) for f in post.failures)
+    shape, count = groups.most_common(1)[0]
+    example = " ".join(next(str(f["reason"]) for f in post.failures
+                            if _NUMBER.sub("#", str(f["reason"])) == shape).split())
+    return [f"{len(post.failures)} of {post.n_forward_solves} forward solves failed and count as zero likelihood "
+            f"(failed_solves.jsonl); most frequent reason ({count}): {example}"]
+
+
 def _worst_window(x, r2):
     """(x_start, x_end, index slice) of the WINDOW-long run of consecutive points with the largest mean r^2."""
     n = r2.size
@@ -105,12 +125,12 @@ def fit_warnings(like, map_simulated: dict, curve_sigma: dict, ratio=POOR_FIT_RA
 
 
 def calibration_warnings(post, like, map_simulated: dict) -> list:
-    """Every warning of a finished calibration (module docstring): bounds, error parameters at their ceiling, poor
-    fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order). A model-form
+    """Every warning of a finished calibration (module docstring): bounds, error parameters at their ceiling, failed
+    solves, poor fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order). A model-form
     discrepancy's parameters get no bound warning: its amplitude at the floor is the base class's fit, and its
     prior bounds are a choice of the diagnosis, not of the study."""
     sigma = like.curve_sigmas(post.map_theta)[0]
     sigma = np.broadcast_to(sigma, (len(like.curve_keys),))
     return (bound_warnings(post, lower_only=like.sigma_names, skip=like.discrepancy_names)
-            + sigma_warnings(post, like.sigma_names)
+            + sigma_warnings(post, like.sigma_names) + failure_warnings(post)
             + fit_warnings(like, map_simulated, dict(zip(like.curve_keys, sigma.tolist()))))

@@ -11,7 +11,7 @@ from cases.study.reading.records import COLUMNS, CURVE_OF, DRAINED_ONLY, UNDRAIN
 from cases.study.reading.staged_tests import programme_spec
 from constitutive.registry import SBP_MODELS
 
-__all__ = ["TEST_FIELDS", "test_spec"]
+__all__ = ["TEST_FIELDS", "test_spec", "test_where"]
 
 
 #: fields of a [[tests]] entry per type: required, optional (name, file, type are common; consolidation-dependent
@@ -32,11 +32,21 @@ CHOICES = {"drainage": ("drained", "undrained"), "direction": ("compression", "e
            "consolidation": ("isotropic", "K0")}
 
 
+def test_where(t, i) -> str:
+    """How an error message names the entry ``t`` of ``[[tests]]`` (0-based ``i``): ``tests['CIU_OCR2']`` by its
+    name (given, or the stem of its file, the name it then takes); ``tests[i]`` only when it has neither."""
+    if isinstance(t, dict):
+        name = t.get("name", Path(t["file"]).stem if isinstance(t.get("file"), str) else None)
+        if isinstance(name, str) and name.strip():
+            return f"tests[{name!r}]"
+    return f"tests[{i}]"
+
+
 def test_spec(ck, t, i, spec, model, check_files) -> TestSpec:
     """The TestSpec of the entry ``t`` (``tests[i]``): a flat type (``type`` and its conditions, expanded by
     :func:`~cases.study.programme.programme_of`) or a programme (``apparatus`` and ``[[tests.stages]]``,
     :mod:`cases.study.reading.staged_tests`)."""
-    where = f"tests[{i}]"
+    where = test_where(t, i)
     ck.table(t, where, None, ("file",) if "apparatus" in t else ("type", "file"))
     file = Path(ck.text(t["file"], f"{where}.file"))
     file = file if file.is_absolute() else ck.path.parent / file
@@ -44,7 +54,7 @@ def test_spec(ck, t, i, spec, model, check_files) -> TestSpec:
         ck.fail(f"{where}.file", t["file"], f"data file not found ({file})")
     name = ck.text(t.get("name", file.stem), f"{where}.name")
     if "apparatus" in t:
-        return programme_spec(ck, t, i, spec, model, file, name)
+        return programme_spec(ck, t, where, spec, model, file, name)
     kind = ck.text(t["type"], f"{where}.type", TEST_TYPES)
     for k in ("stages", "initial", "ocr", "preconsolidation"):
         if k in t:
@@ -100,4 +110,4 @@ def test_spec(ck, t, i, spec, model, check_files) -> TestSpec:
                 "stage programme's initial state (apparatus = ...) may give it per test")
     if not spec.e0_parameter and "e0" not in values:
         raise StudyError(f"{ck.path}: {where}.e0 is missing: {model} needs the void ratio at the start of each test")
-    return programme_of(TestSpec(name=name, type=kind, file=file, where=f"{ck.path}: {where} ({name})", **values))
+    return programme_of(TestSpec(name=name, type=kind, file=file, where=f"{ck.path}: {where}", **values))

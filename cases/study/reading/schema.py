@@ -1,7 +1,8 @@
 """The study file: a TOML file naming the data files, the type and conditions of every test, the base model with
 its fixed parameters and the priors of the free ones, the error parameter's bounds, the sampler and FE settings,
 the synthetic-record generator, published or generating reference values (``[reference]``,
-:mod:`cases.study.reading.reference`) and the route of the one runner (``[runner]``,
+:mod:`cases.study.reading.reference`), the priors of the catalog's enrichments (``[enrichment]``,
+:mod:`cases.study.reading.enrichment_priors`) and the route of the one runner (``[runner]``,
 :mod:`cases.study.reading.runner_table`). Every field is checked before any solve (:mod:`cases.study.checks`).
 The schema is documented in the README ("Your own recordings").
 """
@@ -10,8 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from cases.study.checks import Checker, StudyError, fe_value, read_toml
+from cases.study.checks import Checker, StudyError, did_you_mean, fe_value, read_toml
 from cases.study.reading.constraints import feasible_point, read_constraints
+from cases.study.reading.enrichment_priors import read_enrichment_priors
 from cases.study.reading.error_model import DEFAULT_SIGMA, ErrorModel, read_error_model
 from cases.study.reading.flat_tests import test_spec
 from cases.study.reading.presets import FE_FIELDS, PRESETS, Preset
@@ -34,7 +36,8 @@ class Settings:
 
 SAMPLER_DEFAULTS = {"samples": 400, "max_steps": 8, "predictive_draws": 100}
 QUICK_DEFAULTS = {"samples": 64, "max_steps": 4, "predictive_draws": 24}
-TOP_LEVEL = ("name", "description", "model", "sigma_eps", "sampler", "fe", "tests", "synthetic", "reference", "runner")
+TOP_LEVEL = ("name", "description", "model", "sigma_eps", "sampler", "fe", "tests", "synthetic", "reference", "runner",
+             "enrichment")
 
 
 @dataclass(frozen=True)
@@ -61,6 +64,8 @@ class Study:
     constraints: tuple = ()                 # inference.Constraint restricting the free parameters' prior
     references: dict = field(default_factory=dict)   # [reference]: {key: reference.Reference}
     runner: dict = field(default_factory=lambda: {"route": "study"})   # [runner]: the route and its settings
+    #: [enrichment.<candidate>]: {candidate: {parameter: (lower, upper, kind)}} replacing the catalog's priors
+    enrichment_priors: dict = field(default_factory=dict)
 
     @property
     def spec(self) -> ModelSpec:
@@ -101,7 +106,8 @@ def load_study(path, check_files=True) -> Study:
             if k == "sigma_eps":
                 ck.fail(f"{table}.{k}", v, "the error parameter has its own table [sigma_eps] (bounds = [lo, hi])")
             if k not in spec.parameters:
-                ck.fail(f"{table}.{k}", v, f"unknown parameter of {model}; its parameters are {known}")
+                ck.fail(f"{table}.{k}", v, f"unknown parameter of {model}; {did_you_mean(k, spec.parameters)}its "
+                        f"parameters are {known}")
     for k in set(fixed_in) & set(free_in):
         ck.fail(f"model.free.{k}", free_in[k], f"{k} is also in [model.fixed]: a parameter is either fixed or free")
     fixed = {k: ck.number(v, f"model.fixed.{k}") for k, v in fixed_in.items()}
@@ -154,13 +160,17 @@ def load_study(path, check_files=True) -> Study:
     names = [t.name for t in tests]
     for i, n in enumerate(names):
         if names.index(n) != i:
-            ck.fail(f"tests[{i}].name", n, "test names must be unique")
+            ck.fail(f"tests[{n!r}].name", n, f"test names must be unique (entries {names.index(n) + 1} and {i + 1} "
+                    "of [[tests]])")
     synthetic = ck.table(doc.get("synthetic", {}), "synthetic",
                          ("parameters", "switches", "noise", "seed", "points", "max_strain_pct"))
     references = read_references(ck, doc.get("reference", {}), spec.parameters)
     runner = read_runner(ck, ck.table(doc.get("runner", {}), "runner"), names, tuple(references))
+    enrichment = read_enrichment_priors(ck, doc.get("enrichment", {}), model, switches,
+                                        any("sbp" in (t.type, t.apparatus) for t in tests))
     return Study(path, name, description, model, switches, fixed, free, tuple(log_uniform), (lo, hi), sigma_kind,
-                 tests, sampler, quick, fe, fe_quick, synthetic, error_model, constraints, references, runner)
+                 tests, sampler, quick, fe, fe_quick, synthetic, error_model, constraints, references, runner,
+                 enrichment)
 
 
 def fe_settings(ck, table, where):

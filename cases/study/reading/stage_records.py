@@ -12,12 +12,20 @@ Any stage may be recorded, each at its own points. Strains: ``axial_strain`` is 
 the test, except in a shear stage where it is the strain since the stage start (zeroed at the start of shear, as
 triaxial reports give it); ``cavity_strain`` since the start of the test.
 
-The abscissa of a stage's records: its control variable (``StageKind.control_variable`` of its kind,
-:mod:`cases.study.stages`) when recorded at every record of the stage and strictly monotone there (shear, crs: axial
-strain in %; consolidation: p' or sigma'_v in kPa; expansion, unloading: cavity strain in %), else the time since the
-stage start (``stage_time_s``, or ``time_s`` minus the stage's start; holds, creep, relaxation and load stages always
-use it). The other recorded quantities of the stage that its kind does not hold (``StageKind.held_quantities``) are
-its curves, keyed by :func:`cases.study.programme.curve_key`.
+The abscissa of a stage's records: the stage's ``abscissa`` when the study file gives it (``Stage.chosen_abscissa``),
+else its control variable (``StageKind.control_variable`` of its kind, :mod:`cases.study.stages`) when recorded at
+every record of the stage (shear, crs: axial strain in %; consolidation: p' or sigma'_v in kPa; expansion,
+unloading: cavity strain in %), else the time since the stage start (``stage_time_s``, or ``time_s`` minus the
+stage's start; holds, creep, relaxation and load stages always use it). An abscissa other than time must be recorded
+at every record of the stage and increase or decrease strictly there: a noisy record of it is refused, naming the
+line, never replaced by the time unasked. The other recorded quantities of the stage that its kind does not hold
+(``StageKind.held_quantities``) are its curves, keyed by :func:`cases.study.programme.curve_key`; a stage's
+``curves`` (``Stage.chosen_curves``) keeps those it names, each of which must be recorded in the stage.
+
+A record within :data:`END_TOLERANCE` (1e-6) of its stage's range beyond an end of the stage known at load (its
+duration, its to_axial_strain or to_cavity_strain, a consolidation's target stress:
+:func:`cases.study.stages.sequence.stage_spans`) is taken at that end; one further out is refused at load, naming
+the line, the test, the stage and the value.
 """
 from __future__ import annotations
 
@@ -26,22 +34,23 @@ from dataclasses import replace
 import numpy as np
 
 import inference
+from cases.study.checks import did_you_mean
 from cases.study.programme import curve_key, split_key
-from cases.study.stages.sequence import stage_times
+from cases.study.stages.sequence import stage_spans, stage_times
 from inference import DataError
 from inference.observations import converted, read_csv_rows, split_unit
 
-__all__ = ["COLUMNS", "load_programme_test", "recorded_programme"]
+__all__ = ["COLUMNS", "END_TOLERANCE", "load_programme_test", "recorded_programme"]
 
 #: columns of a programme's CSV per apparatus: quantity -> unit (besides ``stage``)
 COLUMNS = {
     "triaxial": {"time": "s", "stage_time": "s", "axial_strain": "%", "q": "kPa", "p": "kPa", "sigma_v": "kPa",
-                 "excess_pore_pressure": "kPa", "volumetric_strain": "%", "void_ratio": "-"},
+                 "sigma_r": "kPa", "excess_pore_pressure": "kPa", "volumetric_strain": "%", "void_ratio": "-"},
     "oedometer": {"time": "s", "stage_time": "s", "axial_strain": "%", "sigma_v": "kPa", "void_ratio": "-"},
     "sbp": {"time": "s", "stage_time": "s", "cavity_strain": "%", "cavity_pressure": "kPa", "pore_pressure": "kPa"},
 }
-#: CSV quantity -> curve name (sigma'_v is the catalog's "axial_stress")
-CURVE_OF = {"sigma_v": "axial_stress"}
+#: CSV quantity -> curve name (sigma'_v is the catalog's "axial_stress", sigma'_r its "radial_stress")
+CURVE_OF = {"sigma_v": "axial_stress", "sigma_r": "radial_stress"}
 
 
 def _column(path, col, apparatus):
@@ -51,7 +60,9 @@ def _column(path, col, apparatus):
     if q in known:
         return q, unit
     names = ["stage"] + [q if u == "-" else f"{q}_{'pct' if u == '%' else u}" for q, u in known.items()]
-    raise DataError(f"{path}: column {col!r} is not a column of an {apparatus} programme; known: {', '.join(names)}")
+    hint = did_you_mean(col, names) or did_you_mean(q, known)
+    raise DataError(f"{path}: column {col!r} is not a column of an {apparatus} programme; {hint}known: "
+                    f"{', '.join(names)}")
 
 
 def _read(spec):
@@ -80,7 +91,7 @@ def _read(spec):
         if q in ("time", "stage_time") and np.any(v < 0):
             i = int(np.argmax(v < 0))
             raise DataError(f"{path}, line {lines[i]}, column {col!r}: value {cells[i]} must be >= 0 s")
-        if q in ("p", "sigma_v", "void_ratio", "cavity_pressure") and np.any(v <= 0):
+        if q in ("p", "sigma_v", "sigma_r", "void_ratio", "cavity_pressure") and np.any(v <= 0):
             i = int(np.argmax(v <= 0))
             raise DataError(f"{path}, line {lines[i]}, column {col!r}: value {cells[i]} must be > 0")
         if COLUMNS[spec.apparatus][q] == "%" and np.any(np.abs(v) > 100.0):
@@ -132,10 +143,22 @@ def _assign(spec, values, stage_cells, lines):
 def _abscissa(spec, k, values, rows, lines):
     """(abscissa name, unit, values) of stage k's records ``rows`` (see the module docstring)."""
     s, path = spec.stages[k], spec.file
-    control = s.procedure.control_variable(s)
+    control = None if s.chosen_abscissa == "time" else s.procedure.control_variable(s)
     x = values[control][rows] if control in values else np.array([])
-    if x.size and not np.any(np.isnan(x)) and (x.size == 1 or np.all(np.diff(x) > 0) or np.all(np.diff(x) < 0)):
-        return control, COLUMNS[spec.apparatus][control], x
+    recorded = x.size and not np.any(np.isnan(x))
+    if s.chosen_abscissa is not None and control is not None and not recorded:
+        i = rows[int(np.argmax(np.isnan(x)))] if x.size else rows[0]
+        raise DataError(f"{path}, line {lines[i]}: stage {s.name!r} of {spec.name} is recorded against "
+                        f"{s.chosen_abscissa} (its abscissa), which this record lacks")
+    if recorded and control is not None:
+        steps = np.diff(x)
+        if x.size == 1 or np.all(steps > 0) or np.all(steps < 0):
+            return control, COLUMNS[spec.apparatus][control], x
+        i = int(np.argmax(steps * np.sign(x[-1] - x[0]) <= 0)) + 1
+        raise DataError(f"{path}, line {lines[rows[i]]}, column {control!r}: value {x[i]:g} after {x[i - 1]:g}: "
+                        f"stage {s.name!r} of {spec.name} is recorded against {control}, which must increase or "
+                        "decrease strictly from record to record (a noisy record of a held or slow quantity: give "
+                        "the stage abscissa = \"time\")")
     if "stage_time" in values and not np.any(np.isnan(values["stage_time"][rows])):
         x = values["stage_time"][rows]
     else:
@@ -154,21 +177,58 @@ def _abscissa(spec, k, values, rows, lines):
     return "time", "s", x
 
 
+#: how far (a fraction of the stage's range) a record may lie beyond an end of its stage and be taken at that end: a
+#: value written with 7 significant digits or more is rounded by less than 5e-7 of itself, hence by less than 1e-6 of
+#: the range of a stage that starts from zero or goes to at least half its end value
+END_TOLERANCE = 1e-6
+
+
+def _within_stage(spec, k, span, x_name, unit, x, rows, lines):
+    """The abscissae ``x`` of stage k's records with those within END_TOLERANCE of the stage's range beyond one of
+    its ends (``span``: (start, end, words) of :func:`cases.study.stages.sequence.stage_spans`, None: not known at
+    load) taken at that end; a record further out is a DataError naming the file, the line, the test, the stage and
+    the value (a shear stage's axial strain is compared by its magnitude)."""
+    if span is None:
+        return x
+    s = spec.stages[k]
+    magnitude = s.procedure.shearing and x_name == "axial_strain"
+    v = np.abs(x) if magnitude else x
+    lo, hi = sorted(span[:2])
+    tol = END_TOLERANCE * max(hi - lo, np.finfo(float).tiny)
+    out = (v < lo - tol) | (v > hi + tol)
+    if np.any(out):
+        i = int(np.argmax(out))
+        raise DataError(f"{spec.file}, line {lines[rows[i]]}: test {spec.name!r}, stage {s.name!r}: record "
+                        f"{x_name} = {x[i]:g} {unit} lies outside the stage, {lo:g} to {hi:g} {unit} ({span[2]}), by "
+                        f"more than the rounding tolerance {tol:.3g} {unit} ({END_TOLERANCE:g} of its range)")
+    snapped = np.clip(v, lo, hi)
+    return np.sign(x) * snapped if magnitude else snapped
+
+
 def load_programme_test(spec) -> tuple:
     """(inference.Test, {curve key: record times since the test start (s), or None}) of a programme's CSV: every
     record assigned to its stage, each stage's curves against its abscissa. Errors name the file, the line and the
     stage."""
     meta, values, stage_cells, lines = _read(spec)
     index = _assign(spec, values, stage_cells, lines)
+    spans = stage_spans(spec)
     curves, times = {}, {}
     for k, s in enumerate(spec.stages):
         rows = np.flatnonzero(index == k)
         if rows.size == 0:
             continue
         x_name, x_unit, x = _abscissa(spec, k, values, rows, lines)
+        x = _within_stage(spec, k, spans[k].get(x_name), x_name, x_unit, x, rows, lines)
         held = s.procedure.held_quantities(s)
+        for c in s.chosen_curves or ():
+            quantity = next(q for q in COLUMNS[spec.apparatus] if CURVE_OF.get(q, q) == c)
+            if quantity not in values or np.all(np.isnan(values[quantity][rows])):
+                raise DataError(f"{spec.file}: curve {c!r} of stage {s.name!r} of {spec.name} (its curves) is not "
+                                f"recorded in the stage (columns {', '.join(values)})")
         for q, v in values.items():
             if q in ("time", "stage_time", x_name) or q in held:
+                continue
+            if s.chosen_curves is not None and CURVE_OF.get(q, q) not in s.chosen_curves:
                 continue
             keep = ~np.isnan(v[rows])
             if np.any(keep):

@@ -2,19 +2,23 @@
 the same fields in the test's table) and its ``[[tests.stages]]`` in order, checked into a
 :class:`~cases.study.programme.TestSpec` with ``type = "programme"``.
 
-Every field is checked before any solve; a message names the file, ``tests[i].stages[k].field``, the value and what
+Every field is checked before any solve; a message names the file, ``tests['NAME'].stages[k].field``, the value and what
 is supported (for the apparatus, for the stage kind). Units: kPa, s, 1/s; strains in % in the file (fractions in the
 record); compression positive.
 """
 from __future__ import annotations
 
-from cases.study.checks import StudyError
+from dataclasses import replace
+
+from cases.study.checks import StudyError, did_you_mean
 from cases.study.programme import InitialState, Stage, TestSpec
+from cases.study.reading.stage_records import COLUMNS, CURVE_OF
 from cases.study.stages import KINDS
-from cases.study.stages.sequence import check_sbp_stages, check_sequence
+from cases.study.stages.sequence import check_sbp_stages, check_sequence, stage_spans
 from constitutive.registry import SBP_MODELS
 
-__all__ = ["PROGRAMME_FIELDS", "INITIAL_FIELDS", "programme_spec", "PRECONSOLIDATION_PARAMETERS"]
+__all__ = ["PROGRAMME_FIELDS", "INITIAL_FIELDS", "STAGE_FIELDS", "programme_spec", "chosen_curves",
+           "PRECONSOLIDATION_PARAMETERS"]
 
 #: test-level fields of a programme entry besides the initial state (per apparatus)
 PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "initial", "stages"),
@@ -22,13 +26,15 @@ PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "initial
                     "sbp": ("name", "file", "apparatus", "weight", "initial", "stages", "permeability",
                             "probe_radius", "depth")}
 INITIAL_FIELDS = ("e0", "p0", "sigma_v0", "K0", "ocr", "preconsolidation", "u0")
+#: the fields every stage table may have besides its kind's own
+STAGE_FIELDS = ("kind", "name", "abscissa", "curves", "e_end")
 #: the model parameters a per-test ``ocr`` / ``preconsolidation`` replaces
 PRECONSOLIDATION_PARAMETERS = ("ocr", "pc0", "sigma_p0")
 
 
-def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
-    """The TestSpec of the programme entry ``t`` (``tests[i]``) of a study of ``model`` (registry ``spec``)."""
-    where = f"tests[{i}]"
+def programme_spec(ck, t, where, spec, model, file, name) -> TestSpec:
+    """The TestSpec of the programme entry ``t`` (named ``where`` in messages, ``tests['NAME']``) of a study of
+    ``model`` (registry ``spec``)."""
     apparatus = ck.text(t["apparatus"], f"{where}.apparatus", tuple(KINDS))
     if "type" in t:
         ck.fail(f"{where}.type", t["type"], "a test with an apparatus and [[tests.stages]] has no type (type is the "
@@ -63,12 +69,42 @@ def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
     if apparatus == "sbp":
         check_sbp_stages(ck, stages, where, name)
     check_sequence(ck, stages, where)
+    measured_void_ratio(ck, where, initial, stages, apparatus, spec, model)
     mirror = {"e0": initial.e0, "p0": initial.p0, "sigma_v0": initial.sigma_v0,
               "K0": None if initial.p0 is not None else initial.K0, "u0": initial.u0 if apparatus == "sbp" else None,
               "consolidation": None if apparatus != "triaxial" else ("isotropic" if initial.p0 is not None else "K0"),
               "strain_rate": stages[0].strain_rate if apparatus == "sbp" else None}
-    return TestSpec(name=name, type="programme", file=file, where=f"{ck.path}: {where} ({name})", apparatus=apparatus,
+    return TestSpec(name=name, type="programme", file=file, where=f"{ck.path}: {where}", apparatus=apparatus,
                     initial=initial, stages=stages, weight=weight, **site, **mirror)
+
+
+def measured_void_ratio(ck, where, initial, stages, apparatus, spec, model):
+    """The void ratio of a laboratory programme: ``e0`` at its start or one stage's ``e_end`` (where it was measured,
+    e.g. at the end of consolidation), not both; a stage's ``e_end`` needs the stage's duration and its end in its
+    abscissa to be known before any solve (:func:`cases.study.stages.sequence.stage_spans`). ``e0`` may be left out
+    where it is a parameter of the ``model`` (registry ``spec``)."""
+    measured = [k for k, s in enumerate(stages) if s.e_end is not None]
+    if len(measured) > 1:
+        k = measured[1]
+        ck.fail(f"{where}.stages[{k}].e_end", stages[k].e_end, f"the void ratio is already given at the end of stage "
+                f"{stages[measured[0]].name!r}: give it at one stage")
+    if measured:
+        k = measured[0]
+        at = f"{where}.stages[{k}].e_end"
+        if initial.e0 is not None:
+            ck.fail(at, stages[k].e_end, "the initial state gives e0 as well: give the void ratio at the start (e0) "
+                    "or where it was measured (a stage's e_end), not both")
+        if apparatus == "sbp":
+            ck.fail(at, stages[k].e_end, "a pressuremeter test takes e0 (or the model's parameter), not a stage's "
+                    "e_end")
+        spans = stage_spans(TestSpec(name="", type="programme", initial=initial, stages=stages))[k]
+        if "time" not in spans or stages[k].abscissa not in spans:
+            ck.fail(at, stages[k].e_end, f"the end of stage {stages[k].name!r} follows from the material's response: "
+                    "the void ratio at its end cannot set the specimen's start; give it at a stage whose duration "
+                    f"and end in {stages[k].abscissa} are known")
+    elif initial.e0 is None and not spec.e0_parameter:
+        raise StudyError(f"{ck.path}: {where}.e0 is missing: {model} needs the void ratio at the start of each test "
+                         "(e0) or where it was measured (a stage's e_end)")
 
 
 def initial_state(ck, t, where, apparatus, spec, model) -> InitialState:
@@ -90,8 +126,6 @@ def initial_state(ck, t, where, apparatus, spec, model) -> InitialState:
     if "u0" in v and apparatus != "sbp":
         ck.fail(f"{where}.u0", t["u0"], "the in situ pore pressure is a field of an sbp test (laboratory stresses "
                 "are effective)")
-    if "e0" not in v and not spec.e0_parameter:
-        raise StudyError(f"{ck.path}: {where}.e0 is missing: {model} needs the void ratio at the start of each test")
     given = [k for k in ("ocr", "preconsolidation") if k in v]
     if len(given) == 2:
         ck.fail(f"{where}.preconsolidation", t["preconsolidation"], "give ocr or preconsolidation, not both")
@@ -120,10 +154,37 @@ def stage(ck, s, where, number, apparatus) -> Stage:
     if kind_name not in tuple(kinds):
         ck.fail(f"{where}.kind", kind_name, f"supported for apparatus {apparatus!r}: {', '.join(kinds)}")
     kind = kinds[kind_name]
-    ck.table(s, where, ("kind", "name", *kind.required, *kind.optional), kind.required)
+    ck.table(s, where, (*STAGE_FIELDS, *kind.required, *kind.optional), kind.required)
     name = ck.text(s.get("name", f"{kind_name}{number}"), f"{where}.name")
     if "@" in name or name.strip().isdigit():
         ck.fail(f"{where}.name", name, "a stage name has no '@' and is not a number (the stage column takes both)")
-    v = dict(kind.read_value(ck, k, x, f"{where}.{k}") for k, x in s.items() if k not in ("kind", "name"))
+    v = dict(kind.read_value(ck, k, x, f"{where}.{k}") for k, x in s.items() if k not in STAGE_FIELDS)
     kind.check(ck, s, where, apparatus, v)
-    return Stage(kind_name, name, abscissa=kind.abscissa_of(v), **v)
+    chosen = ck.text(s["abscissa"], f"{where}.abscissa", kind.abscissae) if "abscissa" in s else None
+    e_end = ck.number(s["e_end"], f"{where}.e_end", positive=True) if "e_end" in s else None
+    out = Stage(kind_name, name, abscissa=chosen or kind.abscissa_of(v), chosen_abscissa=chosen, e_end=e_end, **v)
+    if "curves" in s:
+        out = replace(out, chosen_curves=chosen_curves(ck, s["curves"], f"{where}.curves", out, apparatus))
+    return out
+
+
+def chosen_curves(ck, value, where, stage, apparatus) -> tuple:
+    """The curve names of a stage's ``curves`` list (a CSV quantity such as ``sigma_v`` gives its curve name,
+    ``axial_stress``): each a recorded quantity of the apparatus that the stage neither controls nor holds, once."""
+    names = {q: CURVE_OF.get(q, q) for q in COLUMNS[apparatus] if q not in ("time", "stage_time")}
+    if not isinstance(value, list) or not value:
+        ck.fail(where, value, f"expected a non-empty list of curve names among {', '.join(names.values())}")
+    held = set(stage.procedure.held_quantities(stage)) | {stage.abscissa}
+    out = []
+    for c in value:
+        if not isinstance(c, str) or (c not in names and c not in names.values()):
+            ck.fail(where, value, f"{c!r} is not a curve of an {apparatus} programme; "
+                    f"{did_you_mean(c, [*names.values(), *names])}expected among {', '.join(names.values())}")
+        quantity = c if c in names else next(q for q, n in names.items() if n == c)
+        if quantity in held:
+            ck.fail(where, value, f"{c!r} is not a curve of this {stage.drainage} {stage.kind} stage (recorded "
+                    f"against {stage.abscissa}; it controls or holds {', '.join(sorted(held))})")
+        if names[quantity] in out:
+            ck.fail(where, value, f"{c!r} is given twice")
+        out.append(names[quantity])
+    return tuple(out)

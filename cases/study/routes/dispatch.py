@@ -152,5 +152,6 @@ def _general(study, run, diagnose) -> int:
         return problem.finish_class(post, like, name, study.switches, one, out, seed, settings.predictive_draws,
                                     post.wall_s)[1]
 
-    run_all(run, default_out, like, prior, settings.n_samples, {"max_steps": settings.max_steps}, finish, kernels)
+    run_all(run, default_out, like, prior, settings.n_samples,
+            {"max_steps": settings.max_steps, "max_failure_fraction": problem.failure_fraction}, finish, kernels)
     return 0

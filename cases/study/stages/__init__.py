@@ -6,7 +6,8 @@ and readers ask the stage (``Stage.procedure``) rather than compare kind names.
 - ``consolidation``: drained ramp to p' or sigma'_v (triaxial, oedometer);
 - ``shear``: axial strain at a rate, drained or undrained (triaxial);
 - ``lab_holds``: ``creep`` (stresses held) and ``relaxation`` (axial strain held) (triaxial, oedometer);
-- ``crs``: constant rate of strain, signed, to a strain or a stress (oedometer);
+- ``crs``: constant rate of strain, signed, to a strain or a stress (oedometer; triaxial: K0 consolidation, the
+  radial strain held at zero);
 - ``load``: incremental load stage, ramp then hold (oedometer);
 - ``pressuremeter``: ``expansion``, ``hold``, ``unloading`` of a self-boring pressuremeter test (sbp);
 - ``sequence``: what follows from the order of the stages (stage times, the checks that span stages).

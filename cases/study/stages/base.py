@@ -60,6 +60,10 @@ class Stage:
     alternative end (total cavity pressure, kPa); ramp_time: load stage ramp (s).
     abscissa: what the stage's records are plotted and simulated against: ``axial_strain``, ``time`` (since the stage
     start), ``p``, ``sigma_v``, ``cavity_strain``; curves: the recorded quantities of this stage (from the records).
+    chosen_abscissa: the abscissa the study file chose (None: the kind's control variable where recorded, else
+    time); chosen_curves: the curves the study file lets into the likelihood (None: every recorded one), by curve
+    name (``q``, ``axial_stress`` for sigma'_v, ...). e_end: the void ratio measured at the end of the stage (a
+    laboratory programme's specimen then starts from the void ratio that reaches it, found per parameter set).
     """
 
     kind: str
@@ -77,6 +81,9 @@ class Stage:
     ramp_time: float | None = None
     abscissa: str = "time"
     curves: tuple = ()
+    chosen_abscissa: str | None = None
+    chosen_curves: tuple | None = None
+    e_end: float | None = None
 
     @property
     def procedure(self):

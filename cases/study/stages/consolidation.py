@@ -23,7 +23,7 @@ class Consolidation(StageKind):
     apparatus = ("triaxial", "oedometer")
     optional = ("p", "sigma_v", "K0", "duration")
     abscissae = ("time", "p", "sigma_v")
-    held = ("q", "p", "sigma_v", "excess_pore_pressure")
+    held = ("q", "p", "sigma_v", "sigma_r", "excess_pore_pressure")
     controls = {"triaxial": TRIAXIAL_STRESS, "oedometer": OEDOMETER_STRESS}
     consolidates = True
 

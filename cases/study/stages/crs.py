@@ -1,7 +1,8 @@
-"""Constant rate of strain (oedometer): the axial strain at the SIGNED ``strain_rate`` (1/s; > 0 loading, < 0
-unloading), every strain controlled, to the total axial strain ``to_axial_strain`` (%) or until sigma'_v reaches
-``to_sigma_v`` (kPa), else to its last record. Records against the total axial strain of the test (%) or the time
-since the stage start (s).
+"""Constant rate of strain: the axial strain at the SIGNED ``strain_rate`` (1/s; > 0 loading, < 0 unloading), every
+strain controlled (the radial strain held at zero: an oedometer, or a K0 consolidation in a triaxial cell whose cell
+pressure follows the specimen, its radial effective stress a curve), to the total axial strain ``to_axial_strain``
+(%) or until sigma'_v reaches ``to_sigma_v`` (kPa), else to its last record. Records against the total axial strain
+of the test (%) or the time since the stage start (s).
 """
 from __future__ import annotations
 
@@ -17,12 +18,12 @@ class ConstantRateOfStrain(StageKind):
     (kPa)."""
 
     name = "crs"
-    apparatus = ("oedometer",)
+    apparatus = ("triaxial", "oedometer")
     required = ("strain_rate",)
     optional = ("to_axial_strain", "to_sigma_v")
     abscissae = ("axial_strain", "time")
-    held = ("axial_strain", "void_ratio")
-    controls = {"oedometer": OEDOMETER_STRAIN}
+    held = ("axial_strain", "volumetric_strain", "void_ratio")
+    controls = {"triaxial": OEDOMETER_STRAIN, "oedometer": OEDOMETER_STRAIN}
     rate_controlled = True
     strain_end = "any"
 
@@ -75,7 +76,8 @@ class ConstantRateOfStrain(StageKind):
 
     @classmethod
     def logged(cls, stage, apparatus, n, now, settings, where):
-        """n total axial strains evenly spaced from the stage's start to ``to_strain``, sigma'_v recorded."""
+        """n total axial strains evenly spaced from the stage's start to ``to_strain``, sigma'_v recorded (and
+        sigma'_r in a triaxial cell)."""
         if now["strain"] is None or stage.to_strain is None:
             raise LoggingError(f"{where}: synthetic records of a crs stage need to_axial_strain and a known strain "
                                "at its start")
@@ -83,7 +85,7 @@ class ConstantRateOfStrain(StageKind):
         x = np.linspace(start, end, n + 1)[1:]
         t = np.abs(x - start) / 100.0 / abs(stage.strain_rate)
         now.update(strain=end, p=None, sigma_v=None)
-        return "axial_strain", x, t, ("sigma_v",)
+        return "axial_strain", x, t, ("sigma_v", "sigma_r") if apparatus == "triaxial" else ("sigma_v",)
 
     @classmethod
     def plan(cls, steps):

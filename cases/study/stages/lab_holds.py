@@ -73,7 +73,7 @@ class Creep(LabHold):
 
     @classmethod
     def held_quantities(cls, stage):
-        return super().held_quantities(stage) + (("p",) if stage.drainage == "drained" else ())
+        return super().held_quantities(stage) + (("p", "sigma_r") if stage.drainage == "drained" else ())
 
     @classmethod
     def recorded(cls, stage, apparatus):

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from cases.study.stages import KINDS
 
-__all__ = ["stage_times", "check_sequence", "check_sbp_stages"]
+__all__ = ["stage_times", "stage_spans", "check_sequence", "check_sbp_stages"]
 
 
 def stage_times(spec) -> list:
@@ -21,6 +21,47 @@ def stage_times(spec) -> list:
         end = float("inf") if k == len(spec.stages) - 1 else (None if t is None or d is None else t + d)
         out.append((t, end))
         t = end
+    return out
+
+
+def stage_spans(spec) -> list:
+    """[{abscissa: (start, end, what)}] of each stage of a programme: the values its records may take against an
+    abscissa whose two ends are known before any solve, in the records' units, and the words naming the end (e.g.
+    "to_axial_strain 10 %"). time: (0, duration) s since the stage start; axial_strain: a shear stage's own strain
+    magnitude (0, to_axial_strain) %, a crs stage's total strain from its start to to_axial_strain %; cavity_strain:
+    from the stage's start to its to_cavity_strain %; p, sigma_v: a consolidation from the effective stress at its
+    start (the initial state, or the target of a consolidation or load stage just before it) to its target, kPa. An
+    abscissa whose end follows from the material's response is absent."""
+    out, strain, cavity = [], 0.0, 0.0
+    stress = {"p": spec.initial.p, "sigma_v": spec.initial.vertical} if spec.initial is not None else {}
+    for s in spec.stages:
+        kind = s.procedure
+        spans = {}
+        duration = kind.elapsed(s, strain, cavity)
+        if duration is not None:
+            spans["time"] = (0.0, duration, f"its duration {duration:g} s")
+        if s.to_strain is not None:
+            end = 100.0 * s.to_strain
+            if kind.shearing:
+                spans["axial_strain"] = (0.0, abs(end), f"to_axial_strain {abs(end):g} %")
+            elif kind.control_variable(s) == "axial_strain" and strain is not None:
+                spans["axial_strain"] = (100.0 * strain, end, f"to_axial_strain {end:g} %")
+            elif kind.control_variable(s) == "cavity_strain" and cavity is not None:
+                spans["cavity_strain"] = (100.0 * cavity, end, f"to_cavity_strain {end:g} %")
+        after = {}
+        if kind.consolidates or kind.stress_target(s) is not None:
+            target = kind.stress_target(s)
+            if s.p is not None:
+                after = {"p": target, "sigma_v": target}
+            elif s.K0 is not None:
+                after = {"sigma_v": target, "p": target * (1.0 + 2.0 * s.K0) / 3.0}
+            else:
+                after = {"sigma_v": target}
+            for q in ("p", "sigma_v"):
+                if kind.consolidates and q in after and q in stress:
+                    spans[q] = (stress[q], after[q], f"its target {q} {after[q]:g} kPa")
+        out.append(spans)
+        strain, cavity, stress = kind.strain_after(s, strain), kind.cavity_after(s, cavity), after
     return out
 
 

@@ -349,3 +349,18 @@ def test_programmes_sharing_a_stage_structure_equal_one_test_calls(monkeypatch):
     worst, n_calls = _equal_to_one_test_calls(mcc(), waits, x_waits, 1, monkeypatch)
     assert worst <= 1e-10
     assert n_calls == 3
+
+
+def test_a_triaxial_crs_is_the_oedometer_crs_with_its_radial_stress():
+    """Strain-controlled K0 consolidation in a triaxial cell (every strain controlled, the radial one at zero): the
+    axial stress of the oedometer's crs, and the radial stress as a curve whose ratio to it tends to the model's
+    normally consolidated K0 (MCC: sigma'_r/sigma'_a rises from the initial 0.6 and levels off)."""
+    stage = Stage("crs", "crs1", strain_rate=1e-6, to_strain=0.08, abscissa="axial_strain")
+    x = np.array([0.02, 0.05, 0.08])
+    cell, _ = simulate_programme(mcc(), programme("triaxial", InitialState(sigma_v0=50.0, K0=0.6, e0=1.2), stage),
+                                 {"axial_stress": x, "radial_stress": x}, 1)
+    oedometer, _ = simulate_programme(mcc(), programme("oedometer", InitialState(sigma_v0=50.0, K0=0.6, e0=1.2),
+                                                       stage), {"axial_stress": x}, 1)
+    np.testing.assert_allclose(cell["axial_stress"], oedometer["axial_stress"], rtol=1e-12)
+    ratio = cell["radial_stress"][0] / cell["axial_stress"][0]
+    assert np.all(np.diff(ratio) > 0) and ratio[-1] - ratio[-2] < ratio[1] - ratio[0] and 0.6 < ratio[-1] < 0.7

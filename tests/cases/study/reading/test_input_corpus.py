@@ -25,6 +25,8 @@ from corpus_inputs import (
     LAB_TOML,
     LAB_TOMLS,
     LAB_VARIANTS,
+    PROGRAMME_CSVS,
+    PROGRAMME_TOML,
     SBP_CSV,
     SBP_CSVS,
     SBP_TOMLS,
@@ -99,6 +101,13 @@ def test_a_bad_generating_value_is_refused_by_generate(tmp_path, capsys):
     study.write_text(text)
     refused(calibrate.main, [study, "--generate"], capsys, tmp_path / "data",
             [str(study), "synthetic.parameters", "e_ref = -0.75"])
+
+
+@pytest.mark.parametrize("csv, named", [c[1:] for c in PROGRAMME_CSVS], ids=[c[0] for c in PROGRAMME_CSVS])
+def test_bad_programme_csv_is_refused_by_calibrate(tmp_path, capsys, csv, named):
+    out = tmp_path / "out"
+    refused(calibrate.main, [_lab(tmp_path, toml=PROGRAMME_TOML, csv=csv), "--quick", "--out", out], capsys, out,
+            ["t1.csv", *named])
 
 
 # ------------------------------------------------------------------------------------------------ bad CSVs, SBP
@@ -400,11 +409,12 @@ def _curves(observations):
     return {(t.name, c): (curve.x, curve.y) for t in observations for c, curve in t.curves.items()}
 
 
+@pytest.mark.parametrize("toml", [LAB_TOML, PROGRAMME_TOML], ids=["flat", "programme"])
 @pytest.mark.parametrize("csv", [v for _, v in LAB_VARIANTS], ids=[n for n, _ in LAB_VARIANTS])
-def test_valid_lab_variants_load_to_the_same_values(tmp_path, csv):
+def test_valid_lab_variants_load_to_the_same_values(tmp_path, csv, toml):
     (tmp_path / "plain").mkdir()
-    plain = _curves(load_observations(load_study(_lab(tmp_path / "plain")).tests)[0])
-    variant = _curves(load_observations(load_study(_lab(tmp_path, csv=csv)).tests)[0])
+    plain = _curves(load_observations(load_study(_lab(tmp_path / "plain", toml=toml)).tests)[0])
+    variant = _curves(load_observations(load_study(_lab(tmp_path, toml=toml, csv=csv)).tests)[0])
     assert plain.keys() == variant.keys()
     for key, (x, y) in plain.items():
         np.testing.assert_allclose(variant[key][0], x, rtol=1e-15)

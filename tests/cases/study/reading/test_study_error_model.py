@@ -95,7 +95,7 @@ def test_error_groups_and_weights_reach_the_likelihood(tmp_path):
     ('groups = { stress = ["q", "p"], pore = ["excess_pore_pressure", "void_ratio"] }\n[sigma_eps.bounds_of]\n'
      'volume = [0.001, 0.1]', "", "sigma_eps.bounds_of.volume = .*not a group"),
     ('groups = { stress = ["q", "p", "excess_pore_pressure"] }', "", "one group is the single sigma_eps"),
-    ("", "weight = 0", r"tests\[0\].weight = 0: must be > 0")])
+    ("", "weight = 0", r"tests\['CK0UC'\]\.weight = 0: must be > 0")])
 def test_bad_groups_and_weights_are_refused(tmp_path, sigma, weight, message):
     path = _study(tmp_path, sigma=f"[sigma_eps]\nbounds = [0.001, 0.3]\n{sigma}", weight=weight)
     with pytest.raises(StudyError, match=message):

@@ -372,61 +372,70 @@ duration = 3600.0
 
 BAD_FIELDS = [
     ('kind = "consolidation"\np = 200.0', 'kind = "torsion"',
-     "tests[0].stages[0].kind = 'torsion': supported for apparatus 'triaxial': consolidation, shear, creep, "
-     "relaxation"),
-    ('kind = "consolidation"\np = 200.0', 'kind = "crs"\nstrain_rate = 1e-6',
-     "tests[0].stages[0].kind = 'crs': supported for apparatus 'triaxial'"),
+     "tests['CIU'].stages[0].kind = 'torsion': supported for apparatus 'triaxial': consolidation, shear, creep, "
+     "relaxation, crs"),
+    ('kind = "consolidation"\np = 200.0', 'kind = "load"\nsigma_v = 200.0\nduration = 60.0',
+     "tests['CIU'].stages[0].kind = 'load': supported for apparatus 'triaxial'"),
     ('strain_rate = 1.0e-5', 'strain_rate = 0',
-     "tests[0].stages[2].strain_rate = 0: must be > 0"),
+     "tests['CIU'].stages[2].strain_rate = 0: must be > 0"),
     ('drainage = "undrained"', 'drainage = "partial"',
-     "tests[0].stages[2].drainage = 'partial': expected one of drained, undrained"),
-    ('to_axial_strain = 10.0', 'to_axial_strain = -3.0', "tests[0].stages[2].to_axial_strain = -3.0: must be > 0"),
+     "tests['CIU'].stages[2].drainage = 'partial': expected one of drained, undrained"),
+    ('to_axial_strain = 10.0', 'to_axial_strain = -3.0', "tests['CIU'].stages[2].to_axial_strain = -3.0: must be > 0"),
     ('to_axial_strain = 10.0', 'to_axial_strain = 150.0',
-     "tests[0].stages[2].to_axial_strain = 150.0: a strain in % must be <= 100"),
+     "tests['CIU'].stages[2].to_axial_strain = 150.0: a strain in % must be <= 100"),
     ('to_axial_strain = 10.0', 'to_axial_strain = 10.0\nspeed = 3',
-     "tests[0].stages[2].speed = 3: unknown field; expected one of kind, name, drainage, strain_rate"),
+     "tests['CIU'].stages[2].speed = 3: unknown field; expected one of kind, name, abscissa, curves, e_end, drainage, "
+     "strain_rate"),
     ('name = "swelling"', 'name = "consolidation1"',
-     "tests[0].stages[1].name = 'consolidation1': stage names must be unique within a test"),
-    ('name = "swelling"', 'name = "a@b"', "tests[0].stages[1].name = 'a@b': a stage name has no '@'"),
-    ('duration = 3600.0', 'duration = -1.0', "tests[0].stages[1].duration = -1.0: must be > 0"),
+     "tests['CIU'].stages[1].name = 'consolidation1': stage names must be unique within a test"),
+    ('name = "swelling"', 'name = "a@b"', "tests['CIU'].stages[1].name = 'a@b': a stage name has no '@'"),
+    ('duration = 3600.0', 'duration = -1.0', "tests['CIU'].stages[1].duration = -1.0: must be > 0"),
     ('kind = "consolidation"\np = 200.0', 'kind = "consolidation"\np = 200.0\nK0 = 0.5',
-     "tests[0].stages[0].K0 = 0.5: an isotropic consolidation (p) has no K0"),
+     "tests['CIU'].stages[0].K0 = 0.5: an isotropic consolidation (p) has no K0"),
     ('kind = "consolidation"\np = 200.0', 'kind = "consolidation"\nsigma_v = 200.0',
-     "tests[0].stages[0].K0 is missing (a triaxial consolidation to sigma_v"),
+     "tests['CIU'].stages[0].K0 is missing (a triaxial consolidation to sigma_v"),
     ('kind = "consolidation"\np = 200.0', 'kind = "consolidation"',
-     "tests[0].stages[0]: a consolidation stage goes to p (isotropic, triaxial) or to sigma_v"),
-    ('weight = 2.0', 'weight = 0', "tests[0].weight = 0: must be > 0"),
-    ('p0 = 25.0', 'p0 = 25.0\nK0 = 0.5', "tests[0].K0 = 0.5: not used with p0"),
-    ('p0 = 25.0', 'sigma_v0 = 25.0', "tests[0].K0 is missing (apparatus 'triaxial' starts from p0 (isotropic) or "
+     "tests['CIU'].stages[0]: a consolidation stage goes to p (isotropic, triaxial) or to sigma_v"),
+    ('weight = 2.0', 'weight = 0', "tests['CIU'].weight = 0: must be > 0"),
+    ('p0 = 25.0', 'p0 = 25.0\nK0 = 0.5', "tests['CIU'].K0 = 0.5: not used with p0"),
+    ('p0 = 25.0', 'sigma_v0 = 25.0', "tests['CIU'].K0 is missing (apparatus 'triaxial' starts from p0 (isotropic) or "
      "sigma_v0 and K0)"),
-    ('p0 = 25.0', 'p0 = 25.0\nocr = 0.5', "tests[0].ocr = 0.5: must be >= 1"),
-    ('p0 = 25.0', 'p0 = 25.0\npreconsolidation = 10.0', "tests[0].preconsolidation = 10.0: must be >= the initial "
+    ('p0 = 25.0', 'p0 = 25.0\nocr = 0.5', "tests['CIU'].ocr = 0.5: must be >= 1"),
+    ('p0 = 25.0', 'p0 = 25.0\npreconsolidation = 10.0', "tests['CIU'].preconsolidation = 10.0: must be >= the initial "
      "vertical effective stress 25 kPa"),
     ('p0 = 25.0', 'p0 = 25.0\nocr = 2.0\npreconsolidation = 60.0',
-     "tests[0].preconsolidation = 60.0: give ocr or preconsolidation, not both"),
-    ('p0 = 25.0', 'p0 = 25.0\nu0 = 10.0', "tests[0].u0 = 10.0: the in situ pore pressure is a field of an sbp test"),
-    ('e0 = 1.4\n', '', "tests[0].e0 is missing: ModifiedCamClay needs the void ratio"),
+     "tests['CIU'].preconsolidation = 60.0: give ocr or preconsolidation, not both"),
+    ('p0 = 25.0', 'p0 = 25.0\nu0 = 10.0',
+     "tests['CIU'].u0 = 10.0: the in situ pore pressure is a field of an sbp test"),
+    ('e0 = 1.4\n', '', "tests['CIU'].e0 is missing: ModifiedCamClay needs the void ratio"),
     ('apparatus = "triaxial"', 'apparatus = "triaxial"\ntype = "triaxial"',
-     "tests[0].type = 'triaxial': a test with an apparatus and [[tests.stages]] has no type"),
+     "tests['CIU'].type = 'triaxial': a test with an apparatus and [[tests.stages]] has no type"),
     ('apparatus = "triaxial"', 'apparatus = "shear box"',
-     "tests[0].apparatus = 'shear box': expected one of triaxial, oedometer, sbp"),
+     "tests['CIU'].apparatus = 'shear box': expected one of triaxial, oedometer, sbp"),
     ('strain_rate = 1.0e-5', 'strain_rate = 1.0e-5\ndirection = "sideways"',
-     "tests[0].stages[2].direction = 'sideways': expected one of compression, extension"),
-    ('e0 = 1.4', 'e0 = -1.4', "tests[0].e0 = -1.4: must be > 0"),
-    ('p0 = 25.0', 'p0 = "25"', "tests[0].p0 = '25': expected a finite number"),
+     "tests['CIU'].stages[2].direction = 'sideways': expected one of compression, extension"),
+    ('e0 = 1.4', 'e0 = -1.4', "tests['CIU'].e0 = -1.4: must be > 0"),
+    ('p0 = 25.0', 'p0 = "25"', "tests['CIU'].p0 = '25': expected a finite number"),
     ('e0 = 1.4\np0 = 25.0', 'initial = { e0 = 1.4, p0 = 25.0, pc = 3.0 }',
-     "tests[0].initial.pc = 3.0: unknown field; expected one of e0, p0, sigma_v0, K0, ocr, preconsolidation, u0"),
+     "tests['CIU'].initial.pc = 3.0: unknown field; expected one of e0, p0, sigma_v0, K0, ocr, preconsolidation, u0"),
     ('e0 = 1.4\np0 = 25.0', 'e0 = 1.4\ninitial = { p0 = 25.0 }',
-     "tests[0].e0 = 1.4: the initial state is given in [tests.initial]: give it there or in the test's table"),
-    ('p = 200.0', 'p = 0.0', "tests[0].stages[0].p = 0.0: must be > 0"),
+     "tests['CIU'].e0 = 1.4: the initial state is given in [tests.initial]: give it there or in the test's table"),
+    ('p = 200.0', 'p = 0.0', "tests['CIU'].stages[0].p = 0.0: must be > 0"),
     ('kind = "consolidation"\np = 200.0', 'kind = "consolidation"\np = 200.0\ndrainage = "undrained"',
-     "tests[0].stages[0].drainage = 'undrained': unknown field; expected one of kind, name, p, sigma_v, K0, "
-     "duration"),
-    ('kind = "consolidation"\np = 200.0', 'name = "x"\np = 200.0', "tests[0].stages[0].kind is missing"),
-    ('name = "swelling"', 'name = "2"', "tests[0].stages[1].name = '2': a stage name has no '@' and is not a "
+     "tests['CIU'].stages[0].drainage = 'undrained': unknown field; expected one of kind, name, abscissa, curves, "
+     "e_end, p, sigma_v, K0, duration"),
+    ('kind = "consolidation"\np = 200.0', 'name = "x"\np = 200.0', "tests['CIU'].stages[0].kind is missing"),
+    ('name = "swelling"', 'name = "2"', "tests['CIU'].stages[1].name = '2': a stage name has no '@' and is not a "
      "number"),
     ('strain_rate = 1.0e-5', 'strain_rate = 1.0e-5\nduration = 60.0',
-     "tests[0].stages[2].duration = 60.0: unknown field"),
+     "tests['CIU'].stages[2].duration = 60.0: unknown field"),
+    ('drainage = "undrained"', 'drainge = "undrained"',
+     "tests['CIU'].stages[2].drainge = 'undrained': unknown field; did you mean 'drainage'? expected one of kind, "
+     "name, abscissa, curves, e_end, drainage, strain_rate"),
+    ('drainage = "undrained"', 'drainage = "undrianed"',
+     "tests['CIU'].stages[2].drainage = 'undrianed': did you mean 'undrained'? expected one of drained, undrained"),
+    ('e0 = 1.4\np0 = 25.0', 'initial = { e0 = 1.4, p_0 = 25.0 }',
+     "tests['CIU'].initial.p_0 = 25.0: unknown field; did you mean 'p0'?"),
 ]
 
 
@@ -449,34 +458,34 @@ sigma_v = 40.0
 ramp_time = 600.0
 duration = 300.0
 """
-    refused(study(tmp_path, oed, "a.toml"), "tests[0].stages[0].ramp_time = 600.0: must be < the stage's duration")
-    refused(study(tmp_path, oed.split("[[tests.stages]]")[0], "no_stages.toml"), "tests[0].stages is missing")
+    refused(study(tmp_path, oed, "a.toml"), "tests['o'].stages[0].ramp_time = 600.0: must be < the stage's duration")
+    refused(study(tmp_path, oed.split("[[tests.stages]]")[0], "no_stages.toml"), "tests['o'].stages is missing")
     refused(study(tmp_path, oed.split("[[tests.stages]]")[0] + "stages = []\n", "empty.toml"),
-            "tests[0].stages = []: expected one or more [[tests.stages]] tables")
+            "tests['o'].stages = []: expected one or more [[tests.stages]] tables")
     refused(study(tmp_path, oed.replace('kind = "load"', 'kind = "creep"\ndrainage = "undrained"')
                   .replace("sigma_v = 40.0\nramp_time = 600.0\n", ""), "b.toml"),
-            "tests[0].stages[0].drainage = 'undrained': an oedometer creep stage is drained")
+            "tests['o'].stages[0].drainage = 'undrained': an oedometer creep stage is drained")
     crs = oed.replace('kind = "load"\nsigma_v = 40.0\nramp_time = 600.0\nduration = 300.0',
                       'kind = "crs"\nstrain_rate = -1e-6\nto_axial_strain = 5.0')
-    refused(study(tmp_path, crs, "c.toml"), "tests[0].stages[0].to_axial_strain = 5.0: not reached at strain_rate "
+    refused(study(tmp_path, crs, "c.toml"), "tests['o'].stages[0].to_axial_strain = 5.0: not reached at strain_rate "
             "-1e-06 1/s")
     refused(study(tmp_path, crs.replace("to_axial_strain = 5.0", "to_axial_strain = 5.0\nto_sigma_v = 50.0"),
-                  "d.toml"), "tests[0].stages[0].to_sigma_v = 50.0: the stage ends at to_axial_strain: give one end")
+                  "d.toml"), "tests['o'].stages[0].to_sigma_v = 50.0: the stage ends at to_axial_strain: give one end")
     refused(study(tmp_path, crs.replace("strain_rate = -1e-6", "strain_rate = 0"), "e.toml"),
-            "tests[0].stages[0].strain_rate = 0: must be != 0")
+            "tests['o'].stages[0].strain_rate = 0: must be != 0")
     refused(study(tmp_path, oed.replace("sigma_v0 = 20.0", "p0 = 20.0"), "f.toml"),
-            "tests[0].p0 = 20.0: an oedometer test starts from sigma_v0 and K0")
+            "tests['o'].p0 = 20.0: an oedometer test starts from sigma_v0 and K0")
     sbp = (EXAMPLES / "sbp_stages.toml").read_text().replace('file = "data/', 'file = "')
     refused(study(tmp_path, sbp.replace('kind = "expansion"\nname = "expansion"\nstrain_rate = 0.00167    # 1/s\n'
                                         'to_cavity_strain = 5.0   # %', 'kind = "hold"\nduration = 10.0'), "g.toml"),
-            "tests[0].stages[0].kind = 'hold': the first stage of a pressuremeter test is an expansion")
+            "tests['SBP_hold'].stages[0].kind = 'hold': the first stage of a pressuremeter test is an expansion")
     refused(study(tmp_path, sbp.replace("to_cavity_strain = 2.0", "to_cavity_strain = 6.0"), "h.toml"),
-            "tests[0].stages[2].to_cavity_strain = 6.0: an unloading goes below the current cavity strain 5 %")
+            "tests['SBP_hold'].stages[2].to_cavity_strain = 6.0: an unloading goes below the current cavity strain 5 %")
     refused(study(tmp_path, sbp.replace("to_cavity_strain = 5.0", "to_cavity_strain = 12.0"), "j.toml"),
-            "tests[0].stages[0].to_cavity_strain = 12.0: an expansion goes above the current cavity strain 0 % and "
-            "at most to 10 %")
+            "tests['SBP_hold'].stages[0].to_cavity_strain = 12.0: an expansion goes above the current cavity strain "
+            "0 % and at most to 10 %")
     refused(study(tmp_path, sbp.replace("probe_radius = 0.0415    # m\n", ""), "i.toml"),
-            "tests[0].probe_radius is missing")
+            "tests['SBP_hold'].probe_radius is missing")
     simsand = MCC.replace('"ModifiedCamClay"', '"SIMSAND"')
     assert "ocr" not in simsand
 
@@ -494,8 +503,8 @@ e0 = 1.0
 strain_rate = 1e-5
 ocr = 2.0
 """
-    refused(study(tmp_path, flat), "tests[0].ocr = 2.0: ocr is a field of a stage programme")
-    refused(study(tmp_path, flat.replace("ocr = 2.0", "weight = -1"), "w.toml"), "tests[0].weight = -1: must be > 0")
+    refused(study(tmp_path, flat), "tests['t'].ocr = 2.0: ocr is a field of a stage programme")
+    refused(study(tmp_path, flat.replace("ocr = 2.0", "weight = -1"), "w.toml"), "tests['t'].weight = -1: must be > 0")
 
 
 def test_cli_exit_status_2_names_the_stage(tmp_path):
@@ -504,7 +513,7 @@ def test_cli_exit_status_2_names_the_stage(tmp_path):
     r = subprocess.run([sys.executable, "-m", "cases.calibrate", str(path), "--quick", "--out", str(tmp_path / "o")],
                        capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 2, r.stderr
-    assert "tests[0].stages[2].kind = 'torsion': supported for apparatus 'triaxial'" in r.stderr
+    assert "tests['CIU'].stages[2].kind = 'torsion': supported for apparatus 'triaxial'" in r.stderr
     assert not (tmp_path / "o").exists()
 
 

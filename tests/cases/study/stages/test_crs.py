@@ -41,3 +41,11 @@ def test_logging_needs_a_known_start():
     assert quantities == ("sigma_v",) and now["strain"] == 10.0
     with pytest.raises(LoggingError, match="here: synthetic records of a crs stage need to_axial_strain"):
         ConstantRateOfStrain.logged(st, "oedometer", 3, {**now, "strain": None}, {}, "here")
+
+
+def test_a_triaxial_cell_runs_a_crs_stage_as_a_k0_consolidation_recording_the_radial_stress():
+    st = read("triaxial", kind="crs", strain_rate=1e-6, to_axial_strain=10.0)
+    assert ConstantRateOfStrain.controls["triaxial"].all()  # every strain controlled: the radial strain held at 0
+    now = {"p": None, "sigma_v": None, "strain": 0.0, "cavity": 0.0}
+    assert ConstantRateOfStrain.logged(st, "triaxial", 2, now, {}, "")[3] == ("sigma_v", "sigma_r")
+    assert "volumetric_strain" in ConstantRateOfStrain.held_quantities(st)  # equal to the axial strain

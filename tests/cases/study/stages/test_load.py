@@ -19,7 +19,7 @@ def test_the_ramp_is_shorter_than_the_stage():
     refused("oedometer", f"{WHERE}.ramp_time = 100.0: must be < the stage's duration 100 s", kind="load",
             sigma_v=200.0, duration=100.0, ramp_time=100.0)
     refused("triaxial", f"{WHERE}.kind = 'load': supported for apparatus 'triaxial': consolidation, shear, creep, "
-            "relaxation", kind="load", sigma_v=200.0, duration=100.0)
+            "relaxation, crs", kind="load", sigma_v=200.0, duration=100.0)
 
 
 def test_logging():

@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[4]
 
 def test_each_apparatus_runs_its_kinds_in_order():
     assert {a: tuple(k) for a, k in KINDS.items()} == {
-        "triaxial": ("consolidation", "shear", "creep", "relaxation"),
+        "triaxial": ("consolidation", "shear", "creep", "relaxation", "crs"),
         "oedometer": ("consolidation", "creep", "relaxation", "crs", "load"),
         "sbp": ("expansion", "hold", "unloading")}
 
