@@ -257,12 +257,14 @@ def run_all(run, default_out, like, prior, n_samples, settings, finish, kernels=
 
 def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) -> dict:
     """post.save(out) with the summary fields every case writes (case, method, seed, quick, J_g at MAP,
-    sigma_eps); J_g (Eq. 5) at MAP costs one forward solve. The checkpoint of the finished run is removed."""
+    sigma_eps) and, in posterior.nc, the records and the MAP's curves at them; the MAP's curves (for J_g, Eq. (5))
+    cost one forward solve. The checkpoint of the finished run is removed."""
     t0 = time.perf_counter()
     try:
-        jg = {t: float(v) for t, v in like.summary_goodness(post.map_theta).items()}
+        map_simulated = {key: values[0] for key, values in like.simulated_many(post.map_theta).items()}
+        jg = {t: float(v) for t, v in like.goodness_of_fit(map_simulated).items()}
     except Exception as exc:  # noqa: BLE001 - report, do not lose the posterior over a diagnostic
-        jg = {"error": f"{type(exc).__name__}: {exc}"}
+        map_simulated, jg = None, {"error": f"{type(exc).__name__}: {exc}"}
     fields = {"case": case, "method": method_name(run.method), "seed": int(seed), "quick": bool(run.quick),
               "J_g_at_map": jg, "J_g_wall_s": time.perf_counter() - t0}
     def sigma_fields(name):
@@ -275,7 +277,7 @@ def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) 
     elif like.sigma_names:  # error groups: {group: ...}
         fields["sigma_eps"] = {g: sigma_fields(n) for g, n in zip(like.groups, like.sigma_names)}
     fields.update(extra or {})
-    post.save(out, extra=fields)
+    post.save(out, extra=fields, observations=like.observations, map_simulated=map_simulated)
     checkpoint = Path(out) / "run.ckpt"
     if checkpoint.exists():  # the run finished: its answer is in posterior.npz / summary.json
         checkpoint.unlink()

@@ -95,7 +95,7 @@ class Run:
         elapsed = self.wall(st)
         rec.wall_s = elapsed - rec.wall_at_start
         rate = rec.n_evals / rec.wall_s if rec.wall_s > 0 else float("inf")
-        self.say(f"stage {rec.stage:3d}  p={rec.exponent:.4e}  ln S={rec.log_S:+.4f}  acc={rec.acceptance:.3f}  "
+        self.say(f"stage {rec.stage:3d}  beta={rec.exponent:.4e}  ln S={rec.log_S:+.4f}  acc={rec.acceptance:.3f}  "
                  f"sweeps={rec.sweeps}  failed={rec.n_failed}  {rate:.1f} evals/s  elapsed {elapsed:.1f} s"
                  f"{eta_text(st.records)}")
 

@@ -446,6 +446,25 @@ def test_tiny_quick_calibration_writes_the_design_summary_and_moves_toward_the_g
     assert list(samples["names"]) == ["M", "sigma_eps", "ocr"]
 
 
+def test_tiny_run_posterior_nc_has_the_groups_and_the_npz_posterior(tiny_run):
+    """posterior.nc reads back with arviz: its posterior is the npz's final-stage sample (same mean), observed_data the
+    recorded curves of the study's CSVs, posterior_predictive the MAP's curves at them, sample_stats the schedule."""
+    import arviz as az
+
+    idata = az.from_netcdf(tiny_run / "posterior.nc")
+    assert {"posterior", "log_likelihood", "sample_stats", "observed_data", "posterior_predictive"} <= set(
+        idata.groups())
+    npz = np.load(tiny_run / "posterior.npz")
+    for i, name in enumerate(npz["names"]):
+        assert float(idata.posterior[str(name)].mean()) == pytest.approx(npz["samples"][:, i].mean(), rel=1e-12)
+    np.testing.assert_array_equal(idata.sample_stats["beta"].values, npz["beta"])
+    lines = (tiny_run.parent / "data" / "triaxial_undrained_CK0UC.csv").read_text().splitlines()
+    recorded = np.array([[float(v) for v in line.split(",")] for line in lines[1:] if not line.startswith("#")
+                         and not line.startswith("axial_strain")])
+    np.testing.assert_allclose(idata.observed_data["CK0UC:q"].values, recorded[:, 1])
+    assert idata.posterior_predictive["CK0UC:q"].shape == (1, 1, recorded.shape[0])
+
+
 def test_diagnose_on_the_tiny_run_writes_diagnosis_json(tiny_study):
     out = tiny_study.parent / "diag"
     assert cal.main([str(tiny_study), "--quick", "--processes", "1", "--out", str(out), "--diagnose"]) == 0

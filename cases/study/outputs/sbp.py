@@ -99,10 +99,10 @@ def sbp_report(out, case: SBPCase, method, preset_label, post, summary, like, sy
     lines += ["Figures: curves.png (recorded vs MAP, 95 % posterior predictive band from "
               f"{bands_drawn} posterior draws), marginals.png, stages.png, fields_*.png and map_fields/*.vtu (MAP "
               "solution at 10 % cavity strain). Stage log: progress.log; failed solves: failed_solves.jsonl.", "",
-              "| stage | q | ln S | acceptance | sweeps | evaluations | failed | wall (s) |",
+              "| stage | beta | ln S | acceptance | sweeps | evaluations | failed | wall (s) |",
               "|---|---|---|---|---|---|---|---|"]
     for r in summary["stages"]:
-        lines.append(f"| {r.get('stage', '')} | {r['q']:.4g} | {r.get('log_S', 0):.3f} | "
+        lines.append(f"| {r.get('stage', '')} | {r['beta']:.4g} | {r.get('log_S', 0):.3f} | "
                      f"{r.get('acceptance', 0):.2f} | "
                      f"{r.get('sweeps', '')} | {r.get('n_evals', '')} | {r.get('n_failed', '')} | "
                      f"{r.get('wall_s', 0):.1f} |")
