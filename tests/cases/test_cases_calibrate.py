@@ -465,6 +465,14 @@ def test_tiny_run_posterior_nc_has_the_groups_and_the_npz_posterior(tiny_run):
     assert idata.posterior_predictive["CK0UC:q"].shape == (1, 1, recorded.shape[0])
 
 
+def test_tiny_run_report_ends_with_the_glossary_of_its_symbols(tiny_run):
+    report = (tiny_run / "report.md").read_text()
+    glossary = report[report.index("## Glossary"):]
+    for symbol in ("ln Z", "ln S", "J_g", "ESS", "beta", "sigma_eps"):
+        assert f"- **{symbol}**: " in glossary, symbol
+    assert "ln Z = " in report[:report.index("## Glossary")]
+
+
 def test_diagnose_on_the_tiny_run_writes_diagnosis_json(tiny_study):
     out = tiny_study.parent / "diag"
     assert cal.main([str(tiny_study), "--quick", "--processes", "1", "--out", str(out), "--diagnose"]) == 0

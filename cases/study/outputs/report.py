@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from cases.study.outputs.calibration_warnings import calibration_warnings
+from cases.study.outputs.glossary import glossary_lines
 from cases.study.runner import method_name
 from inference import diagnosis
 
@@ -166,8 +167,9 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     for text in warnings:
         print(f"warning: {text}", flush=True)
     lines += ["## Warnings", ""] + ([f"- {text}" for text in warnings] or ["none"]) + [""]
-    lines += ["Figures: curves.png (records, MAP, 95 % posterior predictive band), marginals.png, stages.png."]
-    (out / "report.md").write_text("\n".join(lines) + "\n")
+    lines += ["Figures: curves.png (records, MAP, 95 % posterior predictive band), marginals.png, stages.png.", "",
+              *glossary_lines()]
+    (out / "report.md").write_text("\n".join(lines))
 
 
 def _panels(like):

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cases.study.outputs.glossary import glossary_lines
 from cases.study.outputs.report import parameter_table, plot_marginals, plot_stages, pyplot
 from cases.study.runner import method_name, write_summary
 from inference import diagnosis
@@ -106,7 +107,8 @@ def sbp_report(out, case: SBPCase, method, preset_label, post, summary, like, sy
                      f"{r.get('acceptance', 0):.2f} | "
                      f"{r.get('sweeps', '')} | {r.get('n_evals', '')} | {r.get('n_failed', '')} | "
                      f"{r.get('wall_s', 0):.1f} |")
-    (Path(out) / "report.md").write_text("\n".join(lines) + "\n")
+    lines += ["", *glossary_lines()]
+    (Path(out) / "report.md").write_text("\n".join(lines))
 
 
 def write_sbp_outputs(out, case: SBPCase, run, seed, post, like, forward, preset, preset_label, synthetic, truth):
