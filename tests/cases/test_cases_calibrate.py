@@ -433,7 +433,8 @@ def test_tiny_quick_calibration_writes_the_design_summary_and_moves_toward_the_g
         assert key in summary, key
     assert summary["case"] == "calibrate" and summary["study"] == "triaxial_undrained"
     assert summary["synthetic_recordings"] and summary["n_samples"] == 16
-    for name in ("curves.png", "marginals.png", "stages.png", "posterior.npz", "report.md"):
+    for name in ("curves.png", "stress_paths.png", "marginals.png", "pairs.png", "stages.png", "posterior.npz",
+                 "report.md"):
         assert (tiny_run / name).is_file(), name
     assert "SYNTHETIC" in (tiny_run / "report.md").read_text()
     gen = summary["generating"]
