@@ -27,7 +27,7 @@ def _draw_map(ax, dense, key, x, y, label="MAP"):
 def curves_figure(like, map_simulated, bands, dense=None):
     """One panel per recorded curve, at most four side by side: the records, the MAP and the 95 % posterior
     predictive band (``bands`` {(test, curve): inference.diagnosis PredictiveBand}) with the share of the records
-    inside it. Returns the figure."""
+    inside it; a time axis spanning more than two decades is logarithmic. Returns the figure."""
     dense = dense or {}
     panels = [(t.name, key, curve) for t in like.observations for key, curve in t.curves.items()]
     fig, axes = panel_grid(len(panels))
@@ -41,6 +41,8 @@ def curves_figure(like, map_simulated, bands, dense=None):
         ax.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
         ax.set_ylabel(quantity_label(key, curve.y_unit))
         ax.set_title(panel_title(test, key), fontsize=9)
+        if curve.x_name in ("time", "stage_time") and curve.x.min() > 0 and curve.x.max() > 100 * curve.x.min():
+            ax.set_xscale("log")   # creep, relaxation, consolidation: records logged at growing intervals
     axes[0].legend(fontsize=7)
     return fig
 

@@ -98,7 +98,8 @@ def _records():
         Test("CIU", {"q": Curve(strain, [30.0, 40.0, 45.0], "axial_strain", "q", "%", "kPa"),
                      "excess_pore_pressure": Curve(strain, [10.0, 15.0, 18.0], "axial_strain",
                                                    "excess_pore_pressure", "%", "kPa")}),
-        Test("OED", {"axial_stress@relax": Curve([10.0, 100.0], [80.0, 70.0], "time", "axial_stress", "s", "kPa")}),
+        Test("OED", {"axial_stress@relax": Curve([10.0, 100.0, 1e4], [80.0, 70.0, 65.0], "time", "axial_stress", "s",
+                                                  "kPa")}),
     ])
 
 
@@ -126,6 +127,7 @@ def test_curves_draw_the_map_as_a_line_between_the_records_else_as_markers():
     assert markers.get_linestyle() == "None" and markers.get_marker() == "x"
     np.testing.assert_array_equal(markers.get_ydata(), map_simulated["CIU", "excess_pore_pressure"])
     assert len(fig.axes) == 3   # three panels: one row of three
+    assert ax_oed.get_xscale() == "log" and ax_q.get_xscale() == "linear"   # relaxation times over three decades
 
 
 def test_recorded_mean_stress_follows_the_total_stress_path_of_the_test():
@@ -147,7 +149,7 @@ def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
     like = SimpleNamespace(observations=observations)
     raw = {"CIU": {"q": np.array([29.0, 41.0, 44.0]), "mean_stress": np.array([95.0, 90.0, 88.0]),
                    "excess_pore_pressure": np.array([11.0, 14.0, 19.0])},
-           "OED": {"axial_stress@relax": np.array([81.0, 69.0])}}
+           "OED": {"axial_stress@relax": np.array([81.0, 69.0, 66.0])}}
     fig = stress_paths_figure(like, raw, {"CIU": False, "OED": True})
     (ax,) = [a for a in fig.axes if a.axison]
     assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_title()) == ("p' (kPa)", "q (kPa)", "CIU")
@@ -162,7 +164,7 @@ def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
 def test_densified_abscissae_keep_the_records_and_fill_between_them():
     dense = densified(_records(), factor=2)
     np.testing.assert_array_equal(dense["CIU"].curves["q"].x, [1.0, 1.5, 2.0, 3.0, 4.0])
-    np.testing.assert_array_equal(dense["OED"].curves["axial_stress@relax"].x, [10.0, 55.0, 100.0])
+    np.testing.assert_array_equal(dense["OED"].curves["axial_stress@relax"].x, [10.0, 55.0, 100.0, 5050.0, 1e4])
     assert dense["OED"].curves["axial_stress@relax"].x_name == "time"
 
 
