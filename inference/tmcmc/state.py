@@ -70,7 +70,7 @@ class ChainState:
     (two cross-fitted Gaussian mixtures, ``fit_of`` the one each chain moves with, ``resp`` their cached
     log-responsibilities (ln r, ln g) of the current positions)."""
 
-    exponent: float                  # p_{j+1}, the exponent the moves target
+    exponent: float                  # beta_{j+1}, the exponent the moves target
     log_S: float
     start: np.ndarray                # (C, d) chain starts
     pos: np.ndarray                  # (C, d) current positions
