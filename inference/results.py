@@ -104,8 +104,9 @@ class Posterior:
             "settings": {k: v for k, v in self.settings.items()}, "prior": self.prior,
         }
 
-    def save(self, out_dir, extra: dict | None = None, observations=None, map_simulated=None) -> Path:
-        """Write posterior.npz, posterior.nc (:meth:`to_arviz` with ``observations`` and ``map_simulated``),
+    def save(self, out_dir, extra: dict | None = None, observations=None, map_simulated=None, pointwise=None) -> Path:
+        """Write posterior.npz, posterior.nc (:meth:`to_arviz` with ``observations``, ``map_simulated`` and
+        ``pointwise``),
         summary.json (with ``extra`` merged at the top level) and failed_solves.jsonl (empty when nothing failed) into
         out_dir; a progress.json left by an earlier stopped session is removed."""
         out = Path(out_dir)
@@ -116,7 +117,7 @@ class Posterior:
             log_S=np.array([r["log_S"] for r in self.stages]),
             stage_samples=np.stack(self.stage_samples), stage_log_like=np.stack(self.stage_log_like))
         tmp = out / "posterior.nc.tmp"
-        self.to_arviz(observations, map_simulated).to_netcdf(str(tmp))
+        self.to_arviz(observations, map_simulated, pointwise).to_netcdf(str(tmp))
         tmp.replace(out / "posterior.nc")
         summary = self.summary()
         summary.update(extra or {})
@@ -125,12 +126,14 @@ class Posterior:
         (out / PROGRESS_FILE).unlink(missing_ok=True)
         return out
 
-    def to_arviz(self, observations=None, map_simulated=None):
+    def to_arviz(self, observations=None, map_simulated=None, pointwise=None):
         """The run as an ArviZ InferenceData (written as posterior.nc by :meth:`save`). Groups:
 
         - ``posterior``: the final-stage samples (beta = 1), one chain of N draws, one variable per parameter;
         - ``log_likelihood``: ``total``, each draw's log-likelihood summed over every test and point (Eq. (6) with
-          its sigma_eps); not the pointwise values that LOO/WAIC need, which would cost a forward solve per draw;
+          its sigma_eps); with ``observations`` and ``pointwise`` ({(test, curve): (N, n_recorded)},
+          ``inference.Likelihood.pointwise_log_likelihood`` of the draws) also each point's term, one variable per
+          curve named as in ``observed_data`` (what LOO/WAIC read);
         - ``sample_stats``: per draw ``log_likelihood``; per tempering stage j (dimension ``stage``, 0 = the prior)
           the exponent ``beta``, ``log_S`` (ln S_j, Eq. (10)), ``acceptance``, ``sweeps``, ``n_evals`` and
           ``n_failed``; attribute ``log_evidence`` (ln Z = sum_j ln S_j); the samples of the earlier stages are in
@@ -158,15 +161,19 @@ class Posterior:
                                         **stage_values}, coords={**draws, "stage": np.arange(len(self.stages))},
                                        attrs={"log_evidence": self.log_evidence}),
         }
+        def curves(values, unit=None, attrs=None):
+            """One variable per recorded curve, ``values[test, curve]`` over its points."""
+            return xr.Dataset({_curve_variable(t.name, c): _curve_array(xr, curve, t.name, c, values[t.name, c], unit)
+                               for t in observations for c, curve in t.curves.items()}, attrs=attrs)
+
         if observations is not None:
-            groups["observed_data"] = xr.Dataset(
-                {_curve_variable(t.name, c): _curve_array(xr, curve, t.name, c, curve.y)
-                 for t in observations for c, curve in t.curves.items()})
+            groups["observed_data"] = curves({(t.name, c): curve.y for t in observations
+                                              for c, curve in t.curves.items()})
+            if pointwise is not None:
+                groups["log_likelihood"] = groups["log_likelihood"].merge(curves(pointwise, unit="-"))
             if map_simulated is not None:
-                groups["posterior_predictive"] = xr.Dataset(
-                    {_curve_variable(t.name, c): _curve_array(xr, curve, t.name, c, map_simulated[t.name, c],
-                                                                draw=True)
-                     for t in observations for c, curve in t.curves.items()},
+                groups["posterior_predictive"] = curves(
+                    {key: np.atleast_2d(v) for key, v in map_simulated.items()},
                     attrs={"draws": "the MAP (Eq. (7)) only, without the error term"})
         return az.InferenceData(attrs={"log_evidence": self.log_evidence, "sampler": "TMCMC"}, **groups)
 
@@ -176,17 +183,21 @@ def _curve_variable(test: str, curve: str) -> str:
     return f"{test}:{curve}".replace("/", "_")
 
 
-def _curve_array(xr, curve, test, name, values, draw=False):
-    """One curve's values (xarray DataArray, ``xr`` the xarray module) over its points, as one chain of one draw with
-    ``draw``; the abscissa a coordinate."""
+def _curve_array(xr, curve, test, name, values, unit=None):
+    """One curve's values over its points as an xarray DataArray (``xr`` the xarray module): ``values`` (n,) the
+    record, or (draws, n) one chain of draws; the abscissa a coordinate, ``unit`` (default the curve's) an
+    attribute."""
+    values = np.asarray(values, dtype=float)
     point = f"{_curve_variable(test, name)}:point"
-    dims = ("chain", "draw", point) if draw else (point,)
     coords = {f"{_curve_variable(test, name)}:{curve.x_name}": (point, curve.x)}
-    if draw:
-        coords.update(chain=[0], draw=[0])
-    return xr.DataArray(np.asarray(values, dtype=float).reshape((1, 1, -1) if draw else (-1,)), dims=dims,
-                        coords=coords, attrs={"test": test, "curve": name, "unit": curve.y_unit,
-                                              "abscissa": curve.x_name, "abscissa_unit": curve.x_unit})
+    if values.ndim == 2:
+        values, dims = values[None], ("chain", "draw", point)
+        coords.update(chain=[0], draw=np.arange(values.shape[1]))
+    else:
+        dims = (point,)
+    return xr.DataArray(values, dims=dims, coords=coords,
+                        attrs={"test": test, "curve": name, "unit": curve.y_unit if unit is None else unit,
+                               "abscissa": curve.x_name, "abscissa_unit": curve.x_unit})
 
 
 @dataclass

@@ -29,13 +29,16 @@ import inference
 from inference.executors import mpi_world
 
 __all__ = ["PROPOSALS", "RunSettings", "OutputLocked", "LOCK_FILE", "is_root", "method_name", "run_directories",
-           "out_lock", "kernel_files", "announce_compilation", "evaluate_once", "calibrate", "run_all", "write_summary",
-           "throughput"]
+           "out_lock", "kernel_files", "announce_compilation", "evaluate_once", "calibrate", "run_all",
+           "pointwise_terms", "write_summary", "throughput", "POINTWISE_BUDGET_S"]
 
 #: command-line method -> inference.tmcmc proposal
 PROPOSALS = {"de": "de", "o": "gaussian"}
 #: the lock of an output folder in use (JSON: pid, host, started)
 LOCK_FILE = "run.lock"
+#: posterior.nc holds each draw's log-likelihood per point when computing it takes less than this (s): a laboratory
+#: study's curves, not the FE solves of a pressuremeter study
+POINTWISE_BUDGET_S = 10.0
 
 
 class OutputLocked(RuntimeError):
@@ -271,18 +274,33 @@ def run_all(run, default_out, like, prior, n_samples, settings, finish, kernels=
     return summaries
 
 
+def pointwise_terms(like, post, map_wall_s):
+    """Each posterior draw's log-likelihood per recorded point (``Likelihood.pointwise_log_likelihood``), or None
+    when it would take longer than :data:`POINTWISE_BUDGET_S` (the MAP's forward solve, ``map_wall_s``, times the
+    draws), when the likelihood has a model-form discrepancy (no pointwise terms) or when a solve fails."""
+    if like.discrepancy is not None or map_wall_s * len(post.samples) > POINTWISE_BUDGET_S:
+        return None
+    try:
+        return like.pointwise_log_likelihood(like.simulated_many(post.samples), post.samples)
+    except Exception:  # noqa: BLE001 - posterior.nc then holds the total log-likelihood per draw only
+        return None
+
+
 def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) -> dict:
     """post.save(out) with the summary fields every case writes (case, method, seed, quick, J_g at MAP,
-    sigma_eps) and, in posterior.nc, the records and the MAP's curves at them; the MAP's curves (for J_g, Eq. (5))
-    cost one forward solve. The checkpoint of the finished run is removed."""
+    sigma_eps) and, in posterior.nc, the records, the MAP's curves at them and, where cheap
+    (:func:`pointwise_terms`), each draw's log-likelihood per point; the MAP's curves (for J_g, Eq. (5)) cost one
+    forward solve. The checkpoint of the finished run is removed."""
     t0 = time.perf_counter()
     try:
         map_simulated = {key: values[0] for key, values in like.simulated_many(post.map_theta).items()}
         jg = {t: float(v) for t, v in like.goodness_of_fit(map_simulated).items()}
     except Exception as exc:  # noqa: BLE001 - report, do not lose the posterior over a diagnostic
         map_simulated, jg = None, {"error": f"{type(exc).__name__}: {exc}"}
+    map_wall_s = time.perf_counter() - t0
+    pointwise = None if map_simulated is None else pointwise_terms(like, post, map_wall_s)
     fields = {"case": case, "method": method_name(run.method), "seed": int(seed), "quick": bool(run.quick),
-              "J_g_at_map": jg, "J_g_wall_s": time.perf_counter() - t0}
+              "J_g_at_map": jg, "J_g_wall_s": map_wall_s}
     def sigma_fields(name):
         i = post.names.index(name)
         return {"map": float(post.map_theta[i]), "mean": float(post.samples[:, i].mean()),
@@ -293,7 +311,7 @@ def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) 
     elif like.sigma_names:  # error groups: {group: ...}
         fields["sigma_eps"] = {g: sigma_fields(n) for g, n in zip(like.groups, like.sigma_names)}
     fields.update(extra or {})
-    post.save(out, extra=fields, observations=like.observations, map_simulated=map_simulated)
+    post.save(out, extra=fields, observations=like.observations, map_simulated=map_simulated, pointwise=pointwise)
     checkpoint = Path(out) / "run.ckpt"
     if checkpoint.exists():  # the run finished: its answer is in posterior.npz / summary.json
         checkpoint.unlink()

@@ -449,7 +449,8 @@ def test_tiny_quick_calibration_writes_the_design_summary_and_moves_toward_the_g
 
 def test_tiny_run_posterior_nc_has_the_groups_and_the_npz_posterior(tiny_run):
     """posterior.nc reads back with arviz: its posterior is the npz's final-stage sample (same mean), observed_data the
-    recorded curves of the study's CSVs, posterior_predictive the MAP's curves at them, sample_stats the schedule."""
+    recorded curves of the study's CSVs, posterior_predictive the MAP's curves at them, sample_stats the schedule,
+    log_likelihood each draw's terms per point."""
     import arviz as az
 
     idata = az.from_netcdf(tiny_run / "posterior.nc")
@@ -464,6 +465,9 @@ def test_tiny_run_posterior_nc_has_the_groups_and_the_npz_posterior(tiny_run):
                          and not line.startswith("axial_strain")])
     np.testing.assert_allclose(idata.observed_data["CK0UC:q"].values, recorded[:, 1])
     assert idata.posterior_predictive["CK0UC:q"].shape == (1, 1, recorded.shape[0])
+    # a laboratory study is cheap: each draw's log-likelihood per point, summing to the sampler's total (Eq. (6))
+    per_point = sum(idata.log_likelihood[v].values[0].sum(axis=1) for v in idata.observed_data.data_vars)
+    np.testing.assert_allclose(per_point, idata.log_likelihood["total"].values[0], rtol=1e-10)
 
 
 def test_tiny_run_report_ends_with_the_glossary_of_its_symbols(tiny_run):
