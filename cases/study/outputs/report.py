@@ -81,7 +81,8 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
     title = f"{study.name}: {cls['name']}, {method_name(method)} ({tag})"
     save(curves_figure(like, cls["map_simulated"], bands, dense), out / "curves.png", title)
-    paths = stress_paths_figure(like, map_raw, {t.name: t.drainage == "drained" for t in study.tests}, dense)
+    paths = stress_paths_figure(like.observations, map_raw, {t.name: t.drainage == "drained" for t in study.tests},
+                                dense)
     if paths is not None:
         save(paths, out / "stress_paths.png", title)
     units = {n: r.unit for n, r in study.spec.ranges.items()}

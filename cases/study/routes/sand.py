@@ -335,7 +335,8 @@ def _report(out, run, seed, post, s: SandStudy, summary, volume_rows, truth, noi
         text += ["Volumetric strain of the predicted drained tests (%, compression positive, dilation negative; "
                  "eps_v = 100 (e0 - e)/(1 + e0); measured: the record interpolated; 95 % posterior predictive of "
                  "Eq. 1 on e):", "", *volume_lines(volume_rows), ""]
-    text += ["Figures: curves.png, marginals.png, pairs.png, stages.png, csl.png.", "", *glossary_lines()]
+    text += ["Figures: curves.png, stress_paths.png, marginals.png, pairs.png, stages.png, csl.png.", "",
+             *glossary_lines()]
     (Path(out) / "report.md").write_text("\n".join(text))
 
 

@@ -22,7 +22,8 @@ import numpy as np
 
 import inference
 from cases.study.forward.lab import LabForward
-from cases.study.outputs.figures.canvas import pyplot
+from cases.study.outputs.figures.canvas import pyplot, save
+from cases.study.outputs.figures.curves import stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.posterior import write_posterior_figures
 from cases.study.outputs.report import runs_table
@@ -33,8 +34,8 @@ from constitutive.registry import model_spec
 from inference import DataError
 
 __all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
-           "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_csl", "plot_map_spread",
-           "write_figures", "run_line", "sampler_settings", "write_runs", "CURVES"]
+           "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_stress_paths", "plot_csl",
+           "plot_map_spread", "write_figures", "run_line", "sampler_settings", "write_runs", "CURVES"]
 
 #: observed curves per drainage type (test curve name -> CSV quantity)
 CURVES = {True: {"q": "q", "e": "e"}, False: {"q": "q", "u": "u"}}
@@ -129,7 +130,8 @@ def run_line(summary: dict) -> str:
 def write_figures(out, observations, forward, post, title, marks, csl_lines, csl_title, end_label,
                   reference=None, predict=(), marginals_title=None, sigmas=None):
     """curves.png (:func:`plot_curves`, ``sigmas`` as :func:`predictive`), marginals.png, pairs.png and stages.png
-    (``marks`` {label: values}; :func:`cases.study.outputs.figures.posterior.write_posterior_figures`) and csl.png
+    (``marks`` {label: values}; :func:`cases.study.outputs.figures.posterior.write_posterior_figures`),
+    stress_paths.png (:func:`plot_stress_paths`) and csl.png
     (the CSL of ``csl_lines`` {label: parameter dict}, ``"MAP"`` added, with the end states of the drained
     records)."""
     out = Path(out)
@@ -137,6 +139,7 @@ def write_figures(out, observations, forward, post, title, marks, csl_lines, csl
                 sigmas=sigmas)
     units = {n: r.unit for n, r in model_spec("SIMSAND").ranges.items()}
     write_posterior_figures(out, post, marks, units, marginals_title)
+    plot_stress_paths(out / "stress_paths.png", observations, forward, post, title)
     end = {f"{t.name} {end_label}": (conditions_of(t).p0 + t.curves["q"].y[-1] / 3.0, t.curves["e"].y[-1])
            for t in observations if "e" in t.curves}
     plot_csl(out / "csl.png", {"MAP": parameters(forward, post.map), **csl_lines}, end, title=csl_title)
@@ -234,6 +237,19 @@ def plot_curves(path, observations, forward, post, title, reference=None, predic
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_stress_paths(path, observations, forward, post, title):
+    """stress_paths.png: the q-p' paths of the tests (:func:`cases.study.outputs.figures.curves.stress_paths_figure`),
+    the MAP on the simulation grid, the records' p' from their q (and u) on the test's total stress path; nothing
+    when the MAP's solve fails."""
+    result = forward([{k: v for k, v in post.map.items() if not is_error_parameter(k)}])[0]
+    if isinstance(result, Exception):
+        return
+    dense = {(t, k): v for t, curves in result.items() for k, v in curves.items()}
+    at_records = {t.name: {k: np.interp(t.curves["q"].x, *v) for k, v in result[t.name].items()} for t in observations}
+    drained = {t.name: conditions_of(t).drainage == "drained" for t in observations}
+    save(stress_paths_figure(observations, at_records, drained, dense), path, title)
 
 
 def critical_void_ratio(params, p):

@@ -65,13 +65,14 @@ def recorded_mean_stress(recorded, map_raw, drained: bool):
     return None
 
 
-def stress_paths_figure(like, map_raw, drained, dense=None):
-    """The q-p' paths of the triaxial tests whose MAP gives p' (``map_raw`` {test: {quantity: values at the
-    records}} with ``q`` and ``mean_stress``): the MAP (a line where ``dense`` has it) and the records
+def stress_paths_figure(observations, map_raw, drained, dense=None):
+    """The q-p' paths of the triaxial tests of ``observations`` (the records) whose MAP gives p' (``map_raw``
+    {test: {quantity: values at the records}} with ``q`` and ``mean_stress``): the MAP (a line where ``dense`` has it)
+    and the records
     (:func:`recorded_mean_stress`; ``drained`` {test: bool}); a panel per test, at most four side by side. Returns
     the figure, or None when no test has a path."""
     dense = dense or {}
-    tests = [t for t in like.observations if "q" in t.curves and {"q", "mean_stress"} <= set(map_raw.get(t.name, {}))]
+    tests = [t for t in observations if "q" in t.curves and {"q", "mean_stress"} <= set(map_raw.get(t.name, {}))]
     if not tests:
         return None
     fig, axes = panel_grid(len(tests), 4.0, 3.6)

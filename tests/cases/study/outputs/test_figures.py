@@ -146,11 +146,10 @@ def test_recorded_mean_stress_follows_the_total_stress_path_of_the_test():
 
 def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
     observations = _records()
-    like = SimpleNamespace(observations=observations)
     raw = {"CIU": {"q": np.array([29.0, 41.0, 44.0]), "mean_stress": np.array([95.0, 90.0, 88.0]),
                    "excess_pore_pressure": np.array([11.0, 14.0, 19.0])},
            "OED": {"axial_stress@relax": np.array([81.0, 69.0, 66.0])}}
-    fig = stress_paths_figure(like, raw, {"CIU": False, "OED": True})
+    fig = stress_paths_figure(observations, raw, {"CIU": False, "OED": True})
     (ax,) = [a for a in fig.axes if a.axison]
     assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_title()) == ("p' (kPa)", "q (kPa)", "CIU")
     recorded = ax.get_lines()[1]
@@ -158,7 +157,7 @@ def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
                                + (observations["CIU"].curves["q"].y - raw["CIU"]["q"]) / 3
                                - (observations["CIU"].curves["excess_pore_pressure"].y
                                   - raw["CIU"]["excess_pore_pressure"]))
-    assert stress_paths_figure(like, {"OED": raw["OED"]}, {}) is None
+    assert stress_paths_figure(observations, {"OED": raw["OED"]}, {}) is None
 
 
 def test_densified_abscissae_keep_the_records_and_fill_between_them():
