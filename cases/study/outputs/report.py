@@ -80,7 +80,7 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     tag = "SYNTHETIC recordings" if synthetic else "recordings"
     bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
     title = f"{study.name}: {cls['name']}, {method_name(method)} ({tag})"
-    save(curves_figure(like, cls["map_simulated"], bands, dense), out / "curves.png", title)
+    save(curves_figure(like.observations, cls["map_simulated"], bands, dense), out / "curves.png", title)
     paths = stress_paths_figure(like.observations, map_raw, {t.name: t.drainage == "drained" for t in study.tests},
                                 dense)
     if paths is not None:

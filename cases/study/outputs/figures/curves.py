@@ -1,7 +1,7 @@
 """Figures of the recorded curves against the calibrated model: one panel per curve (records, the MAP, the 95 %
 posterior predictive band) in a wrapped grid, and the stress paths q-p' of the triaxial tests.
 
-``like`` is the calibration's ``inference.Likelihood`` (its observations are the records); ``map_simulated``
+``observations`` are the records (``inference.Observations``); ``map_simulated``
 {(test, curve): MAP values at the recorded abscissae}; ``dense`` {(test, key): (x, y)} the MAP between the records
 (:mod:`cases.study.outputs.figures.dense`), drawn as a line where present, else the MAP is drawn as markers at the
 records. Units kPa, %, s; compression positive."""
@@ -15,26 +15,26 @@ from cases.study.outputs.figures.labels import abscissa_label, panel_title, quan
 __all__ = ["curves_figure", "recorded_mean_stress", "stress_paths_figure"]
 
 
-def _draw_map(ax, dense, key, x, y, label="MAP"):
-    """The MAP of one panel: a line through ``dense[key]`` when the model was evaluated between the records, else
-    markers at the records (``x``, ``y``)."""
-    if key in dense:
-        ax.plot(*dense[key], "C0-", lw=1.5, label=label)
+def _draw_map(ax, line, x, y):
+    """The MAP of one panel: a line through ``line`` (x, y) when the model was evaluated between the records, else
+    (None) markers at the records (``x``, ``y``)."""
+    if line is not None:
+        ax.plot(*line, "C0-", lw=1.5, label="MAP")
     else:
-        ax.plot(x, y, "C0x", ms=5, label=f"{label} (at the records)")
+        ax.plot(x, y, "C0x", ms=5, label="MAP (at the records)")
 
 
-def curves_figure(like, map_simulated, bands, dense=None):
+def curves_figure(observations, map_simulated, bands, dense=None):
     """One panel per recorded curve, at most four side by side: the records, the MAP and the 95 % posterior
     predictive band (``bands`` {(test, curve): inference.diagnosis PredictiveBand}) with the share of the records
     inside it; a time axis spanning more than two decades is logarithmic. Returns the figure."""
     dense = dense or {}
-    panels = [(t.name, key, curve) for t in like.observations for key, curve in t.curves.items()]
+    panels = [(t.name, key, curve) for t in observations for key, curve in t.curves.items()]
     fig, axes = panel_grid(len(panels))
     for ax, (test, key, curve) in zip(axes, panels):
         band = bands[test, key]
         ax.fill_between(curve.x, band.lower, band.upper, color="C0", alpha=0.25, lw=0, label="95 % predictive")
-        _draw_map(ax, dense, (test, key), curve.x, map_simulated[test, key])
+        _draw_map(ax, dense.get((test, key)), curve.x, map_simulated[test, key])
         ax.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
         ax.text(0.98, 0.03, f"{100 * band.coverage:.0f} % of the records in the band", transform=ax.transAxes,
                 ha="right", va="bottom", fontsize=7, color="0.3")
@@ -78,10 +78,9 @@ def stress_paths_figure(observations, map_raw, drained, dense=None):
     fig, axes = panel_grid(len(tests), 4.0, 3.6)
     for ax, t in zip(axes, tests):
         raw = {k: np.asarray(v, float) for k, v in map_raw[t.name].items() if not isinstance(v, tuple)}
-        if (t.name, "q") in dense and (t.name, "mean_stress") in dense:
-            ax.plot(dense[t.name, "mean_stress"][1], dense[t.name, "q"][1], "C0-", lw=1.5, label="MAP")
-        else:
-            ax.plot(raw["mean_stress"], raw["q"], "C0x", ms=5, label="MAP (at the records)")
+        line = ((dense[t.name, "mean_stress"][1], dense[t.name, "q"][1])
+                if (t.name, "q") in dense and (t.name, "mean_stress") in dense else None)
+        _draw_map(ax, line, raw["mean_stress"], raw["q"])
         p_rec = recorded_mean_stress(t, raw, drained.get(t.name, False))
         if p_rec is not None:
             ax.plot(p_rec, t.curves["q"].y, "o", ms=3, mfc="none", color="C3", label="recorded")

@@ -110,11 +110,10 @@ def _bands(observations):
 
 def test_curves_draw_the_map_as_a_line_between_the_records_else_as_markers():
     observations = _records()
-    like = SimpleNamespace(observations=observations)
     map_simulated = {(t.name, c): curve.y * 1.01 for t in observations for c, curve in t.curves.items()}
     dense_x = np.linspace(1.0, 4.0, 13)
     dense = {("CIU", "q"): (dense_x, 50.0 * (1 - np.exp(-dense_x)))}
-    fig = curves_figure(like, map_simulated, _bands(observations), dense)
+    fig = curves_figure(observations, map_simulated, _bands(observations), dense)
     ax_q, ax_u, ax_oed = fig.axes[:3]
     assert (ax_q.get_xlabel(), ax_q.get_ylabel()) == ("axial strain eps_a (%)", "q (kPa)")
     assert ax_u.get_ylabel() == "excess pore pressure u (kPa)"
@@ -157,6 +156,13 @@ def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
                                + (observations["CIU"].curves["q"].y - raw["CIU"]["q"]) / 3
                                - (observations["CIU"].curves["excess_pore_pressure"].y
                                   - raw["CIU"]["excess_pore_pressure"]))
+    assert ax.get_lines()[0].get_linestyle() == "None"   # the MAP at the records: markers
+    p_dense, q_dense = np.linspace(95.0, 88.0, 9), np.linspace(0.0, 44.0, 9)
+    fig = stress_paths_figure(observations, raw, {"CIU": False}, {("CIU", "q"): (None, q_dense),
+                                                                  ("CIU", "mean_stress"): (None, p_dense)})
+    line = [a for a in fig.axes if a.axison][0].get_lines()[0]
+    np.testing.assert_array_equal(line.get_xdata(), p_dense)
+    np.testing.assert_array_equal(line.get_ydata(), q_dense)
     assert stress_paths_figure(observations, {"OED": raw["OED"]}, {}) is None
 
 
