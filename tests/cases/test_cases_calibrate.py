@@ -470,6 +470,33 @@ def test_tiny_run_posterior_nc_has_the_groups_and_the_npz_posterior(tiny_run):
     np.testing.assert_allclose(per_point, idata.log_likelihood["total"].values[0], rtol=1e-10)
 
 
+def test_pointwise_terms_are_computed_only_within_the_budget():
+    """posterior.nc's per-point log-likelihood: asked of the likelihood when the MAP's solve time x the draws stays
+    within runner.POINTWISE_BUDGET_S, never with a discrepancy, None when a solve fails."""
+    from types import SimpleNamespace
+
+    from cases.study import runner
+
+    post = SimpleNamespace(samples=np.zeros((100, 2)))
+    asked = []
+
+    def simulated_many(samples):
+        asked.append(len(samples))
+        return {"sims": samples}
+
+    like = SimpleNamespace(discrepancy=None, simulated_many=simulated_many,
+                           pointwise_log_likelihood=lambda sims, thetas: {"terms": sims["sims"]})
+    per_draw = runner.POINTWISE_BUDGET_S / 100
+    assert runner.pointwise_terms(like, post, 0.9 * per_draw)["terms"] is post.samples and asked == [100]
+    assert runner.pointwise_terms(like, post, 1.1 * per_draw) is None and asked == [100]
+    assert runner.pointwise_terms(SimpleNamespace(**{**vars(like), "discrepancy": object()}), post, 0.0) is None
+
+    def fails(samples):
+        raise inference.ForwardModelError("diverged")
+
+    assert runner.pointwise_terms(SimpleNamespace(**{**vars(like), "simulated_many": fails}), post, 0.0) is None
+
+
 def test_tiny_run_report_ends_with_the_glossary_of_its_symbols(tiny_run):
     report = (tiny_run / "report.md").read_text()
     glossary = report[report.index("## Glossary"):]
