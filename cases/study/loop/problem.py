@@ -24,7 +24,7 @@ from cases.study.forward.family import FamilyForward
 from cases.study.forward.study import StudyForward
 from cases.study.loop.covariates import programme_covariates
 from cases.study.outputs.calibration_warnings import calibration_warnings
-from cases.study.outputs.figures.dense import dense_curves
+from cases.study.outputs.figures.dense import dense_curves, with_mean_stress
 from cases.study.outputs.report import plot_loop, write_outputs
 from cases.study.programme import split_key
 from cases.study.reading.presets import FE_FIELDS
@@ -470,7 +470,8 @@ class StudyProblem(LoopProblem):
         its FE again: its laboratory curves are drawn at the records, its FE curves as solved)."""
         params, _ = like.split(np.array([cls["parameters"][n]["map"] for n in like.names]))
         dense = {} if any("sbp" in (t.type, t.apparatus) for t in self.study.tests) else dense_curves(
-            lambda observations: self.forward(switches, observations=observations)([params])[0], like.observations)
+            lambda observations: self.forward(switches, observations=observations)([params])[0],
+            with_mean_stress(like.observations))
         dense.update({(t, k): v for t, curves in map_curves.items() for k, v in curves.items() if isinstance(v, tuple)})
         write_outputs(out, run.method, post, like, cls, self.study, self.synthetic, self.generating, summary,
                       map_curves, dense)

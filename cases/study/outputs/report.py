@@ -81,8 +81,9 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
     title = f"{study.name}: {cls['name']}, {method_name(method)} ({tag})"
     save(curves_figure(like.observations, cls["map_simulated"], bands, dense), out / "curves.png", title)
-    paths = stress_paths_figure(like.observations, map_raw, {t.name: t.drainage == "drained" for t in study.tests},
-                                dense)
+    drained = {(t.name, s.name if t.staged and len(t.stages) > 1 else None): s.drainage == "drained"
+               for t in study.tests for s in (t.stages if t.staged else [t])}
+    paths = stress_paths_figure(like.observations, map_raw, drained, dense)
     if paths is not None:
         save(paths, out / "stress_paths.png", title)
     units = {n: r.unit for n, r in study.spec.ranges.items()}

@@ -248,7 +248,7 @@ def plot_stress_paths(path, observations, forward, post, title):
         return
     dense = {(t, k): v for t, curves in result.items() for k, v in curves.items()}
     at_records = {t.name: {k: np.interp(t.curves["q"].x, *v) for k, v in result[t.name].items()} for t in observations}
-    drained = {t.name: conditions_of(t).drainage == "drained" for t in observations}
+    drained = {(t.name, None): conditions_of(t).drainage == "drained" for t in observations}
     save(stress_paths_figure(observations, at_records, drained, dense), path, title)
 
 

@@ -11,8 +11,9 @@ import numpy as np
 
 from cases.study.outputs.figures.canvas import panel_grid
 from cases.study.outputs.figures.labels import abscissa_label, panel_title, quantity_label
+from cases.study.programme import split_key
 
-__all__ = ["curves_figure", "recorded_mean_stress", "stress_paths_figure"]
+__all__ = ["curves_figure", "model_at_records", "recorded_mean_stress", "stress_paths_figure"]
 
 
 def _draw_map(ax, line, x, y):
@@ -47,47 +48,78 @@ def curves_figure(observations, map_simulated, bands, dense=None):
     return fig
 
 
-def recorded_mean_stress(recorded, map_raw, drained: bool):
-    """p' (kPa) at the records of a triaxial test (flat, one abscissa for every curve), or None when the records do
-    not give it: the recorded p' when there is one; else from the recorded q (and excess pore pressure u of an
-    undrained test) on the test's total stress path, dp = dq/3 at constant cell pressure, from the same initial
-    state as the model: p'_rec = p'_MAP + (q_rec - q_MAP)/3 - (u_rec - u_MAP), the MAP's values ``map_raw``
-    {quantity: values at the records} (u = 0 when drained)."""
+def model_at_records(recorded, key, map_raw, dense):
+    """The MAP's q, p' (``mean_stress``) and excess pore pressure at the records of the q curve ``key`` (``q`` or
+    ``q@<stage>``) of the test ``recorded``: {quantity: values}, all from the solution between the records
+    (``dense`` {(test, key): (x, y)}, interpolated to the records) when it has q and p', else from ``map_raw``
+    {key: values at the records}; None when neither gives p'."""
+    _, stage = split_key(key)
+    suffix = "" if stage is None else f"@{stage}"
+    x = recorded.curves[key].x
+    names = {"q": key, "mean_stress": f"mean_stress{suffix}", "excess_pore_pressure": f"excess_pore_pressure{suffix}",
+             "u": f"u{suffix}"}
+    if all((recorded.name, names[k]) in dense for k in ("q", "mean_stress")):
+        out = {}
+        for quantity, name in names.items():
+            if (recorded.name, name) in dense:
+                xs, ys = dense[recorded.name, name]
+                order = np.argsort(xs)
+                out[quantity] = np.interp(x, np.asarray(xs)[order], np.asarray(ys)[order])
+        return out
+    if not {names["q"], names["mean_stress"]} <= set(map_raw):
+        return None
+    return {quantity: np.asarray(map_raw[name], float) for quantity, name in names.items() if name in map_raw}
+
+
+def recorded_mean_stress(recorded, key, model, drained: bool):
+    """p' (kPa) at the records of the q curve ``key`` of a triaxial test, or None when the records do not give it:
+    the recorded p' of its stage when there is one; else from the recorded q (and excess pore pressure u of an
+    undrained stage) on the stage's total stress path, dp = dq/3 at constant cell pressure, from the same state as the
+    model (a test's initial state, or a stage that starts at the stress its target sets): p'_rec = p'_MAP +
+    (q_rec - q_MAP)/3 - (u_rec - u_MAP), the MAP's values ``model`` (:func:`model_at_records`; u = 0 when
+    ``drained``)."""
+    _, stage = split_key(key)
+    suffix = "" if stage is None else f"@{stage}"
     curves = recorded.curves
-    if "p" in curves:
-        return curves["p"].y
-    shift = (curves["q"].y - map_raw["q"]) / 3.0
-    if drained:
-        return map_raw["mean_stress"] + shift
+    if f"p{suffix}" in curves:
+        return curves[f"p{suffix}"].y
+    shift = (curves[key].y - model["q"]) / 3.0
     for name in ("excess_pore_pressure", "u"):
-        if name in curves and name in map_raw:
-            return map_raw["mean_stress"] + shift - (curves[name].y - map_raw[name])
-    return None
+        if f"{name}{suffix}" in curves and name in model:
+            return model["mean_stress"] + shift - (curves[f"{name}{suffix}"].y - model[name])
+    return model["mean_stress"] + shift if drained else None
 
 
 def stress_paths_figure(observations, map_raw, drained, dense=None):
-    """The q-p' paths of the triaxial tests of ``observations`` (the records) whose MAP gives p' (``map_raw``
-    {test: {quantity: values at the records}} with ``q`` and ``mean_stress``): the MAP (a line where ``dense`` has it)
-    and the records
-    (:func:`recorded_mean_stress`; ``drained`` {test: bool}); a panel per test, at most four side by side. Returns
-    the figure, or None when no test has a path."""
+    """The q-p' paths of the triaxial tests and stages of ``observations`` (the records) whose MAP gives p'
+    (:func:`model_at_records`: ``map_raw`` {test: {key: values at the records}}, ``dense`` {(test, key): (x, y)}):
+    the MAP (a line where ``dense`` has it) and the records (:func:`recorded_mean_stress`; ``drained`` {(test, stage
+    name or None): bool}); a panel per q curve, at most four side by side. Returns the figure, or None when no curve
+    has a path."""
     dense = dense or {}
-    tests = [t for t in observations if "q" in t.curves and {"q", "mean_stress"} <= set(map_raw.get(t.name, {}))]
-    if not tests:
+    panels = []
+    for t in observations:
+        for key in t.curves:
+            if split_key(key)[0] == "q":
+                model = model_at_records(t, key, map_raw.get(t.name, {}), dense)
+                if model is not None:
+                    panels.append((t, key, model))
+    if not panels:
         return None
-    fig, axes = panel_grid(len(tests), 4.0, 3.6)
-    for ax, t in zip(axes, tests):
-        raw = {k: np.asarray(v, float) for k, v in map_raw[t.name].items() if not isinstance(v, tuple)}
-        line = ((dense[t.name, "mean_stress"][1], dense[t.name, "q"][1])
-                if (t.name, "q") in dense and (t.name, "mean_stress") in dense else None)
-        _draw_map(ax, line, raw["mean_stress"], raw["q"])
-        p_rec = recorded_mean_stress(t, raw, drained.get(t.name, False))
+    fig, axes = panel_grid(len(panels), 4.0, 3.6)
+    for ax, (t, key, model) in zip(axes, panels):
+        stage = split_key(key)[1]
+        p_key = "mean_stress" if stage is None else f"mean_stress@{stage}"
+        line = ((dense[t.name, p_key][1], dense[t.name, key][1])
+                if (t.name, p_key) in dense and (t.name, key) in dense else None)
+        _draw_map(ax, line, model["mean_stress"], model["q"])
+        p_rec = recorded_mean_stress(t, key, model, drained.get((t.name, stage), False))
         if p_rec is not None:
-            ax.plot(p_rec, t.curves["q"].y, "o", ms=3, mfc="none", color="C3", label="recorded")
+            ax.plot(p_rec, t.curves[key].y, "o", ms=3, mfc="none", color="C3", label="recorded")
         else:
             ax.plot([], [], " ", label="recorded p' unknown (no p' or u recorded)")
         ax.set_xlabel(quantity_label("mean_stress"))
         ax.set_ylabel(quantity_label("q"))
-        ax.set_title(t.name, fontsize=9)
+        ax.set_title(panel_title(t.name, key), fontsize=9)
         ax.legend(fontsize=7)
     return fig

@@ -1,13 +1,15 @@
 """The MAP's curves between the records: the forward model asked for every curve at abscissae ``factor`` times
 denser than the recorded ones (linear between consecutive records, over each stage's recorded span), so that a
-figure draws the model as a continuous line rather than straight segments between the records."""
+figure draws the model as a continuous line rather than straight segments between the records; and for p' beside
+every recorded q, so that the stress paths of the stages of a programme can be drawn."""
 from __future__ import annotations
 
 import numpy as np
 
+from cases.study.programme import split_key
 from inference.observations import Curve, Observations, Test
 
-__all__ = ["densified", "dense_curves"]
+__all__ = ["densified", "with_mean_stress", "dense_curves"]
 
 
 def densified(observations, factor: int = 4) -> Observations:
@@ -20,6 +22,22 @@ def densified(observations, factor: int = 4) -> Observations:
         for name, c in t.curves.items():
             x = np.concatenate([(c.x[:-1, None] + steps[None, :] * np.diff(c.x)[:, None]).ravel(), c.x[-1:]])
             curves[name] = Curve(x, np.ones_like(x), c.x_name, c.y_name, c.x_unit, c.y_unit)
+        tests.append(Test(t.name, curves, dict(t.conditions), t.source))
+    return Observations(tests)
+
+
+def with_mean_stress(observations) -> Observations:
+    """``observations`` with a curve ``mean_stress`` (``mean_stress@<stage>``) beside every ``q`` (``q@<stage>``)
+    curve, on its abscissae: what asks a forward model for p' along the triaxial stages (the stress paths); the
+    values are the q curve's, placeholders."""
+    tests = []
+    for t in observations:
+        curves = dict(t.curves)
+        for key, c in t.curves.items():
+            quantity, stage = split_key(key)
+            if quantity == "q":
+                name = "mean_stress" if stage is None else f"mean_stress@{stage}"
+                curves.setdefault(name, Curve(c.x, c.y, c.x_name, "mean_stress", c.x_unit, "kPa"))
         tests.append(Test(t.name, curves, dict(t.conditions), t.source))
     return Observations(tests)
 

@@ -7,8 +7,13 @@ import numpy as np
 import pytest
 
 from cases.study.outputs.figures.canvas import MAX_COLUMNS, panel_grid, pyplot
-from cases.study.outputs.figures.curves import curves_figure, recorded_mean_stress, stress_paths_figure
-from cases.study.outputs.figures.dense import dense_curves, densified
+from cases.study.outputs.figures.curves import (
+    curves_figure,
+    model_at_records,
+    recorded_mean_stress,
+    stress_paths_figure,
+)
+from cases.study.outputs.figures.dense import dense_curves, densified, with_mean_stress
 from cases.study.outputs.figures.labels import abscissa_label, panel_title, parameter_label, quantity_label
 from cases.study.outputs.figures.posterior import marginals_figure, pairs_figure, write_posterior_figures
 from inference import Curve, Observations, Test
@@ -131,16 +136,32 @@ def test_curves_draw_the_map_as_a_line_between_the_records_else_as_markers():
 
 def test_recorded_mean_stress_follows_the_total_stress_path_of_the_test():
     """An undrained test from p'0 = 95 kPa, q0 = 0 at constant cell pressure: p' = p'0 + q/3 - u. The model: q 30,
-    u 5 -> p' 100; the record: q 33, u 4 -> p' 102."""
+    u 5 -> p' 100; the record: q 33, u 4 -> p' 102. The same within a stage of a programme."""
+    model = {"q": np.array([30.0]), "mean_stress": np.array([100.0]), "excess_pore_pressure": np.array([5.0])}
     test = Test("CIU", {"q": Curve([1.0], [33.0]), "excess_pore_pressure": Curve([1.0], [4.0])})
-    raw = {"q": np.array([30.0]), "mean_stress": np.array([100.0]), "excess_pore_pressure": np.array([5.0])}
-    assert recorded_mean_stress(test, raw, drained=False)[0] == pytest.approx(95.0 + 33.0 / 3 - 4.0)
+    assert recorded_mean_stress(test, "q", model, drained=False)[0] == pytest.approx(95.0 + 33.0 / 3 - 4.0)
+    staged = Test("P", {"q@shear": Curve([1.0], [33.0]), "excess_pore_pressure@shear": Curve([1.0], [4.0])})
+    assert recorded_mean_stress(staged, "q@shear", model, drained=False)[0] == pytest.approx(102.0)
     drained = Test("CID", {"q": Curve([1.0], [60.0])})
-    assert recorded_mean_stress(drained, {"q": np.array([30.0]), "mean_stress": np.array([110.0])},
+    assert recorded_mean_stress(drained, "q", {"q": np.array([30.0]), "mean_stress": np.array([110.0])},
                                 drained=True)[0] == pytest.approx(100.0 + 60.0 / 3)
     recorded_p = Test("CIUE", {"q": Curve([1.0], [-20.0]), "p": Curve([1.0], [90.0])})
-    assert recorded_mean_stress(recorded_p, raw, drained=False)[0] == 90.0
-    assert recorded_mean_stress(Test("U", {"q": Curve([1.0], [20.0])}), raw, drained=False) is None
+    assert recorded_mean_stress(recorded_p, "q", model, drained=False)[0] == 90.0
+    assert recorded_mean_stress(Test("U", {"q": Curve([1.0], [20.0])}), "q", model, drained=False) is None
+
+
+def test_the_model_at_the_records_comes_from_one_solution():
+    """From the solution between the records when it has q and p' (interpolated to the records, whatever the order
+    of its abscissae), else from the values at the records."""
+    test = Test("P", {"q@shear": Curve([-1.0, -2.0], [-20.0, -30.0])})
+    dense = {("P", "q@shear"): (np.array([-0.5, -1.0, -1.5, -2.0]), np.array([-10.0, -21.0, -26.0, -31.0])),
+             ("P", "mean_stress@shear"): (np.array([-0.5, -1.0, -1.5, -2.0]), np.array([99.0, 97.0, 95.0, 93.0]))}
+    model = model_at_records(test, "q@shear", {"q@shear": np.array([-20.5, -30.5])}, dense)
+    np.testing.assert_array_equal(model["q"], [-21.0, -31.0])
+    np.testing.assert_array_equal(model["mean_stress"], [97.0, 93.0])
+    raw = {"q@shear": np.array([-20.5, -30.5]), "mean_stress@shear": np.array([96.0, 92.0])}
+    np.testing.assert_array_equal(model_at_records(test, "q@shear", raw, {})["q"], [-20.5, -30.5])
+    assert model_at_records(test, "q@shear", {"q@shear": np.array([-20.5, -30.5])}, {}) is None
 
 
 def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
@@ -148,7 +169,7 @@ def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
     raw = {"CIU": {"q": np.array([29.0, 41.0, 44.0]), "mean_stress": np.array([95.0, 90.0, 88.0]),
                    "excess_pore_pressure": np.array([11.0, 14.0, 19.0])},
            "OED": {"axial_stress@relax": np.array([81.0, 69.0, 66.0])}}
-    fig = stress_paths_figure(observations, raw, {"CIU": False, "OED": True})
+    fig = stress_paths_figure(observations, raw, {("CIU", None): False})
     (ax,) = [a for a in fig.axes if a.axison]
     assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_title()) == ("p' (kPa)", "q (kPa)", "CIU")
     recorded = ax.get_lines()[1]
@@ -157,13 +178,23 @@ def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
                                - (observations["CIU"].curves["excess_pore_pressure"].y
                                   - raw["CIU"]["excess_pore_pressure"]))
     assert ax.get_lines()[0].get_linestyle() == "None"   # the MAP at the records: markers
-    p_dense, q_dense = np.linspace(95.0, 88.0, 9), np.linspace(0.0, 44.0, 9)
-    fig = stress_paths_figure(observations, raw, {"CIU": False}, {("CIU", "q"): (None, q_dense),
-                                                                  ("CIU", "mean_stress"): (None, p_dense)})
+    strain, p_dense, q_dense = np.linspace(1.0, 4.0, 9), np.linspace(95.0, 88.0, 9), np.linspace(28.0, 44.0, 9)
+    fig = stress_paths_figure(observations, raw, {("CIU", None): False}, {("CIU", "q"): (strain, q_dense),
+                                                                          ("CIU", "mean_stress"): (strain, p_dense)})
     line = [a for a in fig.axes if a.axison][0].get_lines()[0]
     np.testing.assert_array_equal(line.get_xdata(), p_dense)
     np.testing.assert_array_equal(line.get_ydata(), q_dense)
     assert stress_paths_figure(observations, {"OED": raw["OED"]}, {}) is None
+
+
+def test_mean_stress_is_asked_beside_every_q_curve():
+    observations = Observations([Test("P", {"q@shear": Curve([1.0, 2.0], [10.0, 20.0], "axial_strain", "q", "%",
+                                                             "kPa"),
+                                            "void_ratio@swelling": Curve([50.0, 40.0], [1.0, 1.01], "p")})])
+    asked = with_mean_stress(observations)["P"].curves
+    assert set(asked) == {"q@shear", "void_ratio@swelling", "mean_stress@shear"}
+    np.testing.assert_array_equal(asked["mean_stress@shear"].x, [1.0, 2.0])
+    assert asked["mean_stress@shear"].x_name == "axial_strain"
 
 
 def test_densified_abscissae_keep_the_records_and_fill_between_them():
