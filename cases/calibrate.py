@@ -31,9 +31,9 @@ class, locate the mismatch, explain it with per-point covariates and ``constitut
 enriched class of the best-ranked named candidate whose enrichment exists for the base model, compare
 log-evidences.
 
-Outputs in DIR (default results/calibrate/<study name>): summary.json, report.md, curves.png (recorded vs MAP with
-the 95 % posterior predictive band), marginals.png, stages.png, posterior.npz, progress.log; with ``--diagnose``
-also diagnosis_input.json/.npz, diagnosis.json/.md, diagnosis.png, loop.json and the enriched class in
+Outputs in DIR (default results/calibrate/<study name>): summary.json, report.md, curves.png (recorded vs MAP with the
+95 % posterior predictive band), marginals.png, stages.png, posterior.npz, posterior.nc (ArviZ), progress.log; with
+``--diagnose`` also diagnosis_input.json/.npz, diagnosis.json/.md, diagnosis.png, loop.json and the enriched class in
 DIR/enriched_<candidate>/.
 """
 from __future__ import annotations

@@ -18,10 +18,10 @@ subset (the others held at their true values); ``--sweeps K`` fixes the MCMC swe
 most 25, or 8 with ``--quick``). About a third of the prior box gives drained paths that lose control: zero-likelihood
 particles, at most half of a stage allowed; they vanish as the population concentrates.
 
-Outputs in DIR (default results/simsand_synthetic): summary.json, posterior.npz, failed_solves.jsonl, progress.log,
-report.md (parameter table beside the true values and the paper's DE-TMCMC averages), curves.png (synthetic data,
-true-value and MAP curves, 95 % posterior predictive band), marginals.png, stages.png, csl.png; ``--runs R``: runs.md
-and map_spread.png.
+Outputs in DIR (default results/simsand_synthetic): summary.json, posterior.npz, posterior.nc (ArviZ),
+failed_solves.jsonl, progress.log, report.md (parameter table beside the true values and the paper's DE-TMCMC averages),
+curves.png (synthetic data, true-value and MAP curves, 95 % posterior predictive band), marginals.png, stages.png,
+csl.png; ``--runs R``: runs.md and map_spread.png.
 """
 from __future__ import annotations
 

@@ -21,10 +21,10 @@ sigma_eps for every curve (Eq. 4), or with ``--error-groups`` one per group of c
 ``[sigma_eps]`` table of FILE (default cases/examples/toyoura_groups.toml: q and u; the void ratio e). About 5 % of
 the prior box fails (drained path lost control): zero-likelihood particles, at most half of a stage allowed.
 
-Outputs in DIR (default results/toyoura): summary.json (with J_g of every test at MAP, calibration and prediction),
-report.md (MAP/mean/std beside the paper's Table 3 and the volumetric strain of the predicted tests at 3, 5 and 10 %
-axial strain: measured, MAP, 95 % posterior predictive), curves.png (Fig. 13 style), marginals.png, stages.png,
-csl.png; ``--runs R``: runs.md and map_spread.png (MAP / paper's DE-TMCMC mean).
+Outputs in DIR (default results/toyoura): posterior.npz, posterior.nc (ArviZ), summary.json (with J_g of every test at
+MAP, calibration and prediction), report.md (MAP/mean/std beside the paper's Table 3 and the volumetric strain of the
+predicted tests at 3, 5 and 10 % axial strain: measured, MAP, 95 % posterior predictive), curves.png (Fig. 13 style),
+marginals.png, stages.png, csl.png; ``--runs R``: runs.md and map_spread.png (MAP / paper's DE-TMCMC mean).
 """
 from __future__ import annotations
 

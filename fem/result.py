@@ -101,9 +101,17 @@ class Result:
         _, first = np.unique(np.round(rc, 12), return_index=True)
         return (nodes[row, 0], snap.excess_pore_pressure[row]), (rc[first], snap.stress[crow[first]])
 
+    def snapshot_title(self, snapshot=-1) -> str:
+        """What a picture of a snapshot says it shows: its time (s) and the cavity strain then (%, the cavity curve
+        interpolated to the snapshot's time)."""
+        snap = self.snapshots[snapshot]
+        strain = np.interp(snap.time, self.time, self.cavity_strain)
+        return f"t = {snap.time:.4g} s, cavity strain {100 * strain:.2f} %"
+
     def plot(self, path, snapshot=-1, extent=10.0):
         """Off-screen pyvista picture (plan view, fields revolved about the axis) of excess pore pressure and
-        sigma'_r, sigma'_theta around the cavity out to ``extent`` cavity radii. Returns ``path``."""
+        sigma'_r, sigma'_theta around the cavity out to ``extent`` cavity radii, with the radius r (m) on the axes and
+        :meth:`snapshot_title` above each field. Returns ``path``."""
         import pyvista as pv
         from vtkmodules.vtkCommonCore import vtkLogger, vtkObject
 
@@ -127,9 +135,13 @@ class Result:
             plotter.subplot(0, i)
             g = grid.copy()
             g.point_data[name] = np.tile(val, th.size)  # Fortran order: r fastest
-            plotter.add_mesh(g, scalars=name, cmap="viridis", scalar_bar_args={"title": name, "vertical": False})
-            plotter.add_text(f"t = {snap.time:.4g} s", font_size=9)
+            plotter.add_mesh(g, scalars=name, cmap="viridis", scalar_bar_args={
+                "title": name, "vertical": True, "position_x": 0.84, "position_y": 0.15, "height": 0.6, "width": 0.05,
+                "title_font_size": 11, "label_font_size": 11})
+            plotter.add_text(f"{name}\n{self.snapshot_title(snapshot)}", font_size=9)
+            plotter.show_bounds(xtitle="r (m)", ytitle="r (m)", show_zaxis=False, location="outer", font_size=9)
             plotter.view_xy()
+            plotter.camera.zoom(0.85)
         plotter.screenshot(path)
         plotter.close()
         return path

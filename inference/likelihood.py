@@ -387,6 +387,28 @@ class Likelihood:
             total = total + self.weights[t.name] * term
         return total
 
+    def pointwise_log_likelihood(self, simulated, thetas) -> dict:
+        """Each recorded point's term of Eqs. (4)-(6) (Eq. (6g) with error groups) for the m parameter sets
+        ``thetas`` (prior order) and their curves ``simulated`` {(test, curve): (m, n_recorded)}
+        (:meth:`simulated_many`): {(test, curve): (m, n_recorded)},
+            w_i [-ln(2 pi sigma_g^2)/2 - N_i / (N_0 N_j) r_k^2 / (2 sigma_g^2)],
+        r_k = (U_obs - U_num)/U_obs at point k, N_i the points the test uses, N_0 its curves, N_j the points the curve
+        uses, sigma_g the curve's error parameter; a point below the floor (not used) is 0. Summed over every point,
+        the log-likelihood. Refused (ValueError) with a discrepancy, which couples the points of a curve."""
+        if self.discrepancy is not None:
+            raise ValueError("a model-form discrepancy couples the points of a curve: no pointwise log-likelihood")
+        sigmas = dict(zip(self.curve_keys, self.curve_sigmas_from(self.sigma_arrays(thetas))))
+        out = {}
+        for t in self.observations:
+            for cname, curve in t.curves.items():
+                key = (t.name, cname)
+                used, s = self.masks[key], sigmas[key][:, None]
+                r = (curve.y - simulated[key]) / np.where(used, curve.y, 1.0)
+                share = self.n_points[t.name] / (len(t.curves) * used.sum())
+                terms = -0.5 * np.log(2.0 * np.pi * s**2) - share * r**2 / (2.0 * s**2)
+                out[key] = self.weights[t.name] * np.where(used, terms, 0.0)
+        return out
+
     def curve_sigmas_from(self, sigma) -> list:
         """Each curve's sigma_g (m,) in the order of ``curve_keys`` from :meth:`sigma_arrays`' value."""
         if sigma.ndim == 1:

@@ -1,8 +1,9 @@
-"""What a TMCMC run yields: a :class:`Posterior` when it reaches p = 1, a :class:`RunProgress` when it stops before.
+"""What a TMCMC run yields: a :class:`Posterior` when its tempering exponent reaches beta = 1, a :class:`RunProgress`
+when it stops before.
 
 Posterior: samples, MAP (7), moments, quantiles, log-evidence and stage records, saved as ``posterior.npz`` (every
-stage's samples and log-likelihoods, readable with numpy alone), ``summary.json`` and ``failed_solves.jsonl``;
-``to_arviz()`` builds an ArviZ InferenceData when arviz is installed.
+stage's samples and log-likelihoods, readable with numpy alone), ``posterior.nc`` (the ArviZ InferenceData of
+``to_arviz()``), ``summary.json`` and ``failed_solves.jsonl``.
 
 RunProgress: what a run did before it stopped without a posterior (too many failed solves, no convergence, a
 signal), saved as ``progress.json`` and ``failed_solves.jsonl``.
@@ -30,13 +31,13 @@ PROGRESS_FILE = "progress.json"
 @dataclass
 class Posterior:
     names: tuple
-    samples: np.ndarray            # (N, d) final-stage samples (exponent p = 1), equally weighted
+    samples: np.ndarray            # (N, d) final-stage samples (exponent beta = 1), equally weighted
     log_like: np.ndarray           # (N,)
     log_evidence: float            # sum_j ln S_j
     map_theta: np.ndarray          # (d,) the evaluated sample of largest prior x likelihood, Eq. (7)
     map_log_posterior: float
-    stages: list                   # per-stage records: q (the tempering exponent p_j), log_S, acceptance, n_evals,
-                                   # n_failed, sweeps, wall_s, beta2
+    stages: list                   # per-stage records: beta (the tempering exponent beta_j), log_S, acceptance,
+                                   # n_evals, n_failed, sweeps, wall_s, beta2 (the random-walk scale of Eq. (11))
     stage_samples: list            # list of (N, d) arrays, stage 0 = prior
     stage_log_like: list
     failures: list                 # failed evaluations: stage, where, particle, rank, reason, theta
@@ -103,16 +104,21 @@ class Posterior:
             "settings": {k: v for k, v in self.settings.items()}, "prior": self.prior,
         }
 
-    def save(self, out_dir, extra: dict | None = None) -> Path:
-        """Write posterior.npz, summary.json (with ``extra`` merged at the top level) and failed_solves.jsonl (empty
-        when nothing failed) into out_dir; a progress.json left by an earlier stopped session is removed."""
+    def save(self, out_dir, extra: dict | None = None, observations=None, map_simulated=None, pointwise=None) -> Path:
+        """Write posterior.npz, posterior.nc (:meth:`to_arviz` with ``observations``, ``map_simulated`` and
+        ``pointwise``),
+        summary.json (with ``extra`` merged at the top level) and failed_solves.jsonl (empty when nothing failed) into
+        out_dir; a progress.json left by an earlier stopped session is removed."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(
             out / "posterior.npz", names=np.array(self.names), samples=self.samples, log_like=self.log_like,
-            map_theta=self.map_theta, q=np.array([r["q"] for r in self.stages]),
+            map_theta=self.map_theta, beta=np.array([r["beta"] for r in self.stages]),
             log_S=np.array([r["log_S"] for r in self.stages]),
             stage_samples=np.stack(self.stage_samples), stage_log_like=np.stack(self.stage_log_like))
+        tmp = out / "posterior.nc.tmp"
+        self.to_arviz(observations, map_simulated, pointwise).to_netcdf(str(tmp))
+        tmp.replace(out / "posterior.nc")
         summary = self.summary()
         summary.update(extra or {})
         _write_text(out / "summary.json", json.dumps(summary, indent=2, default=_json_default))
@@ -120,17 +126,78 @@ class Posterior:
         (out / PROGRESS_FILE).unlink(missing_ok=True)
         return out
 
-    def to_arviz(self):
-        """ArviZ InferenceData of the final-stage samples (needs the optional arviz package). The log_likelihood
-        group holds one variable, ``total``: each sample's log-likelihood summed over every test and point (Eq. (6)
-        with its sigma_eps), not the pointwise values that LOO/WAIC would need."""
-        try:
-            import arviz as az
-        except ImportError as exc:
-            raise ImportError("to_arviz needs arviz: pip install 'geoinfer[arviz]'") from exc
-        post = {n: self.samples[None, :, i] for i, n in enumerate(self.names)}
-        return az.from_dict(posterior=post, log_likelihood={"total": self.log_like[None, :]},
-                            attrs={"log_evidence": self.log_evidence, "sampler": "TMCMC"})
+    def to_arviz(self, observations=None, map_simulated=None, pointwise=None):
+        """The run as an ArviZ InferenceData (written as posterior.nc by :meth:`save`). Groups:
+
+        - ``posterior``: the final-stage samples (beta = 1), one chain of N draws, one variable per parameter;
+        - ``log_likelihood``: ``total``, each draw's log-likelihood summed over every test and point (Eq. (6) with
+          its sigma_eps); with ``observations`` and ``pointwise`` ({(test, curve): (N, n_recorded)},
+          ``inference.Likelihood.pointwise_log_likelihood`` of the draws) also each point's term, one variable per
+          curve named as in ``observed_data`` (what LOO/WAIC read);
+        - ``sample_stats``: per draw ``log_likelihood``; per tempering stage j (dimension ``stage``, 0 = the prior)
+          the exponent ``beta``, ``log_S`` (ln S_j, Eq. (10)), ``acceptance``, ``sweeps``, ``n_evals`` and
+          ``n_failed``; attribute ``log_evidence`` (ln Z = sum_j ln S_j); the samples of the earlier stages are in
+          posterior.npz only;
+        - ``observed_data`` (with ``observations``, an :class:`inference.Observations`): one variable per recorded
+          curve, named ``<test>:<curve>``, over its points with the abscissa as a coordinate, units in its attributes;
+        - ``posterior_predictive`` (with ``map_simulated``, {(test, curve): simulated values at the recorded
+          abscissae}): the forward model's curves at the MAP (Eq. (7)), one draw without the error term; curves of
+          other draws are not stored.
+
+        The file-level attributes hold ``log_evidence`` and ``sampler``."""
+        import arviz as az
+        import xarray as xr
+
+        n = len(self.samples)
+        draws = {"chain": [0], "draw": np.arange(n)}
+        posterior = xr.Dataset({name: (("chain", "draw"), self.samples[None, :, i])
+                                for i, name in enumerate(self.names)}, coords=draws)
+        stage_values = {key: ("stage", np.array([float(r[key]) for r in self.stages]))
+                        for key in ("beta", "log_S", "acceptance", "sweeps", "n_evals", "n_failed")}
+        groups = {
+            "posterior": posterior,
+            "log_likelihood": xr.Dataset({"total": (("chain", "draw"), self.log_like[None, :])}, coords=draws),
+            "sample_stats": xr.Dataset({"log_likelihood": (("chain", "draw"), self.log_like[None, :]),
+                                        **stage_values}, coords={**draws, "stage": np.arange(len(self.stages))},
+                                       attrs={"log_evidence": self.log_evidence}),
+        }
+        def curves(values, unit=None, attrs=None):
+            """One variable per recorded curve, ``values[test, curve]`` over its points."""
+            return xr.Dataset({_curve_variable(t.name, c): _curve_array(xr, curve, t.name, c, values[t.name, c], unit)
+                               for t in observations for c, curve in t.curves.items()}, attrs=attrs)
+
+        if observations is not None:
+            groups["observed_data"] = curves({(t.name, c): curve.y for t in observations
+                                              for c, curve in t.curves.items()})
+            if pointwise is not None:
+                groups["log_likelihood"] = groups["log_likelihood"].merge(curves(pointwise, unit="-"))
+            if map_simulated is not None:
+                groups["posterior_predictive"] = curves(
+                    {key: np.atleast_2d(v) for key, v in map_simulated.items()},
+                    attrs={"draws": "the MAP (Eq. (7)) only, without the error term"})
+        return az.InferenceData(attrs={"log_evidence": self.log_evidence, "sampler": "TMCMC"}, **groups)
+
+
+def _curve_variable(test: str, curve: str) -> str:
+    """The InferenceData variable of a recorded curve (netCDF names take no "/")."""
+    return f"{test}:{curve}".replace("/", "_")
+
+
+def _curve_array(xr, curve, test, name, values, unit=None):
+    """One curve's values over its points as an xarray DataArray (``xr`` the xarray module): ``values`` (n,) the
+    record, or (draws, n) one chain of draws; the abscissa a coordinate, ``unit`` (default the curve's) an
+    attribute."""
+    values = np.asarray(values, dtype=float)
+    point = f"{_curve_variable(test, name)}:point"
+    coords = {f"{_curve_variable(test, name)}:{curve.x_name}": (point, curve.x)}
+    if values.ndim == 2:
+        values, dims = values[None], ("chain", "draw", point)
+        coords.update(chain=[0], draw=np.arange(values.shape[1]))
+    else:
+        dims = (point,)
+    return xr.DataArray(values, dims=dims, coords=coords,
+                        attrs={"test": test, "curve": name, "unit": curve.y_unit if unit is None else unit,
+                               "abscissa": curve.x_name, "abscissa_unit": curve.x_unit})
 
 
 @dataclass
@@ -141,8 +208,8 @@ class RunProgress:
     ``stages`` holds the records of the finished stages (as :attr:`Posterior.stages`), ``stage_under_way`` the
     record of the stage that was running (its evaluations and failures so far) or None; ``failures`` every failed
     evaluation of the finished batches (those of a batch cut by a signal are in the checkpoint); ``exponent`` the
-    tempering exponent p_j reached and ``log_evidence_so_far`` sum_j ln S_j over the stages begun (ln Z only at
-    p = 1); the MAP so far (Eq. (7)) when any evaluation succeeded; ``checkpoint`` the file to resume from, or None.
+    tempering exponent beta_j reached and ``log_evidence_so_far`` sum_j ln S_j over the stages begun (ln Z only at
+    beta = 1); the MAP so far (Eq. (7)) when any evaluation succeeded; ``checkpoint`` the file to resume from, or None.
     """
 
     reason: str                    # one line: why the run stopped

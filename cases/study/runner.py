@@ -29,12 +29,16 @@ import inference
 from inference.executors import mpi_world
 
 __all__ = ["PROPOSALS", "RunSettings", "OutputLocked", "LOCK_FILE", "is_root", "method_name", "run_directories",
-           "out_lock", "kernel_files", "announce_compilation", "calibrate", "run_all", "write_summary", "throughput"]
+           "out_lock", "kernel_files", "announce_compilation", "evaluate_once", "calibrate", "run_all",
+           "pointwise_terms", "write_summary", "throughput", "POINTWISE_BUDGET_S"]
 
 #: command-line method -> inference.tmcmc proposal
 PROPOSALS = {"de": "de", "o": "gaussian"}
 #: the lock of an output folder in use (JSON: pid, host, started)
 LOCK_FILE = "run.lock"
+#: posterior.nc holds each draw's log-likelihood per point when computing it takes less than this (s): a laboratory
+#: study's curves, not the FE solves of a pressuremeter study
+POINTWISE_BUDGET_S = 10.0
 
 
 class OutputLocked(RuntimeError):
@@ -183,10 +187,11 @@ def kernel_files(model_class, fe=False) -> list:
     return [f for f in files if f.is_file()]
 
 
-def announce_compilation(kernels):
-    """Say once per process, on rank 0, that the compiled kernels are being built when one of the kernel source
-    files ``kernels`` (:func:`kernel_files`) has no cache index yet (numba's ``<module>.*.nbi`` in its
-    ``__pycache__`` or under NUMBA_CACHE_DIR)."""
+def announce_compilation(kernels, warm_up):
+    """Once per process, on rank 0, when one of the kernel source files ``kernels`` (:func:`kernel_files`) has no
+    cache index yet (numba's ``<module>.*.nbi`` in its ``__pycache__`` or under NUMBA_CACHE_DIR): say that the
+    kernels are being compiled, run ``warm_up()`` (one forward evaluation, :func:`evaluate_once`, which compiles
+    them and writes the cache) and say how long it took (s, the evaluation included)."""
     global _announced
     if _announced or not is_root():
         return
@@ -195,8 +200,20 @@ def announce_compilation(kernels):
         places = [module.parent / "__pycache__"] + ([Path(cache_dir)] if cache_dir else [])
         if not any(any(p.rglob(f"{module.stem}.*.nbi")) for p in places if p.is_dir()):
             _announced = True
-            print("compiling the constitutive kernels (first run only, about 30 s)...", file=sys.stderr, flush=True)
+            print("compiling the constitutive kernels (first run only, cached afterwards)...", file=sys.stderr,
+                  flush=True)
+            t0 = time.perf_counter()
+            warm_up()
+            print(f"compiled: the first forward evaluation took {time.perf_counter() - t0:.1f} s, compilation "
+                  "included", file=sys.stderr, flush=True)
             return
+
+
+def evaluate_once(like, prior):
+    """One forward evaluation of ``like`` at a prior draw (seed 0), a failure counting as done: what compiles the
+    kernels before the sampler starts its workers."""
+    like.bind(prior.names)
+    like.evaluate_many(prior.sample(np.random.default_rng(0), 1))
 
 
 def _stopped(stop, out: Path):
@@ -234,14 +251,15 @@ def calibrate(like, prior, run, out: Path, seed: int, n_samples: int, executor=N
 
 def run_all(run, default_out, like, prior, n_samples, settings, finish, kernels=()) -> list:
     """Every run of ``run`` (methods x seeds, :func:`run_directories`): calibrate, then on rank 0
-    ``finish(run of one method, seed, out, post) -> summary`` and one JSON line per run on stdout (``wall_s``
-    summed over the sessions of a resumed run, as summary.json, and ``wall_s_this_session``), all under the lock of
-    the output folder (:func:`out_lock`); with ``kernels`` (:func:`kernel_files`), the compile message when their
-    cache is cold and the run does not resume. Returns the summaries (rank 0) or [] (other ranks)."""
+    ``finish(run of one method, seed, out, post) -> summary``, one JSON line per run on stdout (``wall_s`` summed
+    over the sessions of a resumed run, as summary.json, and ``wall_s_this_session``) and after it the line
+    ``report: DIR/report.md``, all under the lock of the output folder (:func:`out_lock`); with ``kernels``
+    (:func:`kernel_files`), the compile message and its measured time when their cache is cold and the run does not
+    resume. Returns the summaries (rank 0) or [] (other ranks)."""
     summaries = []
     with out_lock(run.out or default_out):
         if not run.resume:  # a checkpoint is checked first: no message before its refusal
-            announce_compilation(kernels)
+            announce_compilation(kernels, lambda: evaluate_once(like, prior))
         for one, seed, out in run_directories(run, default_out):
             post = calibrate(like, prior, one, out, seed, n_samples, **settings)
             if is_root():
@@ -252,19 +270,37 @@ def run_all(run, default_out, like, prior, n_samples, settings, finish, kernels=
                                   "n_stages": post.n_stages, "n_forward_solves": post.n_forward_solves,
                                   "log_evidence": round(post.log_evidence, 3),
                                   "map": {k: round(v, 4) for k, v in post.map.items()}}), flush=True)
+                print(f"report: {out / 'report.md'}", flush=True)
     return summaries
+
+
+def pointwise_terms(like, post, map_wall_s):
+    """Each posterior draw's log-likelihood per recorded point (``Likelihood.pointwise_log_likelihood``), or None
+    when it would take longer than :data:`POINTWISE_BUDGET_S` (the MAP's forward solve, ``map_wall_s``, times the
+    draws), when the likelihood has a model-form discrepancy (no pointwise terms) or when a solve fails."""
+    if like.discrepancy is not None or map_wall_s * len(post.samples) > POINTWISE_BUDGET_S:
+        return None
+    try:
+        return like.pointwise_log_likelihood(like.simulated_many(post.samples), post.samples)
+    except Exception:  # noqa: BLE001 - posterior.nc then holds the total log-likelihood per draw only
+        return None
 
 
 def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) -> dict:
     """post.save(out) with the summary fields every case writes (case, method, seed, quick, J_g at MAP,
-    sigma_eps); J_g (Eq. 5) at MAP costs one forward solve. The checkpoint of the finished run is removed."""
+    sigma_eps) and, in posterior.nc, the records, the MAP's curves at them and, where cheap
+    (:func:`pointwise_terms`), each draw's log-likelihood per point; the MAP's curves (for J_g, Eq. (5)) cost one
+    forward solve. The checkpoint of the finished run is removed."""
     t0 = time.perf_counter()
     try:
-        jg = {t: float(v) for t, v in like.summary_goodness(post.map_theta).items()}
+        map_simulated = {key: values[0] for key, values in like.simulated_many(post.map_theta).items()}
+        jg = {t: float(v) for t, v in like.goodness_of_fit(map_simulated).items()}
     except Exception as exc:  # noqa: BLE001 - report, do not lose the posterior over a diagnostic
-        jg = {"error": f"{type(exc).__name__}: {exc}"}
+        map_simulated, jg = None, {"error": f"{type(exc).__name__}: {exc}"}
+    map_wall_s = time.perf_counter() - t0
+    pointwise = None if map_simulated is None else pointwise_terms(like, post, map_wall_s)
     fields = {"case": case, "method": method_name(run.method), "seed": int(seed), "quick": bool(run.quick),
-              "J_g_at_map": jg, "J_g_wall_s": time.perf_counter() - t0}
+              "J_g_at_map": jg, "J_g_wall_s": map_wall_s}
     def sigma_fields(name):
         i = post.names.index(name)
         return {"map": float(post.map_theta[i]), "mean": float(post.samples[:, i].mean()),
@@ -275,7 +311,7 @@ def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) 
     elif like.sigma_names:  # error groups: {group: ...}
         fields["sigma_eps"] = {g: sigma_fields(n) for g, n in zip(like.groups, like.sigma_names)}
     fields.update(extra or {})
-    post.save(out, extra=fields)
+    post.save(out, extra=fields, observations=like.observations, map_simulated=map_simulated, pointwise=pointwise)
     checkpoint = Path(out) / "run.ckpt"
     if checkpoint.exists():  # the run finished: its answer is in posterior.npz / summary.json
         checkpoint.unlink()

@@ -2,7 +2,7 @@
 owns everything around them: evaluations through the executor, checkpoints, signals, progress lines and the ETA.
 
 Phases (:class:`Phase`): PRIOR (:func:`initial`) -> SELECT (:func:`select`, steps 1-4 of docs/reference.md
-section 2) -> MCMC (:func:`mutate`, steps 5-6) -> SELECT ... -> DONE when p = 1. The state is checkpointed after
+section 2) -> MCMC (:func:`mutate`, steps 5-6) -> SELECT ... -> DONE when beta = 1. The state is checkpointed after
 stage 0 and after every stage's sweeps, every ``checkpoint_every`` seconds (between Metropolis moves and as
 evaluations arrive) and every ``checkpoint_evals`` evaluations; evaluations finished inside an interrupted batch are
 kept (``RunState.partial``) and reused on resume. SIGTERM/SIGUSR1 write a checkpoint and stop the run
@@ -95,7 +95,7 @@ class Run:
         elapsed = self.wall(st)
         rec.wall_s = elapsed - rec.wall_at_start
         rate = rec.n_evals / rec.wall_s if rec.wall_s > 0 else float("inf")
-        self.say(f"stage {rec.stage:3d}  p={rec.exponent:.4e}  ln S={rec.log_S:+.4f}  acc={rec.acceptance:.3f}  "
+        self.say(f"stage {rec.stage:3d}  beta={rec.exponent:.4e}  ln S={rec.log_S:+.4f}  acc={rec.acceptance:.3f}  "
                  f"sweeps={rec.sweeps}  failed={rec.n_failed}  {rate:.1f} evals/s  elapsed {elapsed:.1f} s"
                  f"{eta_text(st.records)}")
 
@@ -194,13 +194,13 @@ def remaining_evaluations(records):
     """Estimate of the evaluations still to come after the last finished stage, from its records
     (:class:`StageRecord`, stage 0 first). Returns (evaluations, settled) or None when no estimate can be made yet.
 
-    Stages continue until p = 1. Once the prior no longer dominates, each stage multiplies the exponent by about the
-    same factor, so the remaining stage count is ceil(ln(1 / p_j) / ln(p_j / p_{j-1})) with the latest step, and
-    each remaining stage costs the evaluations of the latest stage. Early steps in ln p are larger than later ones
-    and early stages need fewer sweeps, so an average over all stages (or over time including the cheap prior
-    stage) underestimates; the latest stage is used instead. ``settled`` is False while the step in ln p still
-    shrinks by more than 10 % or the latest stage cost 10 % more evaluations than the one before: the estimate is
-    then a lower bound. No estimate before two stages with p > 0 have finished.
+    Stages continue until beta = 1. Once the prior no longer dominates, each stage multiplies the exponent by about the
+    same factor, so the remaining stage count is ceil(ln(1 / beta_j) / ln(beta_j / beta_{j-1})) with the latest step,
+    and each remaining stage costs the evaluations of the latest stage. Early steps in ln beta are larger than later
+    ones and early stages need fewer sweeps, so an average over all stages (or over time including the cheap prior
+    stage) underestimates; the latest stage is used instead. ``settled`` is False while the step in ln beta still
+    shrinks by more than 10 % or the latest stage cost 10 % more evaluations than the one before: the estimate is then a
+    lower bound. No estimate before two stages with beta > 0 have finished.
     """
     p = [r.exponent for r in records]
     j = len(records) - 1
@@ -218,7 +218,7 @@ def remaining_evaluations(records):
 def eta_text(records):
     """The ETA of a progress line: the remaining evaluations (:func:`remaining_evaluations`) at the latest stage's
     rate (evaluations per second of wall time), as ", ETA ~N s", ", ETA >N s" (a lower bound, while stages are
-    still getting longer) or ", ETA unknown"; nothing once p = 1."""
+    still getting longer) or ", ETA unknown"; nothing once beta = 1."""
     if records[-1].exponent >= 1.0:
         return ""
     estimate = remaining_evaluations(records)

@@ -26,7 +26,7 @@ EXIT_CHECKPOINTED = 75
 
 
 class RunStopped(SamplerError):
-    """The run stopped without a posterior: too many failed forward solves, no convergence to p = 1, or no particle
+    """The run stopped without a posterior: too many failed forward solves, no convergence to beta = 1, or no particle
     with a finite likelihood. ``progress`` (:class:`inference.results.RunProgress`) is what it did."""
 
     def __init__(self, message, progress: RunProgress):
@@ -59,7 +59,7 @@ def tmcmc(loglike, prior: Prior, settings: TMCMCSettings | None = None, *, execu
         exists.
     progress: one line per stage on stderr (the tempering exponent as ``p=``, the ETA of
         :func:`inference.tmcmc.run.eta_text`); log: a file the lines are appended to.
-    Returns a :class:`inference.Posterior` on every rank. A run that stops before p = 1 raises :class:`RunStopped`
+    Returns a :class:`inference.Posterior` on every rank. A run that stops before beta = 1 raises :class:`RunStopped`
     (a :class:`SamplerError`) or :class:`Checkpointed` on the root rank, both carrying ``progress``, what the run did
     (``progress.save(out)`` writes progress.json and failed_solves.jsonl); other ranks get a plain SamplerError.
     """

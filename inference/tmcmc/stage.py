@@ -1,9 +1,11 @@
 """Stage mathematics of TMCMC (docs/reference.md section 2): the next tempering exponent, the weights and evidence,
 the weighted covariance, resampling, the random streams and the adaptive-sweep statistic.
 
-Stages p_0 = 0 < p_1 < ... < p_m = 1 with f_j ∝ pi(theta) L(theta)^p_j, pi the prior (the tempering exponent is
-the paper's q_j; here p, since q is the deviator stress in soil mechanics):
-1. p_{j+1} by bisection so that the coefficient of variation of w_k = L_k^(p_{j+1} - p_j) equals 1 (log space);
+Stages beta_0 = 0 < beta_1 < ... < beta_m = 1 with f_j ∝ pi(theta) L(theta)^beta_j, pi the prior (the tempering
+exponent is the paper's q_j; here beta, since q is the deviator stress in soil mechanics; the code's variables write
+it p, the random-walk scale of step 3 is beta2 = beta^2 of Eq. (11)):
+1. beta_{j+1} by bisection so that the coefficient of variation of w_k = L_k^(beta_{j+1} - beta_j) equals 1 (log
+   space);
 2. weights Eq. (9), S_j = mean(w) Eq. (10), ln Z = sum_j ln S_j;
 3. proposal covariance Sigma_j = beta^2 * weighted covariance, Eqs. (11)-(12);
 4. resampling with probabilities w_k / sum w (step 5.1).
@@ -58,7 +60,7 @@ def choose_next_exponent(log_like, p, cov_target=1.0, tol=1e-10):
 
 
 def stage_weights(log_like, dp):
-    """Eqs. (9)-(10): returns (normalized weights, ln S_j) with w_k = L_k^dp, dp = p_{j+1} - p_j; -inf gives
+    """Eqs. (9)-(10): returns (normalized weights, ln S_j) with w_k = L_k^dp, dp = beta_{j+1} - beta_j; -inf gives
     weight 0."""
     lw = np.where(np.isfinite(log_like), dp * log_like, -np.inf)
     log_sum = logsumexp(lw)

@@ -17,7 +17,7 @@ __all__ = ["Phase", "StageRecord", "MapPoint", "ChainState", "RunState", "STATE_
 
 class Phase(enum.Enum):
     """Where a run stands: stage 0 to draw from the prior, a stage to select (steps 1-4 of docs/reference.md
-    section 2), its Metropolis sweeps under way (steps 5-6), or finished at p = 1 (step 7). A checkpoint stores the
+    section 2), its Metropolis sweeps under way (steps 5-6), or finished at beta = 1 (step 7). A checkpoint stores the
     value string."""
 
     PRIOR = "prior"
@@ -28,10 +28,10 @@ class Phase(enum.Enum):
 
 @dataclass
 class StageRecord:
-    """What one stage did; ``as_dict`` gives the record of ``Posterior.stages`` (key "q": the exponent p_j)."""
+    """What one stage did; ``as_dict`` gives the record of ``Posterior.stages`` (key "beta": the exponent beta_j)."""
 
     stage: int
-    exponent: float                  # tempering exponent p_j of f_j ∝ pi(theta) L^p_j
+    exponent: float                  # tempering exponent beta_j of f_j ∝ pi(theta) L^beta_j
     beta2: float                     # random-walk scale beta^2 of Eq. (11)
     log_S: float = 0.0               # ln S_j, Eq. (10)
     acceptance: float = float("nan")
@@ -43,7 +43,7 @@ class StageRecord:
     components: list | None = None   # mixture components of the two cross-fitted mixtures ("mixture" move)
 
     def as_dict(self) -> dict:
-        out = {"stage": self.stage, "q": self.exponent, "log_S": self.log_S, "acceptance": self.acceptance,
+        out = {"stage": self.stage, "beta": self.exponent, "log_S": self.log_S, "acceptance": self.acceptance,
                "n_evals": self.n_evals, "n_failed": self.n_failed, "sweeps": self.sweeps, "wall_s": self.wall_s,
                "beta2": self.beta2}
         if self.components is not None:
@@ -70,7 +70,7 @@ class ChainState:
     (two cross-fitted Gaussian mixtures, ``fit_of`` the one each chain moves with, ``resp`` their cached
     log-responsibilities (ln r, ln g) of the current positions)."""
 
-    exponent: float                  # p_{j+1}, the exponent the moves target
+    exponent: float                  # beta_{j+1}, the exponent the moves target
     log_S: float
     start: np.ndarray                # (C, d) chain starts
     pos: np.ndarray                  # (C, d) current positions

@@ -3,8 +3,8 @@
 - :func:`initial`: stage 0, N_s draws of the prior and their likelihoods;
 - :func:`select`: steps 1-4, the next exponent, weights Eq. (9), S_j Eq. (10) and ln Z, resampling and the move's
   per-stage fit (Eqs. (11)-(12) or the mixture);
-- :func:`mutate`: steps 5-6, the Metropolis sweeps targeting pi(theta) L^p_{j+1}, and the stage's close (step 7
-  when p = 1).
+- :func:`mutate`: steps 5-6, the Metropolis sweeps targeting pi(theta) L^beta_{j+1}, and the stage's close (step 7
+  when beta = 1).
 
 A step updates the :class:`RunState` it is given in place and returns it, moving ``phase`` on (PRIOR -> SELECT ->
 MCMC -> SELECT ... -> DONE). The steps read no clock, handle no signal, print nothing and write no file: forward
@@ -49,14 +49,14 @@ def initial(st: RunState, settings: TMCMCSettings, prior, evaluate, started=0.0)
 
 
 def select(st: RunState, settings: TMCMCSettings, move: Move, started=0.0) -> RunState:
-    """Steps 1-4: the next exponent p_{j+1} (COV of the weights = ``cov_target``), the weights Eq. (9) and
+    """Steps 1-4: the next exponent beta_{j+1} (COV of the weights = ``cov_target``), the weights Eq. (9) and
     ln S_j Eq. (10) added to ln Z, N_s parents resampled with the normalized weights from the stream
     (seed, j + 1, 0, 0), the chains started at them ("particles": one per parent; "ching-chen": one per distinct
     parent, as long as its multiplicity) and the move's per-stage fit to the weighted population (Eqs. (11)-(12),
     theta_best of Eq. (14) or the mixtures). Opens the record of stage j + 1 (``started``: the run's wall time, s)
-    and sets the phase MCMC. Raises :class:`SamplerError` when ``max_stages`` stages are done without p = 1."""
+    and sets the phase MCMC. Raises :class:`SamplerError` when ``max_stages`` stages are done without beta = 1."""
     if st.stage >= settings.max_stages:
-        raise SamplerError(f"no convergence to p = 1 within max_stages = {settings.max_stages}")
+        raise SamplerError(f"no convergence to beta = 1 within max_stages = {settings.max_stages}")
     p = st.exponent
     p_next = choose_next_exponent(st.log_like, p, settings.cov_target)
     w, log_s = stage_weights(st.log_like, p_next - p)
@@ -81,11 +81,11 @@ def select(st: RunState, settings: TMCMCSettings, move: Move, started=0.0) -> Ru
 def mutate(st: RunState, settings: TMCMCSettings, prior, move: Move, evaluate, after_move=None) -> RunState:
     """Steps 5-6: Metropolis moves of the chains from where they stand (sweep, move) until the stage's sweeps are
     done. Move i of sweep n draws from the stream (seed, j, n, i); a proposal is accepted with probability
-    min(1, pi(theta*) L(theta*)^p_{j+1} q(theta | theta*) / (pi(theta) L(theta)^p_{j+1} q(theta* | theta))), and
+    min(1, pi(theta*) L(theta*)^beta_{j+1} q(theta | theta*) / (pi(theta) L(theta)^beta_{j+1} q(theta* | theta))), and
     one outside the prior's support is rejected without a forward solve. With ``scale_adapt`` the proposal scale is
     multiplied by exp(acceptance - target_acceptance) after every move. ``after_move(st)`` is called between moves
     (not after the last). Then the stage closes: its samples become the population ("ching-chen": every chain state
-    after each sweep, in (sweep, chain) order), its record is appended, and the phase is SELECT, or DONE at p = 1."""
+    after each sweep, in (sweep, chain) order), its record is appended, and the phase is SELECT, or DONE at beta = 1."""
     ch = st.chain
     p_next = ch.exponent
     C = ch.pos.shape[0]

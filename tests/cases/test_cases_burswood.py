@@ -117,7 +117,8 @@ def test_small_calibration_serial_and_two_ranks_agree_and_move_toward_the_genera
         assert key in summary
     assert summary["synthetic_recordings"] is True
     assert summary["generating"] == GENERATING  # read back from the records' synthetic_parameters header
-    for f in ("report.md", "curves.png", "marginals.png", "stages.png", "posterior.npz", "progress.log"):
+    for f in ("report.md", "curves.png", "marginals.png", "pairs.png", "stages.png", "posterior.npz", "posterior.nc",
+              "progress.log"):
         assert (serial / f).exists(), f
     report = (serial / "report.md").read_text()
     assert "SYNTHETIC" in report and "Generating values inside the 95 % posterior interval" in report

@@ -433,7 +433,8 @@ def test_tiny_quick_calibration_writes_the_design_summary_and_moves_toward_the_g
         assert key in summary, key
     assert summary["case"] == "calibrate" and summary["study"] == "triaxial_undrained"
     assert summary["synthetic_recordings"] and summary["n_samples"] == 16
-    for name in ("curves.png", "marginals.png", "stages.png", "posterior.npz", "report.md"):
+    for name in ("curves.png", "stress_paths.png", "marginals.png", "pairs.png", "stages.png", "posterior.npz",
+                 "report.md"):
         assert (tiny_run / name).is_file(), name
     assert "SYNTHETIC" in (tiny_run / "report.md").read_text()
     gen = summary["generating"]
@@ -444,6 +445,64 @@ def test_tiny_quick_calibration_writes_the_design_summary_and_moves_toward_the_g
             assert abs(p["mean"] - gen[name]) < 0.25 * abs(prior_mean[name] - gen[name]), (name, p)
     samples = np.load(tiny_run / "posterior.npz")
     assert list(samples["names"]) == ["M", "sigma_eps", "ocr"]
+
+
+def test_tiny_run_posterior_nc_has_the_groups_and_the_npz_posterior(tiny_run):
+    """posterior.nc reads back with arviz: its posterior is the npz's final-stage sample (same mean), observed_data the
+    recorded curves of the study's CSVs, posterior_predictive the MAP's curves at them, sample_stats the schedule,
+    log_likelihood each draw's terms per point."""
+    import arviz as az
+
+    idata = az.from_netcdf(tiny_run / "posterior.nc")
+    assert {"posterior", "log_likelihood", "sample_stats", "observed_data", "posterior_predictive"} <= set(
+        idata.groups())
+    npz = np.load(tiny_run / "posterior.npz")
+    for i, name in enumerate(npz["names"]):
+        assert float(idata.posterior[str(name)].mean()) == pytest.approx(npz["samples"][:, i].mean(), rel=1e-12)
+    np.testing.assert_array_equal(idata.sample_stats["beta"].values, npz["beta"])
+    lines = (tiny_run.parent / "data" / "triaxial_undrained_CK0UC.csv").read_text().splitlines()
+    recorded = np.array([[float(v) for v in line.split(",")] for line in lines[1:] if not line.startswith("#")
+                         and not line.startswith("axial_strain")])
+    np.testing.assert_allclose(idata.observed_data["CK0UC:q"].values, recorded[:, 1])
+    assert idata.posterior_predictive["CK0UC:q"].shape == (1, 1, recorded.shape[0])
+    # a laboratory study is cheap: each draw's log-likelihood per point, summing to the sampler's total (Eq. (6))
+    per_point = sum(idata.log_likelihood[v].values[0].sum(axis=1) for v in idata.observed_data.data_vars)
+    np.testing.assert_allclose(per_point, idata.log_likelihood["total"].values[0], rtol=1e-10)
+
+
+def test_pointwise_terms_are_computed_only_within_the_budget():
+    """posterior.nc's per-point log-likelihood: asked of the likelihood when the MAP's solve time x the draws stays
+    within runner.POINTWISE_BUDGET_S, never with a discrepancy, None when a solve fails."""
+    from types import SimpleNamespace
+
+    from cases.study import runner
+
+    post = SimpleNamespace(samples=np.zeros((100, 2)))
+    asked = []
+
+    def simulated_many(samples):
+        asked.append(len(samples))
+        return {"sims": samples}
+
+    like = SimpleNamespace(discrepancy=None, simulated_many=simulated_many,
+                           pointwise_log_likelihood=lambda sims, thetas: {"terms": sims["sims"]})
+    per_draw = runner.POINTWISE_BUDGET_S / 100
+    assert runner.pointwise_terms(like, post, 0.9 * per_draw)["terms"] is post.samples and asked == [100]
+    assert runner.pointwise_terms(like, post, 1.1 * per_draw) is None and asked == [100]
+    assert runner.pointwise_terms(SimpleNamespace(**{**vars(like), "discrepancy": object()}), post, 0.0) is None
+
+    def fails(samples):
+        raise inference.ForwardModelError("diverged")
+
+    assert runner.pointwise_terms(SimpleNamespace(**{**vars(like), "simulated_many": fails}), post, 0.0) is None
+
+
+def test_tiny_run_report_ends_with_the_glossary_of_its_symbols(tiny_run):
+    report = (tiny_run / "report.md").read_text()
+    glossary = report[report.index("## Glossary"):]
+    for symbol in ("ln Z", "ln S", "J_g", "ESS", "beta", "sigma_eps"):
+        assert f"- **{symbol}**: " in glossary, symbol
+    assert "ln Z = " in report[:report.index("## Glossary")]
 
 
 def test_diagnose_on_the_tiny_run_writes_diagnosis_json(tiny_study):

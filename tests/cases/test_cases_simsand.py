@@ -167,8 +167,9 @@ def _contract(out, case):
     for key in ("case", "method", "seed", "n_samples", "n_stages", "n_forward_solves", "wall_s", "ranks",
                 "parameters", "sigma_eps", "log_evidence", "J_g_at_map"):
         assert key in s, key
-    assert s["case"] == case and s["stages"][-1]["q"] == 1.0
-    for f in ("posterior.npz", "report.md", "curves.png", "marginals.png", "stages.png", "csl.png"):
+    assert s["case"] == case and s["stages"][-1]["beta"] == 1.0
+    for f in ("posterior.npz", "posterior.nc", "report.md", "curves.png", "stress_paths.png", "marginals.png",
+              "pairs.png", "stages.png", "csl.png"):
         assert (out / f).is_file(), f
     return s
 

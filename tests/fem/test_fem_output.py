@@ -36,6 +36,10 @@ def test_vtu_round_trip_and_phases(tmp_path):
 def test_offscreen_picture(tmp_path):
     pytest.importorskip("pyvista")
     r = small_run()
+    # the snapshots' titles: the programme's cavity strain at the start, after the expansion to 10 %, after the hold
+    # at constant strain and after the unloading to 5 %
+    assert [r.snapshot_title(i).split(", ")[1] for i in range(4)] == [
+        "cavity strain 0.00 %", "cavity strain 10.00 %", "cavity strain 10.00 %", "cavity strain 5.00 %"]
     try:
         path = r.plot(str(tmp_path / "fields.png"), snapshot=1)
     except Exception as err:  # no OpenGL context on this machine: report, do not fail the physics

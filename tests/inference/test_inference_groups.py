@@ -49,6 +49,14 @@ def _by_hand(a, b, s_q, s_e, w2=1.0):
     return t1 + w2 * t2
 
 
+def test_pointwise_terms_of_two_groups_sum_to_eq_6g():
+    like = Likelihood(_obs(), Toy(), weights={"t2": 2.0}, batch=True, groups=GROUPS).bind(NAMES)
+    theta = np.array([[1.1, 0.97, 0.05, 0.01], [0.9, 1.02, 0.2, 0.003]])
+    terms = like.pointwise_log_likelihood(like.simulated_many(theta), theta)
+    for i, th in enumerate(theta):
+        assert sum(v[i].sum() for v in terms.values()) == pytest.approx(_by_hand(*th, w2=2.0), rel=1e-12)
+
+
 def test_two_groups_against_the_equation_by_hand():
     like = Likelihood(_obs(), Toy(), weights={"t2": 2.0}, batch=True, groups=GROUPS).bind(NAMES)
     assert like.sigma_names == ("sigma_eps_stress", "sigma_eps_volume")

@@ -34,6 +34,23 @@ def test_goodness_of_fit_and_log_likelihood_by_hand():
     assert like.excluded[("t1", "q")] == 1 and like.excluded[("t1", "e")] == 0
 
 
+def test_pointwise_log_likelihood_by_hand_sums_to_the_log_likelihood():
+    """Each point's term of Eq. (4): -ln(2 pi s^2)/2 - N_i/(N_0 N_j) r^2/(2 s^2), times the test's weight; the
+    excluded origin 0; summed, the log-likelihood of the same parameter sets."""
+    like = Likelihood(_obs(), forward, weights={"t2": 2.0}).bind(("a", "sigma_eps"))
+    thetas = np.array([[1.1, 0.2], [0.95, 0.05]])
+    terms = like.pointwise_log_likelihood(like.simulated_many(thetas), thetas)
+    a, s = thetas[0]
+    # t1, q: r = 1 - a at the four used points, N_1 = 9 over N_0 = 2 curves, N_j = 4
+    expect_q = -0.5 * math.log(2 * math.pi * s**2) - 9 / (2 * 4) * (1 - a) ** 2 / (2 * s**2)
+    np.testing.assert_allclose(terms["t1", "q"][0], [0.0] + [expect_q] * 4, rtol=1e-12)
+    # t2, q (weight 2): r = 1 - a, N_2 = 4 over one curve of 4 points
+    expect_t2 = 2.0 * (-0.5 * math.log(2 * math.pi * s**2) - (1 - a) ** 2 / (2 * s**2))
+    np.testing.assert_allclose(terms["t2", "q"][0], [0.0] + [expect_t2] * 4, rtol=1e-12)
+    for i, theta in enumerate(thetas):
+        assert sum(v[i].sum() for v in terms.values()) == pytest.approx(like(theta), rel=1e-12)
+
+
 def test_forward_failures_are_errors_with_reasons():
     like = Likelihood(_obs(), lambda p: {"t1": {"q": np.full(5, np.nan), "e": np.zeros(5)}, "t2": {"q": np.ones(5)}})
     like.bind(("a", "sigma_eps"))

@@ -168,7 +168,7 @@ def test_a_signal_stop_carries_the_progress_and_the_resumed_run_reports_both_wal
     assert progress.checkpoint == str(ckpt) and progress.exponent < 1 and progress.stage_under_way is not None
     assert progress.n_forward_solves >= 80
     for got, ref in zip(progress.stages, reference.stages):  # the finished stages as in the uninterrupted run
-        assert (got["q"], got["log_S"], got["n_evals"]) == (ref["q"], ref["log_S"], ref["n_evals"])
+        assert (got["beta"], got["log_S"], got["n_evals"]) == (ref["beta"], ref["log_S"], ref["n_evals"])
     # the failures so far, in the order of the uninterrupted run
     assert 0 < len(progress.failures) < len(reference.failures)
     assert progress.failures == reference.failures[:len(progress.failures)]
@@ -209,14 +209,14 @@ def test_failed_solves_file_is_written_even_when_nothing_failed(tmp_path):
 # ---- the ETA of the progress lines
 
 def test_eta_is_unknown_first_then_close_to_the_evaluations_that_followed(tmp_path):
-    """Linear-Gaussian benchmark B1 (d = 10), where the steps in ln p shrink over the first stages and the sweeps
+    """Linear-Gaussian benchmark B1 (d = 10), where the steps in ln beta shrink over the first stages and the sweeps
     grow: the estimate, in evaluations, against those the run then made. Measured: a lower bound (0.3-0.8 of
     the truth) while flagged unsettled, within 15 % once settled; the averaged rule it replaces gave 0.2-0.6."""
     prob = PROBLEMS["B1"](10)
     log = tmp_path / "progress.log"
     post = tmcmc(prob.log_like, prob.prior, n_samples=300, executor=SerialExecutor(), seed=1, vectorized=True,
                  progress=False, log=log)
-    records = [StageRecord(r["stage"], r["q"], r["beta2"], n_evals=r["n_evals"]) for r in post.stages]
+    records = [StageRecord(r["stage"], r["beta"], r["beta2"], n_evals=r["n_evals"]) for r in post.stages]
     lines = [line for line in log.read_text().splitlines() if line.startswith("stage")]
     assert len(lines) == len(records)
     assert "ETA unknown" in lines[0] and "ETA unknown" in lines[1] and "ETA" not in lines[-1]

@@ -19,6 +19,7 @@ import pytest
 
 from inference import CheckpointError, PoolExecutor, SamplerError, SerialExecutor, UniformPrior, tmcmc
 from inference.bench import PROBLEMS, reference_evidence_by_quadrature
+from inference.observations import Curve, Observations, Test
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(ROOT, "tests", "scripts", "small_run.py")
@@ -328,18 +329,36 @@ def test_checkpoint_refuses_other_problem(tmp_path):
               checkpoint=ck, resume=True, progress=False)
 
 
-def test_arviz_export_carries_the_final_samples_and_evidence():
-    """to_arviz (optional arviz extra, installed with the test extra): the posterior group holds the final-stage
-    samples in prior order, the log_likelihood group their total log-likelihoods, attrs the log-evidence."""
+def test_arviz_export_carries_the_final_samples_and_evidence(tmp_path):
+    """to_arviz / posterior.nc: the posterior group holds the final-stage samples in prior order, the log_likelihood
+    group their total log-likelihoods, sample_stats the tempering schedule (beta from 0 to 1, ln S_j summing to
+    ln Z), observed_data the recorded curves with their abscissae and units, posterior_predictive the given MAP
+    curves, log_likelihood also the given pointwise terms per curve; the file written by save() reads back with
+    arviz.from_netcdf."""
     az = pytest.importorskip("arviz")
     prior = UniformPrior({"a": (-3.0, 3.0), "b": (-3.0, 3.0)})
     post = tmcmc(lambda th: -0.5 * float(np.sum(np.asarray(th) ** 2)), prior, n_samples=100, seed=1,
                            executor=SerialExecutor(), progress=False)
-    idata = post.to_arviz()
+    x = np.array([1.0, 2.0, 4.0])
+    observations = Observations([Test("T1", {"q": Curve(x, [10.0, 20.0, 30.0], "axial_strain", "q", "%", "kPa")})])
+    pointwise = {("T1", "q"): np.arange(300.0).reshape(100, 3)}
+    post.save(tmp_path, observations=observations, map_simulated={("T1", "q"): np.array([11.0, 19.0, 31.0])},
+              pointwise=pointwise)
+    idata = az.from_netcdf(tmp_path / "posterior.nc")
+    assert {"posterior", "log_likelihood", "sample_stats", "observed_data", "posterior_predictive"} <= set(
+        idata.groups())
     for i, name in enumerate(("a", "b")):
         assert np.array_equal(idata.posterior[name].values[0], post.samples[:, i])
     assert np.array_equal(idata.log_likelihood["total"].values[0], post.log_like)
+    assert np.array_equal(idata.log_likelihood["T1:q"].values[0], pointwise["T1", "q"])
     assert idata.attrs["log_evidence"] == post.log_evidence
+    beta = idata.sample_stats["beta"].values
+    assert beta[0] == 0.0 and beta[-1] == 1.0 and np.all(np.diff(beta) > 0)
+    assert idata.sample_stats["log_S"].values.sum() == pytest.approx(post.log_evidence, rel=1e-12)
+    observed = idata.observed_data["T1:q"]
+    assert np.array_equal(observed.values, [10.0, 20.0, 30.0]) and observed.attrs["unit"] == "kPa"
+    assert np.array_equal(observed["T1:q:axial_strain"].values, x)
+    assert np.array_equal(idata.posterior_predictive["T1:q"].values[0, 0], [11.0, 19.0, 31.0])
     assert float(az.summary(idata, var_names=["a"])["mean"].iloc[0]) == pytest.approx(post.mean["a"], abs=1e-3)
 
 

@@ -102,7 +102,7 @@ def test_the_steps_alone_give_the_sampler_result(options):
     st = _steps_until_done(settings)
     post = tmcmc(_loglike, PRIOR, settings, executor=SerialExecutor(), progress=False)
     assert st.exponent == 1.0 and st.log_evidence == post.log_evidence
-    assert [r.exponent for r in st.records] == [s["q"] for s in post.stages]
+    assert [r.exponent for r in st.records] == [s["beta"] for s in post.stages]
     for mine, theirs in zip(st.stage_theta, post.stage_samples):
         np.testing.assert_array_equal(mine, theirs)
     np.testing.assert_array_equal(st.map.theta, post.map_theta)

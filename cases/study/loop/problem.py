@@ -26,6 +26,7 @@ from cases.study.forward.family import FamilyForward
 from cases.study.forward.study import StudyForward
 from cases.study.loop.covariates import programme_covariates
 from cases.study.outputs.calibration_warnings import calibration_warnings
+from cases.study.outputs.figures.dense import dense_curves, with_mean_stress
 from cases.study.outputs.report import plot_loop, write_outputs
 from cases.study.programme import split_key
 from cases.study.reading.presets import FE_FIELDS
@@ -183,8 +184,9 @@ class LoopProblem:
                 groups.setdefault(split_key(curve)[0], []).append((t.name, curve))
         return inference.Discrepancy(groups=groups)
 
-    def outputs(self, run, seed, out, post, like, cls: dict, map_curves, summary: dict):
-        """Figures and reports of one calibrated class (after summary.json, whose content is ``summary``)."""
+    def outputs(self, run, seed, out, post, like, cls: dict, map_curves, summary: dict, switches: dict):
+        """Figures and reports of one calibrated class with ``switches`` (after summary.json, whose content is
+        ``summary``)."""
 
     def plot(self, path, like, classes: list, diag: diagnosis.Diagnosis, label: str):
         """The loop's figure (diagnosis.png); ``classes`` the [ModelClass], the base class first."""
@@ -249,7 +251,7 @@ class LoopProblem:
             "model_class": name, "switches": switches, **self.summary_extra(switches), "calibration_wall_s": wall_s,
             **({"evidence": evidence.to_dict()} if evidence is not None else {})})
         cls = self.class_record(post, like, name, switches, seed, draws, summary, evidence, prior)
-        self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"], summary)
+        self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"], summary, switches)
         return cls, summary
 
     def class_record(self, post, like, name, switches, seed, draws, summary, evidence=None,
@@ -486,14 +488,16 @@ class StudyProblem(LoopProblem):
         self.synthetic = any("synthetic" in t.conditions for t in observations)
         self.generating = generating_values(observations)
 
-    def forward(self, switches, refinement=1):
+    def forward(self, switches, refinement=1, observations=None):
         """The study's forward model of the class with ``switches``: the base model's own (switches it has), or its
         enrichment family's with the parameters translated (``cases.study.forward.family``: an MCC study enriched as
-        ANICREEP); ``refinement``: a discretisation this many times finer (``StudyForward``)."""
+        ANICREEP); ``refinement``: a discretisation this many times finer (``StudyForward``); ``observations``: the
+        abscissae asked for (default the records)."""
         own = self.study.spec.switches
+        observations = self.observations if observations is None else observations
         if enrichment_family(self.model).model != self.model and any(k not in own for k in switches):
-            return FamilyForward(self.study, self.observations, switches, self.preset, refinement)
-        return StudyForward(self.study, self.observations, switches, self.preset, refinement)
+            return FamilyForward(self.study, observations, switches, self.preset, refinement)
+        return StudyForward(self.study, observations, switches, self.preset, refinement)
 
     def map_curves(self, params, switches):
         return self.forward(switches)([params])[0]
@@ -546,8 +550,17 @@ class StudyProblem(LoopProblem):
         return programme_covariates(self.study.tests, like.observations, map_curves, times=self.times,
                                     within_test=True)
 
-    def outputs(self, run, seed, out, post, like, cls, map_curves, summary):
-        write_outputs(out, run.method, post, like, cls, self.study, self.synthetic, self.generating, summary)
+    def outputs(self, run, seed, out, post, like, cls, map_curves, summary, switches):
+        """The study's figures and report.md (:func:`cases.study.outputs.report.write_outputs`), the MAP drawn between
+        the records where the forward model is laboratory tests alone (a study with pressuremeter tests would solve
+        its FE again: its laboratory curves are drawn at the records, its FE curves as solved)."""
+        params, _ = like.split(np.array([cls["parameters"][n]["map"] for n in like.names]))
+        dense = {} if any("sbp" in (t.type, t.apparatus) for t in self.study.tests) else dense_curves(
+            lambda observations: self.forward(switches, observations=observations)([params])[0],
+            with_mean_stress(like.observations))
+        dense.update({(t, k): v for t, curves in map_curves.items() for k, v in curves.items() if isinstance(v, tuple)})
+        write_outputs(out, run.method, post, like, cls, self.study, self.synthetic, self.generating, summary,
+                      map_curves, dense)
 
     def plot(self, path, like, classes, diag, label):
         plot_loop(path, like, classes, diag, label, self.synthetic)

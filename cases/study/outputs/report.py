@@ -1,7 +1,5 @@
-"""What a calibrated study shows: parameter tables, posterior marginals and stages, recorded vs simulated curves with
-the posterior predictive band, the loop's figure and the Markdown report of one calibrated class.
-
-Figures are written with matplotlib on the off-screen Agg backend.
+"""What a calibrated study shows: parameter tables, the loop's figure and the Markdown report of one calibrated class
+with its figures (:mod:`cases.study.outputs.figures`: curves, stress paths, marginals, pairs, stages).
 """
 from __future__ import annotations
 
@@ -11,17 +9,15 @@ from pathlib import Path
 import numpy as np
 
 from cases.study.outputs.calibration_warnings import calibration_warnings
+from cases.study.outputs.figures.canvas import pyplot, save
+from cases.study.outputs.figures.curves import curves_figure, stress_paths_figure
+from cases.study.outputs.figures.labels import abscissa_label, panel_title, quantity_label
+from cases.study.outputs.figures.posterior import write_posterior_figures
+from cases.study.outputs.glossary import glossary_lines
 from cases.study.runner import method_name
 from inference import diagnosis
 
-__all__ = ["LABELS", "X_LABELS", "parameter_table", "runs_table", "pyplot", "plot_marginals", "plot_stages",
-           "plot_curves", "plot_loop", "write_outputs"]
-
-LABELS = {"q": "q (kPa)", "p": "p' (kPa)", "excess_pore_pressure": "excess pore pressure (kPa)",
-          "volumetric_strain": "volumetric strain (%)", "void_ratio": "void ratio e",
-          "axial_stress": "sigma'_v (kPa)", "axial_strain": "axial strain (%)",
-          "cavity_pressure": "total cavity pressure (kPa)", "pore_pressure": "pore pressure at the wall (kPa)"}
-X_LABELS = {"axial_strain": "axial strain (%)", "time": "time (s)", "cavity_strain": "cavity strain (%)"}
+__all__ = ["parameter_table", "runs_table", "plot_loop", "write_outputs"]
 
 def _fmt(v):
     if v is None or (isinstance(v, float) and not np.isfinite(v)):
@@ -72,73 +68,26 @@ def runs_table(summaries: list, names, reference: dict | None = None) -> str:
     return "\n".join(rows)
 
 
-def pyplot():
-    """matplotlib.pyplot on the off-screen Agg backend."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
-
-def plot_marginals(post, path, marks: dict | None = None, bounds: dict | None = None, title: str | None = None):
-    """Histogram of each parameter's final-stage samples; ``marks`` {label: {name: value}} drawn as lines;
-    ``title`` above the panels (say "synthetic" there when the data are)."""
-    plt = pyplot()
-    d = len(post.names)
-    cols = min(d, 4)
-    rows = -(-d // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.6 * rows), squeeze=False)
-    styles = ["-", "--", ":", "-."]
-    for ax, (i, n) in zip(axes.flat, enumerate(post.names)):
-        ax.hist(post.samples[:, i], bins=30, density=True, color="0.75")
-        ax.axvline(post.map_theta[i], color="C3", lw=1.5, label="MAP")
-        for k, (label, values) in enumerate((marks or {}).items()):
-            if n in values:
-                ax.axvline(values[n], color=f"C{k}", ls=styles[k % 4], lw=1.2, label=label)
-        if bounds and n in bounds:
-            ax.set_xlim(bounds[n])
-        ax.set_xlabel(n)
-        ax.set_yticks([])
-    for ax in list(axes.flat)[d:]:
-        ax.axis("off")
-    axes.flat[0].legend(fontsize=7)
-    if title:
-        fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def plot_stages(post, path):
-    """Samples of each parameter against the stage index (how the population narrows)."""
-    plt = pyplot()
-    d = len(post.names)
-    fig, axes = plt.subplots(1, d, figsize=(2.6 * d, 2.6), squeeze=False)
-    for i, (ax, n) in enumerate(zip(axes[0], post.names)):
-        for j, th in enumerate(post.stage_samples):
-            ax.plot(np.full(len(th), j) + np.linspace(-0.3, 0.3, len(th)), th[:, i], ".", ms=1, color="C0")
-        ax.set_xlabel("stage")
-        ax.set_title(n, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, truth: dict | None, summary: dict):
+def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, truth: dict | None, summary: dict,
+                  map_raw: dict, dense: dict):
     """report.md (with the calibration warnings of :mod:`cases.study.outputs.calibration_warnings`, also printed on
-    stdout as ``warning: ...``), curves.png, marginals.png, stages.png of one calibrated class of ``study``; ``cls`` the
-    class record (MAP and posterior-sample curves), ``truth`` the values synthetic recordings were made from (or None),
-    ``summary`` the class's summary.json content (``runner.write_summary``)."""
+    stdout as ``warning: ...``), curves.png, stress_paths.png (triaxial tests), marginals.png, pairs.png, stages.png
+    of one calibrated class of ``study``; ``cls`` the class record (MAP and posterior-sample curves), ``truth`` the
+    values synthetic recordings were made from (or None), ``summary`` the class's summary.json content
+    (``runner.write_summary``), ``map_raw`` the MAP's forward result {test: {quantity: values at the records}},
+    ``dense`` the MAP between the records (:func:`cases.study.outputs.figures.dense.dense_curves`)."""
     out = Path(out)
     tag = "SYNTHETIC recordings" if synthetic else "recordings"
     bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
     title = f"{study.name}: {cls['name']}, {method_name(method)} ({tag})"
-    plot_curves(out / "curves.png", like, cls["map_simulated"], bands, title)
-    marks = {"generating (synthetic)": truth} if truth else None
-    sigma_bounds = ({"sigma_eps": study.sigma_bounds} if study.error_model is None
-                    else study.error_model.parameter_bounds())
-    plot_marginals(post, out / "marginals.png", marks=marks, bounds={**study.free, **sigma_bounds}, title=title)
-    plot_stages(post, out / "stages.png")
+    save(curves_figure(like.observations, cls["map_simulated"], bands, dense), out / "curves.png", title)
+    drained = {(t.name, s.name if t.staged and len(t.stages) > 1 else None): s.drainage == "drained"
+               for t in study.tests for s in (t.stages if t.staged else [t])}
+    paths = stress_paths_figure(like.observations, map_raw, drained, dense)
+    if paths is not None:
+        save(paths, out / "stress_paths.png", title)
+    units = {n: r.unit for n, r in study.spec.ranges.items()}
+    write_posterior_figures(out, post, {"generating (synthetic)": truth} if truth else None, units, title)
     lines = [f"# {study.name}: {method_name(method)} calibration of {cls['name']}", ""]
     if synthetic:
         lines += ["**The recordings are SYNTHETIC** (their `# synthetic` header lines say how they were made); they "
@@ -166,37 +115,11 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     for text in warnings:
         print(f"warning: {text}", flush=True)
     lines += ["## Warnings", ""] + ([f"- {text}" for text in warnings] or ["none"]) + [""]
-    lines += ["Figures: curves.png (records, MAP, 95 % posterior predictive band), marginals.png, stages.png."]
-    (out / "report.md").write_text("\n".join(lines) + "\n")
-
-
-def _panels(like):
-    return [(t.name, c) for t in like.observations for c in t.curves]
-
-
-def plot_curves(path, like, map_simulated, bands, title):
-    """One row per test, one panel per curve: records, MAP and the 95 % posterior predictive band."""
-    plt = pyplot()
-    tests = list(like.observations)
-    ncol = max(len(t.curves) for t in tests)
-    fig, axes = plt.subplots(len(tests), ncol, figsize=(4.8 * ncol, 3.2 * len(tests)), squeeze=False)
-    for row, t in zip(axes, tests):
-        for ax, (c, curve) in zip(row, t.curves.items()):
-            band = bands[t.name, c]
-            ax.fill_between(curve.x, band.lower, band.upper, color="C0", alpha=0.25, lw=0,
-                            label=f"95 % predictive ({100 * band.coverage:.0f} % inside)")
-            ax.plot(curve.x, map_simulated[t.name, c], "C0-", lw=1.5, label="MAP")
-            ax.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
-            ax.set_xlabel(X_LABELS.get(curve.x_name, curve.x_name))
-            ax.set_ylabel(LABELS.get(c, c))
-            ax.set_title(t.name, fontsize=9)
-            ax.legend(fontsize=7)
-        for ax in row[len(t.curves):]:
-            ax.axis("off")
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    lines += ["Figures: curves.png (records, MAP, 95 % posterior predictive band)"
+              + (", stress_paths.png (q-p')" if paths is not None else "") + ", marginals.png, pairs.png, stages.png.",
+              "",
+              *glossary_lines()]
+    (out / "report.md").write_text("\n".join(lines))
 
 
 def plot_loop(path, like, classes, diag, label, synthetic):
@@ -204,7 +127,7 @@ def plot_loop(path, like, classes, diag, label, synthetic):
     relative residual with the mismatch regions shaded. The enriched class drawn is the confirmed one, else the one
     of largest ln Z. ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis."""
     plt = pyplot()
-    panels = _panels(like)
+    panels = [(t.name, c) for t in like.observations for c in t.curves]
     ncol = min(4, len(panels))
     nrow = -(-len(panels) // ncol)
     fig, axes = plt.subplots(2 * nrow, ncol, figsize=(4.2 * ncol, 5.6 * nrow), squeeze=False)
@@ -222,18 +145,15 @@ def plot_loop(path, like, classes, diag, label, synthetic):
         top.plot(curve.x, base.map_simulated[t, c], "k--", lw=1, label="base MAP")
         if enriched is not None:
             top.plot(curve.x, enriched.map_simulated[t, c], "C0-", lw=1.3, label=f"{enriched.candidate} MAP")
-        top.set_title(f"{t}: {c}", fontsize=9)
-        top.set_ylabel(LABELS.get(c, c))
+        top.set_title(panel_title(t, c), fontsize=9)
+        top.set_ylabel(quantity_label(c, curve.y_unit))
         top.legend(fontsize=7)
         bottom.plot(curve.x, 100 * (curve.y / base.map_simulated[t, c] - 1.0), "o-", ms=3, lw=0.6, color="C3")
         for reg in diag.mismatch_regions:
             if reg.test == t and reg.curve == c:
                 bottom.axvspan(reg.x_start, reg.x_end, color="C3", alpha=0.15)
         bottom.axhline(0, color="k", lw=0.6)
-        bottom.set_xlabel(X_LABELS.get(curve.x_name, curve.x_name))
+        bottom.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
         bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")
     tag = "SYNTHETIC data" if synthetic else "recordings"
-    fig.suptitle(f"{tag} ({label}): {diag.verdict}; omitted physics: {diag.omitted_physics}", fontsize=10)
-    fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()))
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path, f"{tag} ({label}): {diag.verdict}; omitted physics: {diag.omitted_physics}", dpi=100)

@@ -9,7 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-from cases.study.outputs.report import parameter_table, plot_marginals, plot_stages, pyplot
+from cases.study.outputs.figures.canvas import pyplot
+from cases.study.outputs.figures.labels import abscissa_label, quantity_label
+from cases.study.outputs.figures.posterior import write_posterior_figures
+from cases.study.outputs.glossary import glossary_lines
+from cases.study.outputs.report import parameter_table
 from cases.study.runner import method_name, write_summary
 from inference import diagnosis
 
@@ -60,9 +64,8 @@ def plot_sbp_curves(path, like, map_curves, bands, title):
             x, y = map_curves[t.name][cname]
             ax.plot(x, y, color=color, lw=1.5, label=f"{t.name}: MAP")
             ax.plot(c.x, c.y, "o", ms=3, mfc="none", color=color, label=f"{t.name}: recorded")
-        ax.set_xlabel("cavity strain (%)")
-        ax.set_ylabel({"cavity_pressure": "total cavity pressure (kPa)",
-                       "pore_pressure": "pore pressure at the wall (kPa)"}[cname])
+        ax.set_xlabel(abscissa_label("cavity_strain"))
+        ax.set_ylabel(quantity_label(cname))
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
@@ -97,16 +100,18 @@ def sbp_report(out, case: SBPCase, method, preset_label, post, summary, like, sy
             f"{n} {100 * (post.map[n] / truth[n] - 1):+.1f} %" for n in names))
         lines.append("")
     lines += ["Figures: curves.png (recorded vs MAP, 95 % posterior predictive band from "
-              f"{bands_drawn} posterior draws), marginals.png, stages.png, fields_*.png and map_fields/*.vtu (MAP "
-              "solution at 10 % cavity strain). Stage log: progress.log; failed solves: failed_solves.jsonl.", "",
-              "| stage | q | ln S | acceptance | sweeps | evaluations | failed | wall (s) |",
+              f"{bands_drawn} posterior draws), marginals.png, pairs.png, stages.png, fields_*.png and "
+              "map_fields/*.vtu (MAP solution at 10 % cavity strain). Stage log: progress.log; failed solves: "
+              "failed_solves.jsonl.", "",
+              "| stage | beta | ln S | acceptance | sweeps | evaluations | failed | wall (s) |",
               "|---|---|---|---|---|---|---|---|"]
     for r in summary["stages"]:
-        lines.append(f"| {r.get('stage', '')} | {r['q']:.4g} | {r.get('log_S', 0):.3f} | "
+        lines.append(f"| {r.get('stage', '')} | {r['beta']:.4g} | {r.get('log_S', 0):.3f} | "
                      f"{r.get('acceptance', 0):.2f} | "
                      f"{r.get('sweeps', '')} | {r.get('n_evals', '')} | {r.get('n_failed', '')} | "
                      f"{r.get('wall_s', 0):.1f} |")
-    (Path(out) / "report.md").write_text("\n".join(lines) + "\n")
+    lines += ["", *glossary_lines()]
+    (Path(out) / "report.md").write_text("\n".join(lines))
 
 
 def write_sbp_outputs(out, case: SBPCase, run, seed, post, like, forward, preset, preset_label, synthetic, truth):
@@ -123,9 +128,8 @@ def write_sbp_outputs(out, case: SBPCase, run, seed, post, like, forward, preset
     tag = "SYNTHETIC recordings" if synthetic else "recordings"
     plot_sbp_curves(out / "curves.png", like, map_curves, bands,
                     f"{case.short_title}, {method_name(run.method)}: {tag} vs MAP and posterior predictive")
-    plot_marginals(post, out / "marginals.png", marks={"generating": truth, **case.references} if truth
-                   else case.references, bounds=case.bounds, title=f"{case.short_title} posterior ({tag})")
-    plot_stages(post, out / "stages.png")
+    write_posterior_figures(out, post, {"generating": truth, **case.references} if truth else case.references,
+                            case.units, f"{case.short_title} posterior ({tag})")
     for name, res in results.items():
         res.write_vtu(out / "map_fields", prefix=f"{name}")
         try:

@@ -18,7 +18,7 @@ from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 from cases.study.routes import sand as sand_route
 from cases.study.routes import sbp as sbp_route
-from cases.study.runner import announce_compilation, kernel_files, out_lock, run_all, run_directories
+from cases.study.runner import announce_compilation, evaluate_once, kernel_files, out_lock, run_all, run_directories
 from cases.study.synthetic.generate import generate
 from constitutive.registry import class_name
 from inference.executors import mpi_world
@@ -133,20 +133,21 @@ def _general(study, run, diagnose) -> int:
         raise UsageError("--diagnose runs without mpirun (use --processes for a local pool)")
     default_out = Path("results") / CASE / study.name
     kernels = kernel_files(study.spec.cls, fe=any("sbp" in (t.type, t.apparatus) for t in study.tests))
+    name = class_name(study.switches, study.model)
+    like = problem.make_likelihood(observations, study.switches)
+    prior = problem.prior(study.free, study.log_uniform)
     if diagnose:
         with out_lock(run.out or default_out):
             if not run.resume:
-                announce_compilation(kernels)
+                announce_compilation(kernels, lambda: evaluate_once(like, prior))
             for one, seed, out in run_directories(run, default_out):
                 result = run_loop(problem, observations, one, out, seed, settings, f"study {study.name}, seed {seed}")
                 d = result.final
                 print(json.dumps({"case": CASE, "study": study.name, "out": str(out), "verdict": d.verdict,
                                   "omitted_physics": d.omitted_physics, "log_bayes": d.log_bayes,
                                   "timing": result.timing}, default=float), flush=True)
+                print(f"report: {out / 'report.md'} (diagnosis: {out / 'diagnosis.md'})", flush=True)
         return 0
-    name = class_name(study.switches, study.model)
-    like = problem.make_likelihood(observations, study.switches)
-    prior = problem.prior(study.free, study.log_uniform)
 
     def finish(one, seed, out, post):
         return problem.finish_class(post, like, name, study.switches, one, out, seed, settings.predictive_draws,

@@ -24,6 +24,7 @@ import inference
 from cases.study.checks import Checker, read_toml
 from cases.study.cli import UsageError, unit_hint
 from cases.study.forward.lab import LabForward
+from cases.study.outputs.glossary import glossary_lines
 from cases.study.outputs.report import parameter_table
 from cases.study.programme import TestSpec
 from cases.study.reading.error_model import ErrorModel, read_error_model
@@ -334,8 +335,9 @@ def _report(out, run, seed, post, s: SandStudy, summary, volume_rows, truth, noi
         text += ["Volumetric strain of the predicted drained tests (%, compression positive, dilation negative; "
                  "eps_v = 100 (e0 - e)/(1 + e0); measured: the record interpolated; 95 % posterior predictive of "
                  "Eq. 1 on e):", "", *volume_lines(volume_rows), ""]
-    text += ["Figures: curves.png, marginals.png, stages.png, csl.png."]
-    (Path(out) / "report.md").write_text("\n".join(text) + "\n")
+    text += ["Figures: curves.png, stress_paths.png, marginals.png, pairs.png, stages.png, csl.png.", "",
+             *glossary_lines()]
+    (Path(out) / "report.md").write_text("\n".join(text))
 
 
 def run(study, run_settings, args) -> int:

@@ -22,22 +22,26 @@ import numpy as np
 
 import inference
 from cases.study.forward.lab import LabForward
-from cases.study.outputs.report import plot_marginals, plot_stages, pyplot, runs_table
+from cases.study.outputs.figures.canvas import pyplot, save
+from cases.study.outputs.figures.curves import stress_paths_figure
+from cases.study.outputs.figures.labels import abscissa_label, quantity_label
+from cases.study.outputs.figures.posterior import write_posterior_figures
+from cases.study.outputs.report import runs_table
 from cases.study.programme import TestSpec
 from cases.study.reading.reference import is_error_parameter
 from constitutive import SIMSAND
+from constitutive.registry import model_spec
 from inference import DataError
 
 __all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
-           "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_csl", "plot_map_spread",
-           "write_figures", "run_line", "sampler_settings", "write_runs", "CURVES"]
+           "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_stress_paths", "plot_csl",
+           "plot_map_spread", "write_figures", "run_line", "sampler_settings", "write_runs", "CURVES"]
 
 #: observed curves per drainage type (test curve name -> CSV quantity)
 CURVES = {True: {"q": "q", "e": "e"}, False: {"q": "q", "u": "u"}}
 #: failed forward evaluations allowed per stage: part of SIMSAND's prior box gives drained paths that lose control
 #: (notes/simsand.md), zero-likelihood particles that vanish as the population concentrates
 MAX_FAILURE_FRACTION = 0.5
-LABELS = {"q": "q (kPa)", "e": "void ratio e", "u": "excess pore pressure u (kPa)", "p": "p' (kPa)"}
 
 
 def _flag(value, path, field):
@@ -125,14 +129,17 @@ def run_line(summary: dict) -> str:
 
 def write_figures(out, observations, forward, post, title, marks, csl_lines, csl_title, end_label,
                   reference=None, predict=(), marginals_title=None, sigmas=None):
-    """curves.png (:func:`plot_curves`, ``sigmas`` as :func:`predictive`), marginals.png (``marks`` {label:
-    values}), stages.png and csl.png (the CSL of ``csl_lines`` {label: parameter dict}, ``"MAP"`` added, with the end
-    states of the drained records)."""
+    """curves.png (:func:`plot_curves`, ``sigmas`` as :func:`predictive`), marginals.png, pairs.png and stages.png
+    (``marks`` {label: values}; :func:`cases.study.outputs.figures.posterior.write_posterior_figures`),
+    stress_paths.png (:func:`plot_stress_paths`) and csl.png
+    (the CSL of ``csl_lines`` {label: parameter dict}, ``"MAP"`` added, with the end states of the drained
+    records)."""
     out = Path(out)
     plot_curves(out / "curves.png", observations, forward, post, title, reference=reference, predict=predict,
                 sigmas=sigmas)
-    plot_marginals(post, out / "marginals.png", marks=marks, title=marginals_title)
-    plot_stages(post, out / "stages.png")
+    units = {n: r.unit for n, r in model_spec("SIMSAND").ranges.items()}
+    write_posterior_figures(out, post, marks, units, marginals_title)
+    plot_stress_paths(out / "stress_paths.png", observations, forward, post, title)
     end = {f"{t.name} {end_label}": (conditions_of(t).p0 + t.curves["q"].y[-1] / 3.0, t.curves["e"].y[-1])
            for t in observations if "e" in t.curves}
     plot_csl(out / "csl.png", {"MAP": parameters(forward, post.map), **csl_lines}, end, title=csl_title)
@@ -221,8 +228,8 @@ def plot_curves(path, observations, forward, post, title, reference=None, predic
                 ax.plot(obs.curves[k].x, obs.curves[k].y, ".", color="C3", ms=3, label="data")
             role = "prediction" if t.name in predict else "calibration"
             ax.set_title(f"{t.name} ({role}): e0 {t.e0:g}, p'0 {t.p0:g} kPa", fontsize=9)
-            ax.set_xlabel("axial strain (%)")
-            ax.set_ylabel(LABELS[k])
+            ax.set_xlabel(abscissa_label("axial_strain"))
+            ax.set_ylabel(quantity_label(k))
         for ax in row[len(CURVES[t.drainage == "drained"]):]:
             ax.axis("off")
     axes[0, 0].legend(fontsize=7)
@@ -230,6 +237,19 @@ def plot_curves(path, observations, forward, post, title, reference=None, predic
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_stress_paths(path, observations, forward, post, title):
+    """stress_paths.png: the q-p' paths of the tests (:func:`cases.study.outputs.figures.curves.stress_paths_figure`),
+    the MAP on the simulation grid, the records' p' from their q (and u) on the test's total stress path; nothing
+    when the MAP's solve fails."""
+    result = forward([{k: v for k, v in post.map.items() if not is_error_parameter(k)}])[0]
+    if isinstance(result, Exception):
+        return
+    dense = {(t, k): v for t, curves in result.items() for k, v in curves.items()}
+    at_records = {t.name: {k: np.interp(t.curves["q"].x, *v) for k, v in result[t.name].items()} for t in observations}
+    drained = {(t.name, None): conditions_of(t).drainage == "drained" for t in observations}
+    save(stress_paths_figure(observations, at_records, drained, dense), path, title)
 
 
 def critical_void_ratio(params, p):

@@ -29,7 +29,7 @@ from cases.study.outputs.report import runs_table
 from cases.study.outputs.sbp import SBPCase, write_sbp_outputs
 from cases.study.reading.presets import PRESETS
 from cases.study.reading.records import generating_values, has_pore_pressure, load_sbp_recordings
-from cases.study.runner import announce_compilation, is_root, kernel_files, run_all, throughput
+from cases.study.runner import announce_compilation, evaluate_once, is_root, kernel_files, run_all, throughput
 from cases.study.synthetic.generate import generate_sbp
 from constitutive import ParameterError
 from inference import DataError
@@ -144,12 +144,12 @@ def run(study, run_settings, args) -> int:
     truth = generating_values(observations, generating)
     forward = sbp_forward(study, preset, fixed, rates, ("cavity_pressure", "pore_pressure") if use_pore_pressure
                           else ("cavity_pressure",))
-    if not run.resume:  # a checkpoint is checked first: no message before its refusal
-        announce_compilation(kernel_files(study.spec.cls, fe=True))
-    forward.compile_material(generating)
     like = inference.Likelihood(observations, forward)
     bounds = {**study.free, "sigma_eps": study.sigma_bounds}
     prior = inference.UniformPrior(bounds)
+    if not run.resume:  # a checkpoint is checked first: no message before its refusal
+        announce_compilation(kernel_files(study.spec.cls, fe=True), lambda: evaluate_once(like, prior))
+    forward.compile_material(generating)
     if args.throughput:
         throughput(like, prior, run, args.throughput, study.name)
         return 0

@@ -8,10 +8,12 @@ tests/corpus_inputs.py."""
 import json
 import os
 import pickle
+import re
 import shutil
 import socket
 import subprocess
 import sys
+import time
 import zipfile
 from pathlib import Path
 
@@ -397,11 +399,24 @@ def test_the_compile_message_is_said_once_when_a_kernel_cache_is_cold(tmp_path, 
     monkeypatch.setattr(runner, "_announced", False)
     (tmp_path / "__pycache__").mkdir()
     (tmp_path / "__pycache__" / "_warm_kernel.f-1.py311.nbi").write_bytes(b"")
-    runner.announce_compilation([tmp_path / "_warm_kernel.py"])
-    assert capsys.readouterr().err == ""
-    runner.announce_compilation([tmp_path / "_warm_kernel.py", cold])
-    runner.announce_compilation([cold])
-    assert capsys.readouterr().err == "compiling the constitutive kernels (first run only, about 30 s)...\n"
+    warm_ups = []
+
+    def warm_up():
+        warm_ups.append(time.perf_counter())
+        time.sleep(0.2)
+
+    runner.announce_compilation([tmp_path / "_warm_kernel.py"], warm_up)
+    assert capsys.readouterr().err == "" and warm_ups == []
+    t0 = time.perf_counter()
+    runner.announce_compilation([tmp_path / "_warm_kernel.py", cold], warm_up)
+    elapsed = time.perf_counter() - t0
+    runner.announce_compilation([cold], warm_up)
+    first, second = capsys.readouterr().err.splitlines()
+    assert first == "compiling the constitutive kernels (first run only, cached afterwards)..." and len(warm_ups) == 1
+    # the time said is the warm-up's, measured: between the sleep inside it and the whole call around it
+    said = float(re.fullmatch(r"compiled: the first forward evaluation took (\S+) s, compilation included",
+                              second).group(1))
+    assert 0.2 - 0.05 <= said <= elapsed + 0.05
 
 
 # ------------------------------------------------------------------------------------------------ valid variants
@@ -473,7 +488,6 @@ def test_a_signalled_run_keeps_its_progress_and_resumes_with_one_wall_time(tmp_p
     """SIGTERM: exit 75, progress.json and failed_solves.jsonl beside the checkpoint, --resume named; the resumed
     run's stdout wall_s is summary.json's (summed over both sessions)."""
     import signal
-    import time
 
     out = tmp_path / "out"
     argv = [sys.executable, "-m", "cases.calibrate", _lab(tmp_path), "--quick", "--processes", "1", "--samples", "60",
@@ -491,7 +505,9 @@ def test_a_signalled_run_keeps_its_progress_and_resumes_with_one_wall_time(tmp_p
     assert {"run.ckpt", "progress.json", "failed_solves.jsonl"} <= {p.name for p in out.iterdir()}
     resumed = _run(["cases.calibrate", *map(str, argv[3:]), "--resume"], tmp_path)
     assert resumed.returncode == 0, resumed.stderr
-    line = json.loads(resumed.stdout.strip().splitlines()[-1])
+    *_, json_line, last = resumed.stdout.strip().splitlines()
+    line = json.loads(json_line)
+    assert last == f"report: {out / 'report.md'}" and (out / "report.md").is_file()
     summary = json.loads((out / "summary.json").read_text())
     assert line["wall_s"] == round(summary["wall_s"], 1) and line["wall_s"] >= line["wall_s_this_session"]
     assert not (out / "progress.json").exists() and not (out / runner.LOCK_FILE).exists()

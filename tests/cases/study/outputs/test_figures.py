@@ -1,0 +1,218 @@
+"""The figures of a calibration (cases.study.outputs.figures) on constructed posteriors and records: labels with the
+quantity's symbol and unit, a grid of at most four columns, marginals zoomed to the posterior, the pairs plot, the MAP
+drawn between the records, the stress paths, the MAP between the records asked of a forward model."""
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from cases.study.outputs.figures.canvas import MAX_COLUMNS, panel_grid, pyplot
+from cases.study.outputs.figures.curves import (
+    curves_figure,
+    model_at_records,
+    recorded_mean_stress,
+    stress_paths_figure,
+)
+from cases.study.outputs.figures.dense import dense_curves, densified, with_mean_stress
+from cases.study.outputs.figures.labels import abscissa_label, panel_title, parameter_label, quantity_label
+from cases.study.outputs.figures.posterior import marginals_figure, pairs_figure, write_posterior_figures
+from inference import Curve, Observations, Test
+
+plt = pyplot()
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+def _posterior(seed=0, n=200):
+    """A ridge M = 1.0 + 0.002 sigma_p0 (+ noise), as M against sigma'_p0 in a pressuremeter calibration."""
+    rng = np.random.default_rng(seed)
+    sigma_p0 = rng.normal(100.0, 5.0, n)
+    M = 1.0 + 0.002 * sigma_p0 + rng.normal(0.0, 0.002, n)
+    samples = np.column_stack([M, sigma_p0])
+    return SimpleNamespace(names=("M", "sigma_p0"), samples=samples, map_theta=samples[0],
+                           stage_samples=[rng.uniform([0.5, 20.0], [2.0, 200.0], (n, 2)), samples])
+
+
+UNITS = {"M": "-", "sigma_p0": "kPa"}
+
+
+def test_labels_name_the_quantity_and_its_unit_and_put_the_stage_in_the_title():
+    assert quantity_label("axial_stress@relax_ocr1") == "sigma'_v (kPa)"
+    assert quantity_label("q@shear") == "q (kPa)" and quantity_label("void_ratio") == "void ratio e (-)"
+    assert quantity_label("water_content", "%") == "water_content (%)"
+    assert abscissa_label("axial_strain", "%") == "axial strain eps_a (%)"
+    assert abscissa_label("time", "s") == "time t (s)" and abscissa_label("depth", "m") == "depth (m)"
+    assert panel_title("OED", "axial_stress@relax_ocr1") == "OED, stage relax_ocr1" and panel_title("T1", "q") == "T1"
+    assert parameter_label("sigma_p0", UNITS) == "sigma_p0 (kPa)" and parameter_label("n", {}) == "n (-)"
+
+
+def test_the_grid_wraps_many_curves_into_rows_of_four():
+    fig, axes = panel_grid(24, width=4.2, height=3.2)
+    assert len(axes) == 24
+    assert fig.get_size_inches()[0] == pytest.approx(MAX_COLUMNS * 4.2)
+    assert fig.get_size_inches()[1] == pytest.approx(6 * 3.2)    # 24 panels / 4 columns
+    fig, axes = panel_grid(5)
+    assert len(fig.axes) == 8 and sum(ax.axison for ax in fig.axes) == 5
+
+
+def test_marginals_are_zoomed_to_the_posterior_with_units_and_a_legend():
+    post = _posterior()
+    marks = {"generating": {"M": 1.2, "sigma_p0": 400.0}}
+    fig = marginals_figure(post, marks, UNITS)
+    ax_m, ax_s = fig.axes
+    assert ax_m.get_xlabel() == "M (-)" and ax_s.get_xlabel() == "sigma_p0 (kPa)"
+    for ax, column in ((ax_m, 0), (ax_s, 1)):
+        lo, hi = post.samples[:, column].min(), post.samples[:, column].max()
+        assert ax.get_xlim() == pytest.approx((lo - 0.15 * (hi - lo), hi + 0.15 * (hi - lo)))
+    legend = [t.get_text() for t in ax_m.get_legend().get_texts()]
+    assert sorted(legend) == ["MAP", "generating", "posterior samples"]
+    # 400 kPa is far outside the posterior of sigma_p0: named with its value, not drawn
+    assert "generating: 400 (off the axis)" in [t.get_text() for t in ax_s.get_legend().get_texts()]
+
+
+def test_pairs_plot_shows_the_samples_the_map_and_the_ridge_with_units():
+    post = _posterior()
+    fig = pairs_figure(post, {"generating": {"M": 1.2, "sigma_p0": 100.0}}, UNITS)
+    grid = np.array(fig.axes).reshape(2, 2)
+    assert grid[1, 0].get_xlabel() == "M (-)" and grid[1, 0].get_ylabel() == "sigma_p0 (kPa)"
+    assert grid[1, 1].get_xlabel() == "sigma_p0 (kPa)"
+    samples, star, mark = grid[1, 0].get_lines()[:3]
+    np.testing.assert_array_equal(samples.get_xdata(), post.samples[:, 0])
+    np.testing.assert_array_equal(samples.get_ydata(), post.samples[:, 1])
+    assert (star.get_xdata()[0], star.get_ydata()[0]) == tuple(post.map_theta)
+    assert (mark.get_xdata()[0], mark.get_ydata()[0]) == (1.2, 100.0)
+    # the ridge: the samples of the pair panel are correlated as drawn (M = 1 + 0.002 sigma_p0)
+    assert np.corrcoef(samples.get_xdata(), samples.get_ydata())[0, 1] > 0.9
+    legend = [t.get_text() for t in grid[0, 1].get_legend().get_texts()]
+    assert legend == ["posterior samples", "MAP", "generating"]
+
+
+def test_posterior_figures_are_written(tmp_path):
+    write_posterior_figures(tmp_path, _posterior(), None, UNITS, "a title")
+    for name in ("marginals.png", "pairs.png", "stages.png"):
+        assert (tmp_path / name).stat().st_size > 10_000, name
+
+
+def _records():
+    strain = np.array([1.0, 2.0, 4.0])
+    return Observations([
+        Test("CIU", {"q": Curve(strain, [30.0, 40.0, 45.0], "axial_strain", "q", "%", "kPa"),
+                     "excess_pore_pressure": Curve(strain, [10.0, 15.0, 18.0], "axial_strain",
+                                                   "excess_pore_pressure", "%", "kPa")}),
+        Test("OED", {"axial_stress@relax": Curve([10.0, 100.0, 1e4], [80.0, 70.0, 65.0], "time", "axial_stress", "s",
+                                                  "kPa")}),
+    ])
+
+
+def _bands(observations):
+    return {(t.name, c): SimpleNamespace(lower=curve.y * 0.9, upper=curve.y * 1.1, coverage=1.0)
+            for t in observations for c, curve in t.curves.items()}
+
+
+def test_curves_draw_the_map_as_a_line_between_the_records_else_as_markers():
+    observations = _records()
+    map_simulated = {(t.name, c): curve.y * 1.01 for t in observations for c, curve in t.curves.items()}
+    dense_x = np.linspace(1.0, 4.0, 13)
+    dense = {("CIU", "q"): (dense_x, 50.0 * (1 - np.exp(-dense_x)))}
+    fig = curves_figure(observations, map_simulated, _bands(observations), dense)
+    ax_q, ax_u, ax_oed = fig.axes[:3]
+    assert (ax_q.get_xlabel(), ax_q.get_ylabel()) == ("axial strain eps_a (%)", "q (kPa)")
+    assert ax_u.get_ylabel() == "excess pore pressure u (kPa)"
+    assert (ax_oed.get_xlabel(), ax_oed.get_ylabel(), ax_oed.get_title()) == ("time t (s)", "sigma'_v (kPa)",
+                                                                              "OED, stage relax")
+    line = ax_q.get_lines()[0]
+    np.testing.assert_array_equal(line.get_xdata(), dense_x)
+    assert line.get_linestyle() == "-"
+    markers = ax_u.get_lines()[0]   # no dense curve: markers at the records, no segments
+    assert markers.get_linestyle() == "None" and markers.get_marker() == "x"
+    np.testing.assert_array_equal(markers.get_ydata(), map_simulated["CIU", "excess_pore_pressure"])
+    assert len(fig.axes) == 3   # three panels: one row of three
+    assert ax_oed.get_xscale() == "log" and ax_q.get_xscale() == "linear"   # relaxation times over three decades
+
+
+def test_recorded_mean_stress_follows_the_total_stress_path_of_the_test():
+    """An undrained test from p'0 = 95 kPa, q0 = 0 at constant cell pressure: p' = p'0 + q/3 - u. The model: q 30,
+    u 5 -> p' 100; the record: q 33, u 4 -> p' 102. The same within a stage of a programme."""
+    model = {"q": np.array([30.0]), "mean_stress": np.array([100.0]), "excess_pore_pressure": np.array([5.0])}
+    test = Test("CIU", {"q": Curve([1.0], [33.0]), "excess_pore_pressure": Curve([1.0], [4.0])})
+    assert recorded_mean_stress(test, "q", model, drained=False)[0] == pytest.approx(95.0 + 33.0 / 3 - 4.0)
+    staged = Test("P", {"q@shear": Curve([1.0], [33.0]), "excess_pore_pressure@shear": Curve([1.0], [4.0])})
+    assert recorded_mean_stress(staged, "q@shear", model, drained=False)[0] == pytest.approx(102.0)
+    drained = Test("CID", {"q": Curve([1.0], [60.0])})
+    assert recorded_mean_stress(drained, "q", {"q": np.array([30.0]), "mean_stress": np.array([110.0])},
+                                drained=True)[0] == pytest.approx(100.0 + 60.0 / 3)
+    recorded_p = Test("CIUE", {"q": Curve([1.0], [-20.0]), "p": Curve([1.0], [90.0])})
+    assert recorded_mean_stress(recorded_p, "q", model, drained=False)[0] == 90.0
+    assert recorded_mean_stress(Test("U", {"q": Curve([1.0], [20.0])}), "q", model, drained=False) is None
+
+
+def test_the_model_at_the_records_comes_from_one_solution():
+    """From the solution between the records when it has q and p' (interpolated to the records, whatever the order
+    of its abscissae), else from the values at the records."""
+    test = Test("P", {"q@shear": Curve([-1.0, -2.0], [-20.0, -30.0])})
+    dense = {("P", "q@shear"): (np.array([-0.5, -1.0, -1.5, -2.0]), np.array([-10.0, -21.0, -26.0, -31.0])),
+             ("P", "mean_stress@shear"): (np.array([-0.5, -1.0, -1.5, -2.0]), np.array([99.0, 97.0, 95.0, 93.0]))}
+    model = model_at_records(test, "q@shear", {"q@shear": np.array([-20.5, -30.5])}, dense)
+    np.testing.assert_array_equal(model["q"], [-21.0, -31.0])
+    np.testing.assert_array_equal(model["mean_stress"], [97.0, 93.0])
+    raw = {"q@shear": np.array([-20.5, -30.5]), "mean_stress@shear": np.array([96.0, 92.0])}
+    np.testing.assert_array_equal(model_at_records(test, "q@shear", raw, {})["q"], [-20.5, -30.5])
+    assert model_at_records(test, "q@shear", {"q@shear": np.array([-20.5, -30.5])}, {}) is None
+
+
+def test_stress_paths_are_drawn_for_the_tests_whose_model_gives_p():
+    observations = _records()
+    raw = {"CIU": {"q": np.array([29.0, 41.0, 44.0]), "mean_stress": np.array([95.0, 90.0, 88.0]),
+                   "excess_pore_pressure": np.array([11.0, 14.0, 19.0])},
+           "OED": {"axial_stress@relax": np.array([81.0, 69.0, 66.0])}}
+    fig = stress_paths_figure(observations, raw, {("CIU", None): False})
+    (ax,) = [a for a in fig.axes if a.axison]
+    assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_title()) == ("p' (kPa)", "q (kPa)", "CIU")
+    recorded = ax.get_lines()[1]
+    np.testing.assert_allclose(recorded.get_xdata(), raw["CIU"]["mean_stress"]
+                               + (observations["CIU"].curves["q"].y - raw["CIU"]["q"]) / 3
+                               - (observations["CIU"].curves["excess_pore_pressure"].y
+                                  - raw["CIU"]["excess_pore_pressure"]))
+    assert ax.get_lines()[0].get_linestyle() == "None"   # the MAP at the records: markers
+    strain, p_dense, q_dense = np.linspace(1.0, 4.0, 9), np.linspace(95.0, 88.0, 9), np.linspace(28.0, 44.0, 9)
+    fig = stress_paths_figure(observations, raw, {("CIU", None): False}, {("CIU", "q"): (strain, q_dense),
+                                                                          ("CIU", "mean_stress"): (strain, p_dense)})
+    line = [a for a in fig.axes if a.axison][0].get_lines()[0]
+    np.testing.assert_array_equal(line.get_xdata(), p_dense)
+    np.testing.assert_array_equal(line.get_ydata(), q_dense)
+    assert stress_paths_figure(observations, {"OED": raw["OED"]}, {}) is None
+
+
+def test_mean_stress_is_asked_beside_every_q_curve():
+    observations = Observations([Test("P", {"q@shear": Curve([1.0, 2.0], [10.0, 20.0], "axial_strain", "q", "%",
+                                                             "kPa"),
+                                            "void_ratio@swelling": Curve([50.0, 40.0], [1.0, 1.01], "p")})])
+    asked = with_mean_stress(observations)["P"].curves
+    assert set(asked) == {"q@shear", "void_ratio@swelling", "mean_stress@shear"}
+    np.testing.assert_array_equal(asked["mean_stress@shear"].x, [1.0, 2.0])
+    assert asked["mean_stress@shear"].x_name == "axial_strain"
+
+
+def test_densified_abscissae_keep_the_records_and_fill_between_them():
+    dense = densified(_records(), factor=2)
+    np.testing.assert_array_equal(dense["CIU"].curves["q"].x, [1.0, 1.5, 2.0, 3.0, 4.0])
+    np.testing.assert_array_equal(dense["OED"].curves["axial_stress@relax"].x, [10.0, 55.0, 100.0, 5050.0, 1e4])
+    assert dense["OED"].curves["axial_stress@relax"].x_name == "time"
+
+
+def test_dense_curves_are_the_model_at_the_dense_abscissae():
+    def simulate(observations):
+        return {t.name: {**{c: np.sqrt(curve.x) for c, curve in t.curves.items()},
+                         **({"mean_stress": 100.0 - next(iter(t.curves.values())).x} if t.name == "CIU" else {})}
+                for t in observations}
+
+    out = dense_curves(simulate, _records(), factor=3)
+    x, y = out["CIU", "q"]
+    np.testing.assert_allclose(x, [1.0, 4 / 3, 5 / 3, 2.0, 8 / 3, 10 / 3, 4.0])
+    np.testing.assert_allclose(y, np.sqrt(x))
+    np.testing.assert_allclose(out["CIU", "mean_stress"][1], 100.0 - x)
+    assert dense_curves(lambda observations: RuntimeError("diverged"), _records()) == {}
