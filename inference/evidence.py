@@ -35,10 +35,15 @@ only as a starting point:
    heuristic, weights: Veach & Guibas 1995; Owen & Zhou 2000), so the first batch's defensive proposal stays in the
    denominator of every weight; ESS, standard error and ln Z_IS are those of the pooled weights, N their number.
    The rounds stop as soon as the pooled ESS reaches ``min_ess`` N. The reported ln Z is ln Z_IS when it does,
-   else ln Z_L.
+   else ln Z_L;
+6. a lower bound that holds whatever the proposal's fit: the first batch's estimate Z_1 (its proposal fixed before
+   any draw) is unbiased and positive, so by Markov's inequality P(Z_1 >= Z / delta) <= delta, i.e.
+   ln Z >= ln Z_1 + ln delta with probability at least 1 - delta (Gogate, Bidyuk & Dechter 2007). With delta =
+   LOWER_BOUND_RISK = 0.05: ``log_lower`` = ln Z_1 - 3.00.
 
 References: Tierney & Kadane (1986) Laplace's method; Geweke (1989) importance sampling with a Student-t proposal
-fitted at the mode; Cornuet et al. (2012, Scand. J. Stat. 39) adaptive multiple importance sampling; Llorente,
+fitted at the mode; Cornuet et al. (2012, Scand. J. Stat. 39) adaptive multiple importance sampling; Gogate,
+Bidyuk & Dechter (2007, AAAI) lower bounds on the evidence by Markov's inequality; Llorente,
 Martino, Delgado & Lopez-Santiago (2023, SIAM Review 65) sections 3 and 5.
 """
 from __future__ import annotations
@@ -56,6 +61,8 @@ STEP_FRACTION = 0.2
 WIDE = 3.0
 #: the further importance batches, each fitted to the pooled weighted draws, when the first falls short of its ESS
 ADAPT_ROUNDS = 3
+#: the probability with which ``log_lower`` may exceed ln Z (module docstring, step 6)
+LOWER_BOUND_RISK = 0.05
 #: the largest Newton step along any u_i (u is a logit: 1 moves a parameter in mid-range by about a quarter of its
 #: prior range)
 MAX_STEP = 1.0
@@ -66,7 +73,9 @@ class EvidenceEstimate:
     """log_evidence: the reported ln Z (``method`` "importance sampling" or "Laplace"); log_laplace, log_is: the two
     estimates (log_is None when no draw had weight); std_error: standard error of ln Z_IS; ess: effective sample
     size of the importance weights; n_draws: proposal draws; n_solves: forward solves spent (mode, Hessian, draws);
-    log_posterior_mode: g at the refined mode; mode: the refined mode in the parameters (theta, the prior's order)."""
+    log_posterior_mode: g at the refined mode; mode: the refined mode in the parameters (theta, the prior's order);
+    log_lower: a lower bound of ln Z with probability 1 - LOWER_BOUND_RISK (module docstring, step 6; None when no
+    draw of the first batch had weight)."""
 
     log_evidence: float
     method: str
@@ -78,6 +87,7 @@ class EvidenceEstimate:
     n_solves: int
     log_posterior_mode: float
     mode: tuple = ()
+    log_lower: float | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -185,18 +195,20 @@ def _weights(log_w):
 def _importance(t, mode, cov, n_draws, min_ess, rounds, df, rng):
     """Importance sampling of g from the defensive mixture at ``mode``, adapted by up to ``rounds`` further batches
     while the pooled ESS stays under ``min_ess`` of the draws (module docstring, steps 4-5): (ln Z_IS or None, ESS,
-    standard error, number of draws)."""
+    standard error, number of draws, the first batch's ln Z_IS or None)."""
     proposals = [_StudentMixture(mode, (cov, WIDE ** 2 * cov), df)]
     draws = proposals[0].rvs(n_draws, rng)
     log_g = t.g(draws)
     d = len(mode)
+    first = None
     while True:
         # the balance heuristic: each draw against the mixture of every batch's proposal (equal batch sizes)
         log_q = np.logaddexp.reduce([p.logpdf(draws) for p in proposals], axis=0) - np.log(len(proposals))
         log_w = log_g - log_q
         log_is, ess, error = _weights(log_w)
+        first = log_is if first is None else first
         if log_is is None or ess >= min_ess * len(draws) or len(proposals) > rounds:
-            return log_is, ess, error, len(draws)
+            return log_is, ess, error, len(draws), first
         finite = np.isfinite(log_w)
         w = np.exp(np.where(finite, log_w - log_w[finite].max(), -np.inf))
         w /= w.sum()
@@ -279,10 +291,11 @@ def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, 
     A, cov = _negative_definite(H)
     d = len(u)
     log_laplace = float(f0 + 0.5 * d * np.log(2.0 * np.pi) - 0.5 * np.linalg.slogdet(A)[1])
-    log_is, ess, error, drawn = _importance(t, u, cov, n_draws, min_ess, adapt_rounds, df,
-                                            np.random.default_rng(seed))
+    log_is, ess, error, drawn, first = _importance(t, u, cov, n_draws, min_ess, adapt_rounds, df,
+                                                   np.random.default_rng(seed))
     use_is = log_is is not None and ess >= min_ess * drawn
     return EvidenceEstimate(log_is if use_is else log_laplace, "importance sampling" if use_is else "Laplace",
                             log_laplace, log_is, error, ess, drawn, t.n_solves, float(f0),
-                            tuple(float(v) for v in t.to_theta(u)))
+                            tuple(float(v) for v in t.to_theta(u)),
+                            None if first is None else first + float(np.log(LOWER_BOUND_RISK)))
 

@@ -306,13 +306,16 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
     leader = order[0] if order else None
     against = {name: _against(entry.get(name)) for name in by_candidate}
     blocks = {}
+    # the ln Z an enriched class must reach to confirm: the base's plus the threshold, the model-form class's plus
+    # its margin (`trust`: a lower bound of the class's ln Z that clears it is a check of its evidence)
+    floor = max(lnz0 + threshold, -np.inf if model_form is None else model_form.log_evidence + form_lead)
     for name, cl in enriched.items():
-        reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule)
+        reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule, floor)
         if numerics:
             reasons.append(numerics)
         # against the base only, and not when both refined estimates passed an importance check: a sampler's
         # estimate with few particles lags the more the more parameters a class has (`trust`, check 4)
-        if rule.sampler_agrees and not (importance_checked(cl, rule) and importance_checked(base, rule)):
+        if rule.sampler_agrees and not (importance_checked(cl, rule, floor) and importance_checked(base, rule)):
             disagree = sampler_disagrees(cl, base)
             if disagree:
                 reasons.append(disagree)

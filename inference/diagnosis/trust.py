@@ -11,10 +11,13 @@ A class cannot confirm when
 3. its refined evidence is not checked (`evidence_check`): it is checked when its importance-sampling estimate has
    an effective sample size of at least ``ess_fraction`` of its draws, or when the Laplace and importance-sampling
    estimates, made independently (one from the curvature at the mode, one from draws), agree within three standard
-   errors of the latter and 1 nat, or when it agrees so with the sampler's own ln Z;
+   errors of the latter and 1 nat, or when its lower bound (``inference.mode_evidence``'s ``log_lower``: ln Z is
+   above it with probability 0.95 whatever the importance proposal's fit, by Markov's inequality) already clears
+   what the class must reach to confirm (the base's ln Z plus the threshold, the model-form class's plus its
+   margin), or when it agrees within three standard errors and 1 nat with the sampler's own ln Z;
 4. the sampler's own ln Z favours the base class, while the refined estimates favour the enriched one: two
    estimates that disagree in sign are a warning, not a licence to take the larger one (`sampler_disagrees`). It
-   does not apply when both refined estimates passed an importance check (the first two ways of check 3): the
+   does not apply when both refined estimates passed an importance check (the first three ways of check 3): the
    sampler's estimate is then the unchecked one, and it lags the further behind the more parameters and tempering
    stages a class has (a destructuration class of a CRS programme: sampler 174.3 against 270.1 by importance
    sampling and 270.4 by Laplace). Nor is it applied against the model-form class, whose several extra parameters
@@ -35,8 +38,8 @@ import numpy as np
 from .records import DecisionRule, ModelClass
 
 __all__ = [
-    "confirmation_blocks", "evidence_check", "evidence_trusted", "importance_checked", "sampler_disagrees",
-    "numerics_comparable",
+    "IMPORTANCE_CHECKS", "confirmation_blocks", "evidence_check", "evidence_trusted", "importance_checked",
+    "sampler_disagrees", "numerics_comparable",
 ]
 
 
@@ -52,26 +55,34 @@ def _agree(value: float, other, std_error) -> bool:
     return other is not None and abs(value - other) <= max(3.0 * float(std_error or 0.0), 1.0)
 
 
-def evidence_check(cls: ModelClass, rule: DecisionRule) -> str:
-    """Which check of the class's refined ln Z passed (check 3 of the module docstring): "importance sampling",
-    "Laplace and importance sampling agree", "the sampler agrees", or "" when none did (or there is no refined
-    estimate: "no refined estimate")."""
+#: the checks of a refined ln Z that rest on importance sampling (check 3 of the module docstring)
+IMPORTANCE_CHECKS = ("importance sampling", "Laplace and importance sampling agree",
+                     "its 95 % lower bound clears what it must reach")
+
+
+def evidence_check(cls: ModelClass, rule: DecisionRule, floor: float | None = None) -> str:
+    """Which check of the class's refined ln Z passed (check 3 of the module docstring): one of
+    IMPORTANCE_CHECKS, "the sampler agrees", or "" when none did (or there is no refined estimate: "no refined
+    estimate"). ``floor``: the ln Z the class must reach to confirm (None: the lower bound is not asked)."""
     ev = cls.evidence
     if not ev:
         return "no refined estimate"
     if ev.get("method") == "importance sampling" and ev.get("n_draws") and \
             ev.get("ess", 0.0) >= rule.ess_fraction * ev["n_draws"]:
-        return "importance sampling"
+        return IMPORTANCE_CHECKS[0]
     if ev.get("method") == "Laplace" and _agree(ev["log_evidence"], ev.get("log_is"), ev.get("std_error")):
-        return "Laplace and importance sampling agree"
+        return IMPORTANCE_CHECKS[1]
+    if floor is not None and ev.get("log_lower") is not None and ev["log_lower"] >= floor:
+        return IMPORTANCE_CHECKS[2]
     if _agree(ev["log_evidence"], cls.sampler_log_evidence, ev.get("std_error")):
         return "the sampler agrees"
     return ""
 
 
-def evidence_trusted(cls: ModelClass, rule: DecisionRule) -> str:
-    """"" when the class's ln Z may be used to confirm, else why not (check 3 of the module docstring)."""
-    if evidence_check(cls, rule):
+def evidence_trusted(cls: ModelClass, rule: DecisionRule, floor: float | None = None) -> str:
+    """"" when the class's ln Z may be used to confirm, else why not (check 3 of the module docstring; ``floor`` as
+    in `evidence_check`)."""
+    if evidence_check(cls, rule, floor):
         return ""
     ev, sampler = cls.evidence, cls.sampler_log_evidence
     if ev.get("method") == "importance sampling":
@@ -81,13 +92,15 @@ def evidence_trusted(cls: ModelClass, rule: DecisionRule) -> str:
         why = f"its refined ln Z is a {ev.get('method', 'mode')} estimate without an importance-sampling check"
         if ev.get("log_is") is not None:
             why += f" (importance sampling differs by {ev['log_is'] - ev['log_evidence']:+.1f})"
+    if floor is not None and ev.get("log_lower") is not None:
+        why += f"; its 95 % lower bound {ev['log_lower']:.1f} falls short of {floor:.1f}"
     gap = "" if sampler is None else f", and the sampler's estimate differs by {ev['log_evidence'] - sampler:+.1f}"
     return f"evidence not trusted: {why}{gap}"
 
 
-def importance_checked(cls: ModelClass, rule: DecisionRule) -> bool:
-    """The class's refined ln Z passed an importance check (the first two ways of check 3)."""
-    return evidence_check(cls, rule) in ("importance sampling", "Laplace and importance sampling agree")
+def importance_checked(cls: ModelClass, rule: DecisionRule, floor: float | None = None) -> bool:
+    """The class's refined ln Z passed an importance check (IMPORTANCE_CHECKS; ``floor`` as in `evidence_check`)."""
+    return evidence_check(cls, rule, floor) in IMPORTANCE_CHECKS
 
 
 def sampler_disagrees(cls: ModelClass, other: ModelClass) -> str:
@@ -102,9 +115,11 @@ def sampler_disagrees(cls: ModelClass, other: ModelClass) -> str:
     return ""
 
 
-def confirmation_blocks(cls: ModelClass, enrichment: dict | None, rule: DecisionRule) -> list:
+def confirmation_blocks(cls: ModelClass, enrichment: dict | None, rule: DecisionRule,
+                        floor: float | None = None) -> list:
     """Why the enriched class ``cls`` cannot confirm its candidate (checks 1-3 of the module docstring), in words;
-    [] when nothing blocks it. ``enrichment``: the candidate's plain-data enrichment (its ``inert_at``)."""
+    [] when nothing blocks it. ``enrichment``: the candidate's plain-data enrichment (its ``inert_at``); ``floor``:
+    the ln Z it must reach to confirm (`evidence_check`)."""
     blocks = []
     free = [n for n in cls.parameters if n in cls.priors]
     if free and all(cls.parameters[n]["std"] < rule.collapse_fraction * (cls.priors[n][1] - cls.priors[n][0])
@@ -121,7 +136,7 @@ def confirmation_blocks(cls: ModelClass, enrichment: dict | None, rule: Decision
             bound = lower if end == "lower" else upper
             blocks.append(f"its added parameter {name} = {value:.4g} sits at the {end} end of its prior ({bound:g}), "
                           "where the effect vanishes")
-    reason = evidence_trusted(cls, rule)
+    reason = evidence_trusted(cls, rule, floor)
     if reason:
         blocks.append(reason)
     return blocks

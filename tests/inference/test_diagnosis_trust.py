@@ -1,6 +1,7 @@
 """What may confirm an enrichment (inference.diagnosis.trust, rank.conclude): a model-form class it must beat, a
 posterior that did not collapse, an added parameter away from the end where its physics vanishes, an evidence
 estimate that passed its check, and a sampler that agrees in sign."""
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -179,3 +180,27 @@ def test_the_sampler_sign_is_not_asked_of_two_importance_checked_estimates():
     unchecked = replace(base, evidence={"log_evidence": 246.16, "method": "Laplace", "std_error": 0.0})
     d = diagnosis.conclude(_ranked("A"), [unchecked, enriched], RULE)
     assert d.omitted_physics == "none" and "favours the base class" in d.candidates[0].decision
+
+
+def test_a_lower_bound_that_clears_the_base_and_the_model_form_class_checks_the_evidence():
+    """An IL programme with hidden destructuration: the class's Laplace value 259.86 and importance estimate 264.34
+    (ESS 17 of 1024) disagree, but the first batch's estimate 264.67 gives a 95 % lower bound 261.67 (Markov), above
+    the model-form class (259.71) and the base plus the threshold (200.95 + 20); the sampler's lag (182.1 against
+    the base's 191.2) is not asked of it. A bound below the model-form class does not check it. The soil loop's rule:
+    threshold 20 over the base, margin 0 over the model-form class."""
+    rule = replace(RULE, model_form_margin=0.0)
+    base = _class("base", "base", None, 200.95, sampler=191.2,
+                  evidence={"log_evidence": 200.95, "method": "importance sampling", "ess": 59.2, "n_draws": 256,
+                            "std_error": 0.11})
+    form = _class("base + delta", "model form", None, 259.71, sampler=243.3,
+                  evidence={"log_evidence": 259.71, "method": "importance sampling", "ess": 101.3, "n_draws": 768,
+                            "std_error": 0.09})
+    ev = {"log_evidence": 259.86, "method": "Laplace", "log_laplace": 259.86, "log_is": 264.34, "ess": 16.9,
+          "n_draws": 1024, "std_error": 0.24, "log_lower": 264.67 + math.log(0.05)}
+    enriched = _class("e", "enriched", "A", 259.86, _params(M=1.2, xi=8.0), sampler=182.1, evidence=ev)
+    assert evidence_check(enriched, rule) == ""
+    assert evidence_check(enriched, rule, floor=259.71) == "its 95 % lower bound clears what it must reach"
+    assert diagnosis.conclude(_ranked("A"), [base, form, enriched], rule).omitted_physics == "A"
+    short = replace(enriched, evidence={**ev, "log_lower": 258.0})
+    d = diagnosis.conclude(_ranked("A"), [base, form, short], rule)
+    assert d.omitted_physics == "none" and "its 95 % lower bound 258.0 falls short of 259.7" in d.candidates[0].decision
