@@ -158,7 +158,14 @@ def load_study(path, check_files=True) -> Study:
     synthetic = ck.table(doc.get("synthetic", {}), "synthetic",
                          ("parameters", "switches", "noise", "seed", "points", "max_strain_pct"))
     references = read_references(ck, doc.get("reference", {}), spec.parameters)
-    runner = read_runner(ck, ck.table(doc.get("runner", {}), "runner"), names, tuple(references))
+    calibrated = [t.name for t in tests if t.role == "calibrate"]
+    if not calibrated:
+        ck.fail("tests", [t.name for t in tests], 'every test has role = "predict": at least one must be calibrated')
+    runner = read_runner(ck, ck.table(doc.get("runner", {}), "runner"), names, tuple(references), calibrated)
+    predicted = [i for i, t in enumerate(tests) if t.role == "predict"]
+    if predicted and runner["route"] != "sand":
+        ck.fail(f"tests[{predicted[0]}].role", "predict", 'predicted tests are run by [runner] route = "sand" studies '
+                f'(this study\'s route is {runner["route"]!r}); give role = "calibrate" or leave the test out')
     return Study(path, name, description, model, switches, fixed, free, tuple(log_uniform), (lo, hi), sigma_kind,
                  tests, sampler, quick, fe, fe_quick, synthetic, error_model, constraints, references, runner)
 

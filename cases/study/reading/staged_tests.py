@@ -9,7 +9,7 @@ record); compression positive.
 from __future__ import annotations
 
 from cases.study.checks import StudyError
-from cases.study.programme import InitialState, Stage, TestSpec
+from cases.study.programme import ROLES, InitialState, Stage, TestSpec
 from cases.study.stages import KINDS
 from cases.study.stages.sequence import check_sbp_stages, check_sequence
 from constitutive.registry import SBP_MODELS
@@ -17,9 +17,9 @@ from constitutive.registry import SBP_MODELS
 __all__ = ["PROGRAMME_FIELDS", "INITIAL_FIELDS", "programme_spec", "PRECONSOLIDATION_PARAMETERS"]
 
 #: test-level fields of a programme entry besides the initial state (per apparatus)
-PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "initial", "stages"),
-                    "oedometer": ("name", "file", "apparatus", "weight", "initial", "stages"),
-                    "sbp": ("name", "file", "apparatus", "weight", "initial", "stages", "permeability",
+PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "role", "initial", "stages"),
+                    "oedometer": ("name", "file", "apparatus", "weight", "role", "initial", "stages"),
+                    "sbp": ("name", "file", "apparatus", "weight", "role", "initial", "stages", "permeability",
                             "probe_radius", "depth")}
 INITIAL_FIELDS = ("e0", "p0", "sigma_v0", "K0", "ocr", "preconsolidation", "u0")
 #: the model parameters a per-test ``ocr`` / ``preconsolidation`` replaces
@@ -41,6 +41,7 @@ def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
     initial = initial_state(ck, t.get("initial", {k: t[k] for k in inline}),
                             f"{where}.initial" if "initial" in t else where, apparatus, spec, model)
     weight = ck.number(t.get("weight", 1.0), f"{where}.weight", positive=True)
+    role = ck.text(t.get("role", "calibrate"), f"{where}.role", ROLES)
     site = {k: ck.number(t[k], f"{where}.{k}", positive=k != "depth", non_negative=k == "depth")
             for k in ("permeability", "probe_radius", "depth") if k in t}
     if apparatus == "sbp":
@@ -68,7 +69,7 @@ def programme_spec(ck, t, i, spec, model, file, name) -> TestSpec:
               "consolidation": None if apparatus != "triaxial" else ("isotropic" if initial.p0 is not None else "K0"),
               "strain_rate": stages[0].strain_rate if apparatus == "sbp" else None}
     return TestSpec(name=name, type="programme", file=file, where=f"{ck.path}: {where} ({name})", apparatus=apparatus,
-                    initial=initial, stages=stages, weight=weight, **site, **mirror)
+                    initial=initial, stages=stages, weight=weight, role=role, **site, **mirror)
 
 
 def initial_state(ck, t, where, apparatus, spec, model) -> InitialState:
