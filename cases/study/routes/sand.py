@@ -402,7 +402,7 @@ def _report(out, run, seed, post, s: SandStudy, summary, volume_rows, truth, noi
     if volume_rows:
         text += ["Volumetric strain of the predicted drained tests (%, compression positive, dilation negative; "
                  "eps_v = 100 (e0 - e)/(1 + e0); measured: the record interpolated; 95 % posterior predictive of "
-                 "Eq. 1 on e):", "", *volume_lines(volume_rows), ""]
+                 "(P1) on e, noise and model error):", "", *volume_lines(volume_rows), ""]
     text += [*predictions, "Figures: curves.png, marginals.png, stages.png, csl.png"
              + (", predictions.png." if predictions else ".")]
     (Path(out) / "report.md").write_text("\n".join(text) + "\n")
@@ -448,7 +448,7 @@ def run(study, run_settings, args) -> int:
     drained_predicted = [t for t in s.predicted if "e" in s.all_obs[t].curves]
 
     def finish(one, seed, out, post):
-        predictions, volume_rows = [], []
+        predictions, volume_rows, amplitude = [], [], {}
         if s.predicted:
             amplitude, check = leave_one_out(s, error_model, one, out, seed, settings.n_samples, sampler)
             rows = score_predictions(s.like_all, post, s.predicted, amplitude)
@@ -457,7 +457,8 @@ def run(study, run_settings, args) -> int:
                              f"predictions (95 % bands)", LABELS)
         if runner["volume_at_pct"] and drained_predicted:
             volume_rows = volume_change_table(s.forward_all, post, s.all_obs, drained_predicted,
-                                              tuple(runner["volume_at_pct"]), sigmas=curve_sigmas(s.like))
+                                              tuple(runner["volume_at_pct"]), sigmas=curve_sigmas(s.like),
+                                              amplitude=amplitude)
             if is_root():
                 print("\n".join([f"volumetric strain of the predicted tests, seed {seed}:",
                                  *volume_lines(volume_rows)]))
