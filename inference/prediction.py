@@ -22,13 +22,14 @@ __all__ = ["model_error_amplitude", "prediction_bands", "interval_score", "crps_
 _CRPS_COLUMNS = 64
 
 
-def model_error_amplitude(residuals, noise_variance) -> float:
+def model_error_amplitude(residuals, explained_variance) -> float:
     """(P2): the model-error amplitude a_k of one quantity from its held-out curves: the square root of the mean over
-    the curves of [mean square relative residual - the noise variance the curve's calibration identified], 0 when
-    the noise explains the residuals. ``residuals``: one array of relative residuals (U_obs - U_num)/U_obs per curve
-    (NaN points, below the floor of Eq. (5), left out); ``noise_variance``: per curve, sigma^2 of its error group
-    (posterior mean of the calibration that did not see the curve)."""
-    excess = [np.nanmean(np.asarray(r, dtype=float) ** 2) - float(v) for r, v in zip(residuals, noise_variance)]
+    the curves of [mean square relative residual - the relative variance the curve's calibration already predicts],
+    0 when that explains the residuals. ``residuals``: one array of relative residuals (U_obs - U_num)/U_obs per
+    curve (NaN points, below the floor of Eq. (5), left out); ``explained_variance``: per curve, the noise variance
+    sigma^2 of its error group plus the variance of the relative prediction over the posterior draws, both of the
+    calibration that did not see the curve."""
+    excess = [np.nanmean(np.asarray(r, dtype=float) ** 2) - float(v) for r, v in zip(residuals, explained_variance)]
     if not excess:
         raise ValueError("model_error_amplitude needs at least one held-out curve")
     return math.sqrt(max(0.0, float(np.mean(excess))))

@@ -25,7 +25,7 @@ import inference
 from cases.study.checks import Checker, read_toml
 from cases.study.cli import UsageError, unit_hint
 from cases.study.forward.lab import LabForward
-from cases.study.outputs.predictions import plot_predictions, prediction_lines, score_predictions
+from cases.study.outputs.predictions import draws_at_records, plot_predictions, prediction_lines, score_predictions
 from cases.study.outputs.report import parameter_table
 from cases.study.programme import TestSpec
 from cases.study.reading.error_model import ErrorModel, read_error_model
@@ -204,7 +204,8 @@ def default_error_model(study) -> ErrorModel:
 def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler) -> tuple:
     """The model-error amplitudes (P2) of docs/reference.md section 10 by leaving out each calibration test in turn:
     calibrate on the others (the same settings, in ``out``/leave_one_out/<test>), the left-out test's relative
-    residuals at that calibration's MAP minus the noise variance it identified. Returns ({curve name: a_k} pooled
+    residuals at that calibration's MAP beyond the variance it predicts (its noise and its parameters' spread).
+    Returns ({curve name: a_k} pooled
     over the left-out tests, check rows: each left-out curve's coverage without the model-error term and with the
     amplitude of the other left-out tests only). ({}, []) with fewer than two calibration tests; a left-out test
     whose calibration or prediction fails is said on stderr and skipped."""
@@ -227,10 +228,13 @@ def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler)
         except Exception as exc:  # noqa: BLE001 - a fold that cannot be run leaves the others their say
             print(f"note: leave-one-out without {name}: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
             continue
-        sigma = like_left.curve_sigmas(post.samples)
+        sims, sigma = draws_at_records(like_left, post)
         sigma = sigma if sigma.ndim == 2 else np.repeat(sigma[:, None], len(like_left.curve_keys), axis=1)
-        noise = {key: float(np.mean(sigma[:, k] ** 2)) for k, key in enumerate(like_left.curve_keys)}
-        folds.append((name, like_left, post, {key: (residuals[key], noise[key]) for key in like_left.curve_keys}))
+        explained = {}
+        for k, key in enumerate(like_left.curve_keys):
+            drawn = sims[key][:, like_left.masks[key]]
+            explained[key] = float(np.mean(sigma[:, k] ** 2) + np.mean(np.var(drawn / drawn.mean(axis=0), axis=0)))
+        folds.append((name, like_left, post, {key: (residuals[key], explained[key]) for key in like_left.curve_keys}))
 
     def amplitudes(chosen):
         curves = {}
