@@ -6,6 +6,7 @@ import pytest
 from cases import burswood_sbp, calibrate, simsand_synthetic, toyoura
 from cases.study.checks import StudyError
 from cases.study.reading.schema import load_study
+from cases.study.routes import sand
 
 STUDIES = Path(calibrate.__file__).parent / "studies"
 
@@ -115,3 +116,11 @@ def test_single_sigma_and_error_groups_together_are_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--single-sigma and --error-groups: choose one error model" in err[0]
     assert not out.exists()
+
+
+def test_sand_studies_default_to_error_groups_by_quantity_or_the_study_files_own(tmp_path):
+    shipped = sand.default_error_model(load_study(toyoura.STUDY))
+    assert shipped.groups == {"stress": ("q", "u"), "volume": ("e",)} and shipped.bounds == (0.0, 1.0)
+    path = _edited(tmp_path, "bounds = [0.0, 1.0]\n\n[sampler]",
+                   'bounds = [0.0, 1.0]\ngroups = { load = ["q"], pores = ["e"] }\n\n[sampler]')
+    assert sand.default_error_model(load_study(path)).groups == {"load": ("q",), "pores": ("e",)}
