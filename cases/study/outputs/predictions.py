@@ -16,8 +16,8 @@ __all__ = ["draws_at_records", "score_predictions", "prediction_lines", "plot_pr
 
 def draws_at_records(like, post, n_draws=200, seed=0):
     """Up to ``n_draws`` final-stage samples of ``post`` simulated at the recorded points of ``like``'s curves:
-    ({(test, curve): (m, n_recorded)}, each curve's error parameter (m,) or (m, n_curves) in ``like.curve_keys``
-    order). A draw whose forward solve fails is left out (m counts the others)."""
+    ({(test, curve): (m, n_recorded)}, each curve's error parameter (m, n_curves) in ``like.curve_keys`` order). A
+    draw whose forward solve fails is left out (m counts the others)."""
     rng = np.random.default_rng(seed)
     idx = rng.choice(len(post.samples), size=min(n_draws, len(post.samples)), replace=False)
     draws = post.samples[idx]
@@ -36,7 +36,8 @@ def draws_at_records(like, post, n_draws=200, seed=0):
             raise
         draws = draws[kept]
         sims = {key: np.concatenate([r[key] for r in rows]) for key in rows[0]}
-    return sims, like.curve_sigmas(draws)
+    sigma = like.curve_sigmas(draws)
+    return sims, sigma if sigma.ndim == 2 else np.repeat(sigma[:, None], len(like.curve_keys), axis=1)
 
 
 def score_predictions(like, post, tests, amplitude: dict, level=0.95, n_draws=200, seed=0) -> list:
@@ -46,7 +47,6 @@ def score_predictions(like, post, tests, amplitude: dict, level=0.95, n_draws=20
     model-error term, and their scores (:func:`inference.prediction.band_scores`) plus ``point_error`` (RMS of the
     predictive mean's relative error, the same in both)."""
     sims, sigma = draws_at_records(like, post, n_draws, seed)
-    sigma = sigma if sigma.ndim == 2 else np.repeat(sigma[:, None], len(like.curve_keys), axis=1)
     column = {key: k for k, key in enumerate(like.curve_keys)}
     rows = []
     for label, amp in (("noise", {}), ("model", amplitude)):

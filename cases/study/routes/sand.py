@@ -205,10 +205,9 @@ def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler)
     """The model-error amplitudes (P2) of docs/reference.md section 10 by leaving out each calibration test in turn:
     calibrate on the others (the same settings, in ``out``/leave_one_out/<test>), the left-out test's relative
     residuals at that calibration's MAP beyond the variance it predicts (its noise and its parameters' spread).
-    Returns ({curve name: a_k} pooled
-    over the left-out tests, check rows: each left-out curve's coverage without the model-error term and with the
-    amplitude of the other left-out tests only). ({}, []) with fewer than two calibration tests; a left-out test
-    whose calibration or prediction fails is said on stderr and skipped."""
+    Returns ({curve name: a_k} pooled over the left-out tests, check rows: each left-out curve's coverage without
+    the model-error term and with the amplitude of the other left-out tests only). ({}, []) with fewer than two
+    calibration tests; a left-out test whose calibration or prediction fails is said on stderr and skipped."""
     names = list(s.cal_obs.tests)
     if len(names) < 2:
         return {}, []
@@ -225,11 +224,10 @@ def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler)
                              **sampler)
             like_left.bind(post.names)
             residuals = like_left.residuals(post.map_theta)
+            sims, sigma = draws_at_records(like_left, post)
         except Exception as exc:  # noqa: BLE001 - a fold that cannot be run leaves the others their say
             print(f"note: leave-one-out without {name}: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
             continue
-        sims, sigma = draws_at_records(like_left, post)
-        sigma = sigma if sigma.ndim == 2 else np.repeat(sigma[:, None], len(like_left.curve_keys), axis=1)
         explained = {}
         for k, key in enumerate(like_left.curve_keys):
             drawn = sims[key][:, like_left.masks[key]]
@@ -269,10 +267,10 @@ def build(study, free=None, undrained=(), error_model: ErrorModel | None = None,
     tests = _load(study, record_files(study, noise))
     user = load_undrained(undrained)
     runner = study.runner
-    calibrate = [t.name for t in study.tests if t.role == "calibrate"]
+    calibrated = [t.name for t in study.tests if t.role == "calibrate"]
     if user:
-        calibrate = [n for n in calibrate if n not in runner["substitutes"]]
-    calibration = [tests[n] for n in calibrate] + user
+        calibrated = [n for n in calibrated if n not in runner["substitutes"]]
+    calibration = [tests[n] for n in calibrated] + user
     cal_obs = inference.Observations(calibration)
     all_obs = (inference.Observations(calibration + [t for n, t in tests.items() if n not in cal_obs.tests])
                if len(calibration) < len(tests) + len(user) else cal_obs)
