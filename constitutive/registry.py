@@ -235,7 +235,7 @@ def enrichment_family(model: str) -> Family:
 
 # ---------------------------------------------------------------------------------------------- conventions
 #: constructor options that write the same model another way: the curves change, the physics does not (both are
-#: called Modified Cam Clay in the literature; docs/reference.md section 10). option -> {value: the convention in
+#: called Modified Cam Clay in the literature; docs/reference.md section 9). option -> {value: the convention in
 #: words}
 CONVENTIONS = {"specific_volume": {"current": "specific volume 1 + e (current)",
                                    "initial": "specific volume 1 + e0 (held at its initial value)"}}

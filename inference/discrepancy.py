@@ -1,4 +1,4 @@
-"""A model-form discrepancy on the relative residuals (Kennedy & O'Hagan 2001; docs/reference.md section 10).
+"""A model-form discrepancy on the relative residuals (Kennedy & O'Hagan 2001; docs/reference.md section 9).
 
 The paper's likelihood (Eqs. (4)-(6), (6g)) treats the relative errors r = (U_obs - U_num)/U_obs of a curve as
 independent, N(0, s_j^2) per point, where s_j^2 = sigma_g^2 N_0 N_j / N_i makes every curve of a test weigh the

@@ -38,10 +38,13 @@ from cases.study.stages.load import Load
 from cases.study.stages.pressuremeter import MAX_CAVITY_STRAIN, Expansion
 from cases.study.stages.shear import Shear
 
-__all__ = ["TestSpec", "Stage", "InitialState", "TEST_TYPES", "APPARATUS", "programme_of", "curve_key",
+__all__ = ["TestSpec", "Stage", "InitialState", "TEST_TYPES", "ROLES", "APPARATUS", "programme_of", "curve_key",
            "split_key"]
 
 TEST_TYPES = ("triaxial", "oedometer_crs", "oedometer_creep", "sbp")
+#: what a study does with a test (``role``): calibrate on it (default), or predict it without its data and score the
+#: prediction against them (docs/reference.md section 10)
+ROLES = ("calibrate", "predict")
 APPARATUS = tuple(KINDS)
 #: the apparatus of each flat test type
 APPARATUS_OF = {"triaxial": "triaxial", "oedometer_crs": "oedometer", "oedometer_creep": "oedometer", "sbp": "sbp"}
@@ -106,6 +109,7 @@ class TestSpec:
     initial: InitialState = field(default_factory=InitialState)
     stages: tuple = ()
     weight: float = 1.0
+    role: str = "calibrate"
 
     @property
     def staged(self) -> bool:
@@ -148,8 +152,9 @@ class TestSpec:
 
     def conditions(self) -> dict:
         """The test conditions as plain data (for summaries and the diagnosis input): the flat fields of a flat type,
-        the apparatus, initial state and stages of a programme; the weight when it is not 1."""
-        skip = ("name", "file", "where", "apparatus", "initial", "stages", "weight")
+        the apparatus, initial state and stages of a programme; the weight when it is not 1, the role when it is not
+        "calibrate"."""
+        skip = ("name", "file", "where", "apparatus", "initial", "stages", "weight", "role")
         out = {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(self)
                for v in [getattr(self, f.name)] if f.name not in skip and v not in (None, ())}
         if self.staged:
@@ -159,6 +164,8 @@ class TestSpec:
                 out.update(permeability=self.permeability, probe_radius=self.probe_radius)
         if self.weight != 1.0:
             out["weight"] = self.weight
+        if self.role != "calibrate":
+            out["role"] = self.role
         return out
 
     def describe(self) -> str:

@@ -38,7 +38,7 @@ ROLES = ("base", "enriched", "model form")
 #: physics vanishes sits at that end (`trust.confirmation_blocks`)
 INERT_FRACTION = 0.02
 #: an importance-sampling estimate of ln Z is trusted when its effective sample size is at least this fraction of
-#: its draws (docs/reference.md section 10: below about 10 % not trusted)
+#: its draws (docs/reference.md section 9: below about 10 % not trusted)
 ESS_FRACTION = 0.1
 #: a posterior has collapsed when every free parameter's standard deviation is below this fraction of its prior range
 COLLAPSE_FRACTION = 1e-6

@@ -1,5 +1,5 @@
 """Whether a calibrated enriched class may confirm its candidate at all: checks of its posterior, its mode and its
-evidence that come before any Bayes factor (docs/reference.md section 10, "evidence estimates to trust").
+evidence that come before any Bayes factor (docs/reference.md section 9, "trusted evidence").
 
 A class cannot confirm when
 1. its posterior collapsed: every free parameter's posterior standard deviation is below ``collapse_fraction`` of

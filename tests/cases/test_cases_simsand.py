@@ -177,7 +177,7 @@ def _contract(out, case):
 def test_tiny_synthetic_run_writes_the_contract(tmp_path):
     out = tmp_path / "syn"
     simsand_synthetic.main(["--noise", "0.1", "--free", "phi_mu", "--samples", "8", "--sweeps", "1", "--processes", "1",
-              "--out", str(out)])
+                            "--single-sigma", "--out", str(out)])
     s = _contract(out, "simsand_synthetic")
     assert s["synthetic"] is True and set(s["parameters"]) == {"phi_mu", "sigma_eps"}
     assert "synthetic" in (out / "report.md").read_text().lower()
@@ -194,3 +194,11 @@ def test_tiny_toyoura_run_writes_the_contract(tmp_path):
     # the study file's [reference] columns beside the posterior
     assert "| paper reference (optimisation), Table 3 | paper DE-TMCMC mean MAP |" in report
     assert "| 32.4 | 32.18 |" in report
+    # error groups by quantity by default; the predicted tests scored with the leave-one-test-out model error
+    assert s["error_model"] == {"stress": ["q", "u"], "volume": ["e"]}
+    assert {"sigma_eps_stress", "sigma_eps_volume"} <= set(s["parameters"])
+    predictions = s["predictions"]
+    assert {(c["test"], c["curve"]) for c in predictions["curves"]} == {
+        (f"test{i}", c) for i in (1, 3, 4, 5) for c in ("q", "e")}
+    assert {c["test"] for c in predictions["leave_one_out"]} == {"test2", "test6"}
+    assert "## Predictions" in report and (out / "predictions.png").is_file()

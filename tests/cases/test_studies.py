@@ -6,6 +6,7 @@ import pytest
 from cases import burswood_sbp, calibrate, simsand_synthetic, toyoura
 from cases.study.checks import StudyError
 from cases.study.reading.schema import load_study
+from cases.study.routes import sand
 
 STUDIES = Path(calibrate.__file__).parent / "studies"
 
@@ -52,6 +53,8 @@ def _edited(tmp_path, old, new, source=toyoura.STUDY):
     ('source = "paper DE-TMCMC std"', "", "reference.paper_de_std.source", None),
     ('route = "sand"', 'route = "fem"', "runner.route", "'fem'"),
     ('hold_at = "paper_reference"', 'hold_at = "paper"', "runner.hold_at", "'paper'"),
+    ('role = "predict"   ', 'role = "held out"', "tests['test1'].role", "'held out'"),
+    ('name = "test6"\n', 'name = "test6"\nrole = "predict"\n', "runner.substitutes", "['test6']"),
 ])
 def test_bad_reference_or_runner_field_names_file_field_and_value(tmp_path, old, new, field, value):
     path = _edited(tmp_path, old, new)
@@ -61,6 +64,31 @@ def test_bad_reference_or_runner_field_names_file_field_and_value(tmp_path, old,
     assert str(path) in message and field in message
     if value is not None:
         assert f"= {value}" in message
+
+
+def test_predicted_tests_are_the_roles_and_a_bad_role_is_one_line(tmp_path, capsys):
+    assert [t.name for t in load_study(toyoura.STUDY).tests if t.role == "predict"] == ["test1", "test3", "test4",
+                                                                                         "test5"]
+    path = _edited(tmp_path, 'role = "predict"   ', 'role = "forecast"')
+    assert calibrate.main([path, "--quick", "--processes", "1", "--out", tmp_path / "out"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "tests['test1'].role = 'forecast': expected one of calibrate, predict" in err[0]
+
+
+def test_a_predicted_test_outside_the_sand_route_or_no_calibrated_test_is_refused(tmp_path):
+    examples = STUDIES.parent / "examples"
+    text = (examples / "oedometer_crs.toml").read_text().replace('file = "data/', f'file = "{examples / "data"}/')
+    path = tmp_path / "crs.toml"
+    path.write_text(text.replace('name = "CRS_fast"\n', 'name = "CRS_fast"\nrole = "predict"\n'))
+    with pytest.raises(StudyError, match=r"tests\['CRS_fast'\]\.role = 'predict': predicted tests are run by \[runner\] "
+                       'route = "sand"'):
+        load_study(path)
+    path = _edited(tmp_path, 'name = "test2"\n', 'name = "test2"\nrole = "predict"\n')
+    text = path.read_text().replace('name = "test6"\n', 'name = "test6"\nrole = "predict"\n').replace(
+        'substitutes = ["test6"]', "")
+    path.write_text(text)
+    with pytest.raises(StudyError, match="at least one must be calibrated"):
+        load_study(path)
 
 
 def test_bad_reference_is_refused_by_the_command_line_with_exit_2(tmp_path, capsys):
@@ -80,3 +108,19 @@ def test_an_option_of_another_route_is_refused(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_status:  # an entry point offers its own route's options only
         toyoura.main(["--pressure-only", "--out", out])
     assert exit_status.value.code == 2 and "--pressure-only" in capsys.readouterr().err
+
+
+def test_single_sigma_and_error_groups_together_are_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert toyoura.main(["--single-sigma", "--error-groups", "--processes", "1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--single-sigma and --error-groups: choose one error model" in err[0]
+    assert not out.exists()
+
+
+def test_sand_studies_default_to_error_groups_by_quantity_or_the_study_files_own(tmp_path):
+    shipped = sand.default_error_model(load_study(toyoura.STUDY))
+    assert shipped.groups == {"stress": ("q", "u"), "volume": ("e",)} and shipped.bounds == (0.0, 1.0)
+    path = _edited(tmp_path, "bounds = [0.0, 1.0]\n\n[sampler]",
+                   'bounds = [0.0, 1.0]\ngroups = { load = ["q"], pores = ["e"] }\n\n[sampler]')
+    assert sand.default_error_model(load_study(path)).groups == {"load": ("q",), "pores": ("e",)}

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from cases.study.checks import StudyError
-from cases.study.programme import TEST_TYPES, TestSpec, programme_of
+from cases.study.programme import ROLES, TEST_TYPES, TestSpec, programme_of
 from cases.study.reading.records import COLUMNS, CURVE_OF, DRAINED_ONLY, UNDRAINED_ONLY
 from cases.study.reading.staged_tests import programme_spec
 from constitutive.registry import SBP_MODELS
@@ -62,12 +62,14 @@ def test_spec(ck, t, i, spec, model, check_files) -> TestSpec:
                     "\"oedometer\" | \"sbp\" with [[tests.stages]]), not of the one-stage shorthand type = "
                     f"{kind!r}")
     required, optional = TEST_FIELDS[kind]
-    ck.table(t, where, ("name", "type", "file", "weight", *required, *optional), ("type", "file", *required))
+    ck.table(t, where, ("name", "type", "file", "weight", "role", *required, *optional), ("type", "file", *required))
     values = {}
     for k, v in t.items():
         w = f"{where}.{k}"
         if k in CHOICES:
             values[k] = ck.text(v, w, CHOICES[k])
+        elif k == "role":
+            values[k] = ck.text(v, w, ROLES)
         elif k in POSITIVE or k in NON_NEGATIVE:
             values[k] = ck.number(v, w, positive=k in POSITIVE, non_negative=k in NON_NEGATIVE)
         elif k in INTEGERS:

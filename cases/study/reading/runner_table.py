@@ -7,8 +7,8 @@ the study, and the settings of that route that are not part of the calibration p
                                # (cases.study.routes.sand); "sbp": the pressuremeter route (cases.study.routes.sbp)
 
 Sand route fields: ``records`` ("plain": columns eps_a_pct, q_kPa, e; "stress_ratio": eps_a (%), sr =
-sigma'_a/sigma'_r, eps_v (% compression positive) with header e0, sigma3_kPa), ``calibrate`` (tests calibrated, the
-others predicted; default all), ``substitutes`` (calibration tests that ``--undrained`` recordings replace),
+sigma'_a/sigma'_r, eps_v (% compression positive) with header e0, sigma3_kPa), ``substitutes`` (calibration tests
+that ``--undrained`` recordings replace; a test's own ``role = "predict"`` keeps it out of the calibration),
 ``note`` (said in every output while no ``--undrained`` recording is given), ``grid_pct`` ([step, to] segments of
 the simulation's axial strain grid in %, from 0; default: the recorded strains), ``max_failure_fraction`` (failed
 forward solves allowed per stage), ``volume_at_pct`` (axial strains, %, of the predicted tests' volumetric strain
@@ -27,10 +27,10 @@ __all__ = ["ROUTES", "read_runner"]
 
 ROUTES = ("study", "sand", "sbp")
 FIELDS = {"study": (),
-          "sand": ("records", "calibrate", "substitutes", "note", "grid_pct", "max_failure_fraction", "volume_at_pct",
+          "sand": ("records", "substitutes", "note", "grid_pct", "max_failure_fraction", "volume_at_pct",
                    "error_groups", "noise_levels", "hold_at", "spread", "truth"),
           "sbp": ("sweeps", "note", "truth")}
-DEFAULTS = {"records": "plain", "calibrate": None, "substitutes": [], "note": "", "grid_pct": None,
+DEFAULTS = {"records": "plain", "substitutes": [], "note": "", "grid_pct": None,
             "max_failure_fraction": 0.1, "volume_at_pct": [], "error_groups": None, "noise_levels": None,
             "hold_at": None, "spread": None, "sweeps": None, "truth": None}
 
@@ -47,9 +47,10 @@ def _numbers(ck, value, where):
     return [ck.number(v, where, non_negative=True) for v in value]
 
 
-def read_runner(ck, table, tests, references) -> dict:
+def read_runner(ck, table, tests, references, calibrated) -> dict:
     """The checked ``[runner]`` table: {"route": ..., and every field of that route, defaults filled}; ``tests``
-    the study's test names, ``references`` its [reference] keys."""
+    the study's test names, ``references`` its [reference] keys, ``calibrated`` the names of its tests whose role is
+    "calibrate"."""
     route = ck.text(table.get("route", "study"), "runner.route", ROUTES)
     ck.table(table, "runner", ("route", *FIELDS[route]))
     out = {"route": route, **{k: DEFAULTS[k] for k in FIELDS[route]}}
@@ -59,7 +60,7 @@ def read_runner(ck, table, tests, references) -> dict:
             continue
         if k == "records":
             out[k] = ck.text(v, where, ("plain", "stress_ratio"))
-        elif k in ("calibrate", "substitutes"):
+        elif k == "substitutes":
             out[k] = _names(ck, v, where, tests)
         elif k in ("note", "error_groups"):
             if not isinstance(v, str):
@@ -86,6 +87,6 @@ def read_runner(ck, table, tests, references) -> dict:
             out[k] = ck.text(v, where, tuple(references) or ("(a [reference] key)",))
         elif k == "sweeps":
             out[k] = ck.integer(v, where, 1)
-    if route == "sand" and out["substitutes"] and not set(out["substitutes"]) <= set(out["calibrate"] or tests):
+    if route == "sand" and not set(out["substitutes"]) <= set(calibrated):
         ck.fail("runner.substitutes", out["substitutes"], "a substituted test must be a calibration test")
     return out

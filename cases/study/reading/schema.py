@@ -165,7 +165,14 @@ def load_study(path, check_files=True) -> Study:
     synthetic = ck.table(doc.get("synthetic", {}), "synthetic",
                          ("parameters", "switches", "noise", "seed", "points", "max_strain_pct"))
     references = read_references(ck, doc.get("reference", {}), spec.parameters)
-    runner = read_runner(ck, ck.table(doc.get("runner", {}), "runner"), names, tuple(references))
+    calibrated = [t.name for t in tests if t.role == "calibrate"]
+    if not calibrated:
+        ck.fail("tests", [t.name for t in tests], 'every test has role = "predict": at least one must be calibrated')
+    runner = read_runner(ck, ck.table(doc.get("runner", {}), "runner"), names, tuple(references), calibrated)
+    predicted = [i for i, t in enumerate(tests) if t.role == "predict"]
+    if predicted and runner["route"] != "sand":
+        ck.fail(f"tests[{tests[predicted[0]].name!r}].role", "predict", 'predicted tests are run by [runner] route = "sand" studies '
+                f'(this study\'s route is {runner["route"]!r}); give role = "calibrate" or leave the test out')
     enrichment = read_enrichment_priors(ck, doc.get("enrichment", {}), model, switches,
                                         any("sbp" in (t.type, t.apparatus) for t in tests))
     return Study(path, name, description, model, switches, fixed, free, tuple(log_uniform), (lo, hi), sigma_kind,

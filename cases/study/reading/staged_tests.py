@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from cases.study.checks import StudyError, did_you_mean
-from cases.study.programme import InitialState, Stage, TestSpec
+from cases.study.programme import ROLES, InitialState, Stage, TestSpec
 from cases.study.reading.stage_records import COLUMNS, CURVE_OF
 from cases.study.stages import KINDS
 from cases.study.stages.sequence import check_sbp_stages, check_sequence, stage_spans
@@ -21,9 +21,9 @@ __all__ = ["PROGRAMME_FIELDS", "INITIAL_FIELDS", "STAGE_FIELDS", "programme_spec
            "PRECONSOLIDATION_PARAMETERS"]
 
 #: test-level fields of a programme entry besides the initial state (per apparatus)
-PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "initial", "stages"),
-                    "oedometer": ("name", "file", "apparatus", "weight", "initial", "stages"),
-                    "sbp": ("name", "file", "apparatus", "weight", "initial", "stages", "permeability",
+PROGRAMME_FIELDS = {"triaxial": ("name", "file", "apparatus", "weight", "role", "initial", "stages"),
+                    "oedometer": ("name", "file", "apparatus", "weight", "role", "initial", "stages"),
+                    "sbp": ("name", "file", "apparatus", "weight", "role", "initial", "stages", "permeability",
                             "probe_radius", "depth")}
 INITIAL_FIELDS = ("e0", "p0", "sigma_v0", "K0", "ocr", "preconsolidation", "u0")
 #: the fields every stage table may have besides its kind's own
@@ -47,6 +47,7 @@ def programme_spec(ck, t, where, spec, model, file, name) -> TestSpec:
     initial = initial_state(ck, t.get("initial", {k: t[k] for k in inline}),
                             f"{where}.initial" if "initial" in t else where, apparatus, spec, model)
     weight = ck.number(t.get("weight", 1.0), f"{where}.weight", positive=True)
+    role = ck.text(t.get("role", "calibrate"), f"{where}.role", ROLES)
     site = {k: ck.number(t[k], f"{where}.{k}", positive=k != "depth", non_negative=k == "depth")
             for k in ("permeability", "probe_radius", "depth") if k in t}
     if apparatus == "sbp":
@@ -75,7 +76,7 @@ def programme_spec(ck, t, where, spec, model, file, name) -> TestSpec:
               "consolidation": None if apparatus != "triaxial" else ("isotropic" if initial.p0 is not None else "K0"),
               "strain_rate": stages[0].strain_rate if apparatus == "sbp" else None}
     return TestSpec(name=name, type="programme", file=file, where=f"{ck.path}: {where}", apparatus=apparatus,
-                    initial=initial, stages=stages, weight=weight, **site, **mirror)
+                    initial=initial, stages=stages, weight=weight, role=role, **site, **mirror)
 
 
 def measured_void_ratio(ck, where, initial, stages, apparatus, spec, model):

@@ -27,7 +27,7 @@ __all__ = ["OPTIONS", "main"]
 
 #: each route's own options (argparse dests); the common ones are every route's
 OPTIONS = {"study": ("diagnose", "generate", "noise"),
-           "sand": ("free", "sweeps", "undrained", "error_groups", "noise", "generate", "regenerate"),
+           "sand": ("free", "sweeps", "undrained", "error_groups", "single_sigma", "noise", "generate", "regenerate"),
            "sbp": ("recordings", "rates", "pressure_only", "fixed", "radial_cells", "layers", "increments", "sweeps",
                    "max_stages", "timeout", "generate", "throughput")}
 
@@ -64,7 +64,10 @@ def _options(ap, study_path, route=None):
                        help="undrained recordings (eps_a_pct, q_kPa, u_kPa) replacing [runner] substitutes")
         g.add_argument("--error-groups", nargs="?", const=True, type=Path, metavar="FILE",
                        help="one error parameter per group of curves (Eq. 6g) from FILE's [sigma_eps] table "
-                       "(default [runner] error_groups)")
+                       "(default [runner] error_groups); without it or --single-sigma: one per quantity (stress, "
+                       "volume)")
+        g.add_argument("--single-sigma", action="store_true", help="one sigma_eps for every curve (Eq. 4): the "
+                       "paper's error model, to reproduce its numbers")
         g.add_argument("--regenerate", action="store_true", help="rewrite the synthetic records first, then "
                        "calibrate")
     if g := group("sbp"):

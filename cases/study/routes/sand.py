@@ -15,6 +15,7 @@ Every output names the calibration and the predicted tests; the parameter table 
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +25,9 @@ import inference
 from cases.study.checks import Checker, read_toml
 from cases.study.cli import UsageError, unit_hint
 from cases.study.forward.lab import LabForward
+from cases.study.outputs.figures.labels import QUANTITY_LABELS
 from cases.study.outputs.glossary import glossary_lines
+from cases.study.outputs.predictions import draws_at_records, plot_predictions, prediction_lines, score_predictions
 from cases.study.outputs.report import parameter_table
 from cases.study.programme import TestSpec
 from cases.study.reading.error_model import ErrorModel, read_error_model
@@ -41,12 +44,15 @@ from cases.study.routes.sand_study import (
     write_figures,
     write_runs,
 )
-from cases.study.runner import is_root, method_name, run_all, write_summary
+from cases.study.runner import calibrate, is_root, method_name, run_all, write_summary
+from inference.executors import mpi_world
 from inference.observations import read_csv_table
+from inference.prediction import model_error_amplitude
 from inference.priors import Bound
 
-__all__ = ["SandStudy", "build", "load_stress_ratio", "load_undrained", "read_error_groups", "curve_sigmas",
-           "record_files", "generate_records", "volume_lines", "run"]
+__all__ = ["SandStudy", "build", "QUANTITY_GROUPS", "default_error_model", "leave_one_out", "load_stress_ratio",
+           "load_undrained", "read_error_groups", "curve_sigmas", "record_files", "generate_records", "volume_lines",
+           "run"]
 
 
 @dataclass
@@ -63,6 +69,7 @@ class SandStudy:
     like_all: inference.Likelihood
     prior: inference.Prior
     undrained: tuple = ()
+    grid: object = None
 
     @property
     def predicted(self) -> list:
@@ -182,6 +189,69 @@ def _grid(segments, observations):
     return np.concatenate([grid, extra])
 
 
+#: the default error groups of a sand study (Eq. 6g): one error parameter for the stresses (q, and the excess pore
+#: pressure u of undrained recordings), one for the void ratio e, whose relative scatter is far smaller
+QUANTITY_GROUPS = {"stress": ("q", "u"), "volume": ("e",)}
+
+
+def default_error_model(study) -> ErrorModel:
+    """The error model of a sand study without ``--single-sigma`` or ``--error-groups``: the study file's
+    ``[sigma_eps]`` groups, or :data:`QUANTITY_GROUPS` with its ``[sigma_eps]`` bounds and prior."""
+    if study.error_model is not None and study.error_model.groups:
+        return study.error_model
+    return ErrorModel(tuple(study.sigma_bounds), study.sigma_kind, dict(QUANTITY_GROUPS), where=str(study.path))
+
+
+def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler) -> tuple:
+    """The model-error amplitudes (P2) of docs/reference.md section 10 by leaving out each calibration test in turn:
+    calibrate on the others (the same settings, in ``out``/leave_one_out/<test>), the left-out test's relative
+    residuals at that calibration's MAP beyond the variance it predicts (its noise and its parameters' spread).
+    Returns ({curve name: a_k} pooled over the left-out tests, check rows: each left-out curve's coverage without
+    the model-error term and with the amplitude of the other left-out tests only). ({}, []) with fewer than two
+    calibration tests; a left-out test whose calibration or prediction fails is said on stderr and skipped."""
+    names = list(s.cal_obs.tests)
+    if len(names) < 2:
+        return {}, []
+    folds = []
+    for name in names:
+        kept = inference.Observations([s.cal_obs[t] for t in names if t != name])
+        left = inference.Observations([s.cal_obs[name]])
+        try:
+            like = likelihood(kept, sand_forward(kept, s.forward.fixed, s.grid), error_model)
+            like_left = likelihood(left, sand_forward(left, s.forward.fixed, s.grid), error_model)
+            # under mpirun the other ranks have left with the main run's executor: the root calibrates alone
+            executor = inference.SerialExecutor() if mpi_world() is not None else None
+            post = calibrate(like, s.prior, run, Path(out) / "leave_one_out" / name, seed, n_samples, executor,
+                             **sampler)
+            like_left.bind(post.names)
+            residuals = like_left.residuals(post.map_theta)
+            sims, sigma = draws_at_records(like_left, post)
+        except Exception as exc:  # noqa: BLE001 - a fold that cannot be run leaves the others their say
+            print(f"note: leave-one-out without {name}: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
+            continue
+        explained = {}
+        for k, key in enumerate(like_left.curve_keys):
+            drawn = sims[key][:, like_left.masks[key]]
+            explained[key] = float(np.mean(sigma[:, k] ** 2) + np.mean(np.var(drawn / drawn.mean(axis=0), axis=0)))
+        folds.append((name, like_left, post, {key: (residuals[key], explained[key]) for key in like_left.curve_keys}))
+
+    def amplitudes(chosen):
+        curves = {}
+        for _, _, _, terms in chosen:
+            for (_, curve), term in terms.items():
+                curves.setdefault(curve, []).append(term)
+        return {c: model_error_amplitude(*zip(*terms)) for c, terms in curves.items()}
+
+    check = []
+    for k, (name, like_left, post, _) in enumerate(folds):
+        others = amplitudes(folds[:k] + folds[k + 1:])
+        for r in score_predictions(like_left, post, [name], others):
+            check.append({"test": name, "curve": r["curve"], "coverage_noise": r["noise"]["coverage"],
+                          "coverage_model": r["model"]["coverage"] if r["curve"] in others else None,
+                          "amplitude": others.get(r["curve"])})
+    return amplitudes(folds), check
+
+
 def likelihood(observations, forward, error_model: ErrorModel | None = None) -> inference.Likelihood:
     """Eqs. (4)-(6) of ``observations`` (batched forward model): one sigma_eps, or the groups of ``error_model``."""
     groups = None if error_model is None else error_model.curve_groups(observations)
@@ -198,10 +268,10 @@ def build(study, free=None, undrained=(), error_model: ErrorModel | None = None,
     tests = _load(study, record_files(study, noise))
     user = load_undrained(undrained)
     runner = study.runner
-    calibrate = runner["calibrate"] or list(tests)
+    calibrated = [t.name for t in study.tests if t.role == "calibrate"]
     if user:
-        calibrate = [n for n in calibrate if n not in runner["substitutes"]]
-    calibration = [tests[n] for n in calibrate] + user
+        calibrated = [n for n in calibrated if n not in runner["substitutes"]]
+    calibration = [tests[n] for n in calibrated] + user
     cal_obs = inference.Observations(calibration)
     all_obs = (inference.Observations(calibration + [t for n, t in tests.items() if n not in cal_obs.tests])
                if len(calibration) < len(tests) + len(user) else cal_obs)
@@ -217,7 +287,7 @@ def build(study, free=None, undrained=(), error_model: ErrorModel | None = None,
     else:
         prior = inference.Prior([Bound(k, *study.free[k]) for k in free] + [
             Bound(k, *map(float, b), error_model.kind) for k, b in error_model.parameter_bounds().items()])
-    return SandStudy(study, cal_obs, all_obs, forward, forward_all, like, like_all, prior, tuple(undrained))
+    return SandStudy(study, cal_obs, all_obs, forward, forward_all, like, like_all, prior, tuple(undrained), grid)
 
 
 def generate_records(study, noise: float, seed=None, out=None) -> dict:
@@ -303,8 +373,9 @@ def _label(s: SandStudy, noise) -> str:
     return f"{s.study.description} ({'noise-free' if not noise else f'noise c ~ N(1, {noise:g}^2)'})"
 
 
-def _report(out, run, seed, post, s: SandStudy, summary, volume_rows, truth, noise, reference_curves):
-    """report.md and the figures of one run; ``reference_curves`` the forward model at the generating values."""
+def _report(out, run, seed, post, s: SandStudy, summary, volume_rows, truth, noise, reference_curves, predictions):
+    """report.md and the figures of one run; ``reference_curves`` the forward model at the generating values,
+    ``predictions`` the lines of the Predictions section (predictions.png already drawn when there are any)."""
     method, study = method_name(run.method), s.study
     sigmas = curve_sigmas(s.like)
     predicted = s.predicted
@@ -334,15 +405,17 @@ def _report(out, run, seed, post, s: SandStudy, summary, volume_rows, truth, noi
     if volume_rows:
         text += ["Volumetric strain of the predicted drained tests (%, compression positive, dilation negative; "
                  "eps_v = 100 (e0 - e)/(1 + e0); measured: the record interpolated; 95 % posterior predictive of "
-                 "Eq. 1 on e):", "", *volume_lines(volume_rows), ""]
-    text += ["Figures: curves.png, stress_paths.png, marginals.png, pairs.png, stages.png, csl.png.", "",
-             *glossary_lines()]
-    (Path(out) / "report.md").write_text("\n".join(text))
+                 "(P1) on e, noise and model error):", "", *volume_lines(volume_rows), ""]
+    text += [*predictions, "Figures: curves.png, stress_paths.png, marginals.png, pairs.png, stages.png, csl.png"
+             + (", predictions.png." if predictions else "."), "", *glossary_lines()]
+    (Path(out) / "report.md").write_text("\n".join(text) + "\n")
 
 
 def run(study, run_settings, args) -> int:
     """Calibrate the sand study ``study`` with the command line's run settings and sand options (``free``,
-    ``sweeps``, ``undrained``, ``error_groups``, ``noise``, ``generate``, ``regenerate``)."""
+    ``sweeps``, ``undrained``, ``error_groups``, ``single_sigma``, ``noise``, ``generate``, ``regenerate``): error
+    groups by quantity unless ``single_sigma`` (the paper's one sigma_eps) or ``error_groups`` (a FILE's groups);
+    the predicted tests scored with the model-error amplitudes of :func:`leave_one_out`."""
     runner = study.runner
     noise = args.noise
     if noise is None and runner["noise_levels"] is not None:
@@ -353,11 +426,14 @@ def run(study, run_settings, args) -> int:
             print(json.dumps({k: str(v) for k, v in paths.items()}))
             return 0
     groups = args.error_groups
+    if groups and args.single_sigma:
+        raise UsageError("--single-sigma and --error-groups: choose one error model")
     if groups is True:  # --error-groups without FILE
         if runner["error_groups"] is None:
             raise UsageError(f"--error-groups: give FILE (the study {study.name} has no [runner] error_groups)")
         groups = (study.path.parent / runner["error_groups"]).resolve()
-    error_model = read_error_groups(groups) if groups else None
+    error_model = (read_error_groups(groups) if groups else None if args.single_sigma else
+                   default_error_model(study))
     s = build(study, args.free, args.undrained or (), error_model, noise)
     settings = study.settings(run_settings.quick, run_settings.samples)
     sampler = sampler_settings(args, {"max_steps": settings.max_steps}, runner["max_failure_fraction"])
@@ -375,25 +451,39 @@ def run(study, run_settings, args) -> int:
     drained_predicted = [t for t in s.predicted if "e" in s.all_obs[t].curves]
 
     def finish(one, seed, out, post):
-        volume_rows = []
+        predictions, volume_rows, amplitude = [], [], {}
+        if s.predicted:
+            amplitude, check = leave_one_out(s, error_model, one, out, seed, settings.n_samples, sampler)
+            rows = score_predictions(s.like_all, post, s.predicted, amplitude)
+            predictions = prediction_lines(rows, amplitude, check)
+            plot_predictions(Path(out) / "predictions.png", rows, f"{study.name}: {method_name(one.method)}, "
+                             f"predictions (95 % bands)", QUANTITY_LABELS)
         if runner["volume_at_pct"] and drained_predicted:
             volume_rows = volume_change_table(s.forward_all, post, s.all_obs, drained_predicted,
-                                              tuple(runner["volume_at_pct"]), sigmas=curve_sigmas(s.like))
+                                              tuple(runner["volume_at_pct"]), sigmas=curve_sigmas(s.like),
+                                              amplitude=amplitude)
             if is_root():
                 print("\n".join([f"volumetric strain of the predicted tests, seed {seed}:",
                                  *volume_lines(volume_rows)]))
         extra = {"synthetic": synthetic, "study": str(study.path), "calibration_tests": list(s.cal_obs.tests),
                  "predicted_tests": s.predicted, "substitution": s.note, "undrained_files": list(s.undrained),
                  "fixed": s.forward.fixed, "max_failure_fraction": runner["max_failure_fraction"],
-                 "sigma_eps_bounds": list(study.sigma_bounds), "error_groups": str(groups or "")}
+                 "sigma_eps_bounds": list(study.sigma_bounds),
+                 "error_model": "single sigma_eps" if error_model is None else
+                 {g: list(m) for g, m in error_model.groups.items()}, "error_groups": str(groups or "")}
         if synthetic:
             extra.update(noise=noise, true_values=truth)
         if s.predicted:
             extra["J_g_all_tests"] = _jg_all(s.like_all, post)
             extra["volume_change"] = volume_rows
+            extra["predictions"] = {"model_error_amplitude": amplitude, "leave_one_out": check,
+                                    "curves": [{k: v for k, v in r.items() if k in ("test", "curve", "unit",
+                                                                                    "point_error", "amplitude")}
+                                               | {b: {k: v for k, v in r[b].items() if k not in ("lower", "upper")}
+                                                  for b in ("noise", "model")} for r in rows]}
         summary = write_summary(out, study.name, one, seed, post, s.like, extra=extra)
         _report(out, one, seed, post, s, summary, volume_rows, truth, noise if synthetic else None,
-                reference_curves)
+                reference_curves, predictions)
         return summary
 
     default_out = Path("results") / study.name

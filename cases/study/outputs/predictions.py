@@ -1,0 +1,153 @@
+"""Predictions of the tests a study did not calibrate on (``role = "predict"``; docs/reference.md section 10): the
+posterior draws at the recorded points, the 95 % band of (P1) without and with the model-error term, its scores
+(coverage, mean width, interval score (P3), CRPS (P4), the point error of the predictive mean), the report's
+Predictions section and predictions.png. Widths, scores and values are in each curve's unit (kPa for q and u, - for
+the void ratio e); relative quantities are fractions written as %.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from cases.study.outputs.report import pyplot
+from inference.prediction import band_scores, prediction_bands
+
+__all__ = ["draws_at_records", "score_predictions", "prediction_lines", "plot_predictions"]
+
+
+def draws_at_records(like, post, n_draws=200, seed=0):
+    """Up to ``n_draws`` final-stage samples of ``post`` simulated at the recorded points of ``like``'s curves:
+    ({(test, curve): (m, n_recorded)}, each curve's error parameter (m, n_curves) in ``like.curve_keys`` order). A
+    draw whose forward solve fails is left out (m counts the others)."""
+    rng = np.random.default_rng(seed)
+    idx = rng.choice(len(post.samples), size=min(n_draws, len(post.samples)), replace=False)
+    draws = post.samples[idx]
+    like.bind(post.names)
+    try:
+        sims = like.simulated_many(draws)
+    except Exception:  # noqa: BLE001 - one failed draw: keep the others, each solved alone
+        kept, rows = [], []
+        for i, theta in enumerate(draws):
+            try:
+                rows.append(like.simulated_many(theta[None, :]))
+                kept.append(i)
+            except Exception:  # noqa: BLE001 - a draw outside the model's reach is no prediction
+                continue
+        if not kept:
+            raise
+        draws = draws[kept]
+        sims = {key: np.concatenate([r[key] for r in rows]) for key in rows[0]}
+    sigma = like.curve_sigmas(draws)
+    return sims, sigma if sigma.ndim == 2 else np.repeat(sigma[:, None], len(like.curve_keys), axis=1)
+
+
+def score_predictions(like, post, tests, amplitude: dict, level=0.95, n_draws=200, seed=0) -> list:
+    """The predictions of ``tests`` (names in ``like``, whose calibration produced ``post``) with the model-error
+    amplitudes ``amplitude`` {curve name: a_k}: one row per (test, curve) with its recorded points (x, observed), the
+    MAP-free predictive mean, the bands without ("noise": parameters and noise) and with ("model": + model error) the
+    model-error term, and their scores (:func:`inference.prediction.band_scores`) plus ``point_error`` (RMS of the
+    predictive mean's relative error, the same in both)."""
+    sims, sigma = draws_at_records(like, post, n_draws, seed)
+    column = {key: k for k, key in enumerate(like.curve_keys)}
+    rows = []
+    for label, amp in (("noise", {}), ("model", amplitude)):
+        bands = prediction_bands(like, sims, sigma, amp, level=level)
+        for name in tests:
+            for curve in like.observations[name].curves:
+                key = (name, curve)
+                relative = np.sqrt(sigma[:, column[key]] ** 2 + amp.get(curve, 0.0) ** 2)
+                mean = sims[key]
+                used = like.masks[key]
+                scores = band_scores(bands[key], mean, np.abs(mean) * relative[:, None], used)
+                if label == "noise":
+                    c = like.observations[name].curves[curve]
+                    error = (bands[key].mean[used] - c.y[used]) / c.y[used]
+                    rows.append({"test": name, "curve": curve, "unit": c.y_unit, "x": c.x, "observed": c.y,
+                                 "x_label": f"{c.x_name} ({c.x_unit})",
+                                 "mean": bands[key].mean, "point_error": float(np.sqrt(np.mean(error**2))),
+                                 "amplitude": float(amplitude.get(curve, 0.0))})
+                row = next(r for r in rows if (r["test"], r["curve"]) == key)
+                row[label] = {**scores, "lower": bands[key].lower, "upper": bands[key].upper}
+    return rows
+
+
+def _pooled(rows, label, curve):
+    """Coverage, relative width and point error of ``curve`` over the rows, each point weighted equally."""
+    chosen = [r for r in rows if r["curve"] == curve]
+    n = np.array([r[label]["n"] for r in chosen], dtype=float)
+    return tuple(float(np.sum(n * np.array([r[label][k] if k != "point_error" else r[k] for r in chosen])) / n.sum())
+                 for k in ("coverage", "relative_width", "point_error"))
+
+
+def prediction_lines(rows, amplitude: dict, check: list, level=0.95) -> list:
+    """The report's Predictions section: the model-error amplitudes and their check (``check``: rows of the
+    leave-one-test-out calibrations, :func:`cases.study.routes.sand.leave_one_out`), one table row per predicted
+    curve and the pooled coverage per quantity, without and with the model-error term."""
+    pct = f"{100 * level:g} %"
+    lines = ["## Predictions", "",
+             f"Tests not calibrated on (role = \"predict\"), predicted from the posterior and compared with their "
+             f"measurements: {pct} band of (P1) (docs/reference.md section 10) from the posterior draws (parameters) "
+             "and the noise of Eq. (1) (\"noise\"), and with the model-error term of the curve's quantity added "
+             "(\"+ model\"). Coverage: fraction of the measured points inside the band (the goal is about "
+             f"{pct}); width: mean band width (the curve's unit) and relative to the measured value; interval score "
+             "(P3) and CRPS (P4): mean penalties in the curve's unit, lower is better; point error: RMS relative "
+             "error of the predictive mean.", ""]
+    if amplitude:
+        lines += ["Model-error amplitude a_k per quantity (P2), from the leave-one-test-out predictions of the "
+                  "calibration tests: " + ", ".join(f"{k} {100 * v:.2f} %" for k, v in amplitude.items()) + ".", ""]
+    else:
+        lines += ["No model-error amplitude: it is estimated by leaving out each calibration test in turn, which "
+                  "needs at least two calibration tests; the bands carry parameters and noise only.", ""]
+    if check:
+        lines += ["Check by leave-one-test-out (each calibration test predicted from a calibration on the others, its "
+                  "model-error amplitude from the other left-out tests only):", "",
+                  "| left-out test | curve | coverage noise | coverage + model | a_k used (%) |",
+                  "|---|---|---|---|---|"]
+        for c in check:
+            model = ("- | -" if c["amplitude"] is None else
+                     f"{100 * c['coverage_model']:.0f} % | {100 * c['amplitude']:.2f}")
+            lines.append(f"| {c['test']} | {c['curve']} | {100 * c['coverage_noise']:.0f} % | {model} |")
+        lines.append("")
+    lines += ["| test | curve | points | coverage noise | width noise | coverage + model | width + model | "
+              "interval score + model | CRPS + model | point error |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        n, m = r["noise"], r["model"]
+        lines.append(f"| {r['test']} | {r['curve']} ({r['unit']}) | {n['n']} | {100 * n['coverage']:.0f} % | "
+                     f"{n['mean_width']:.4g} ({100 * n['relative_width']:.2g} %) | {100 * m['coverage']:.0f} % | "
+                     f"{m['mean_width']:.4g} ({100 * m['relative_width']:.2g} %) | {m['interval_score']:.4g} | "
+                     f"{m['crps']:.4g} | {100 * r['point_error']:.2g} % |")
+    lines += ["", "Pooled over the predicted tests (every point weighs the same): " + "; ".join(
+        "{}: coverage {:.0f} % / {:.0f} %, relative width {:.2g} % / {:.2g} %, point error {:.2g} %".format(
+            curve, 100 * _pooled(rows, "noise", curve)[0], 100 * _pooled(rows, "model", curve)[0],
+            100 * _pooled(rows, "noise", curve)[1], 100 * _pooled(rows, "model", curve)[1],
+            100 * _pooled(rows, "noise", curve)[2])
+        for curve in dict.fromkeys(r["curve"] for r in rows)) + " (noise / + model).", ""]
+    return lines
+
+
+def plot_predictions(path, rows, title, labels):
+    """predictions.png: one row per predicted test, one panel per curve: the measurements, the predictive mean and
+    the bands without and with the model-error term; ``labels`` {curve: axis label}."""
+    plt = pyplot()
+    tests = list(dict.fromkeys(r["test"] for r in rows))
+    ncol = max(sum(r["test"] == t for r in rows) for t in tests)
+    fig, axes = plt.subplots(len(tests), ncol, figsize=(4.6 * ncol, 3.0 * len(tests)), squeeze=False)
+    for row_axes, t in zip(axes, tests):
+        for ax, r in zip(row_axes, [r for r in rows if r["test"] == t]):
+            order = np.argsort(r["x"])
+            x = r["x"][order]
+            ax.fill_between(x, r["model"]["lower"][order], r["model"]["upper"][order], color="C1", alpha=0.25,
+                            label=f"+ model error ({100 * r['model']['coverage']:.0f} % inside)")
+            ax.fill_between(x, r["noise"]["lower"][order], r["noise"]["upper"][order], color="C0", alpha=0.35,
+                            label=f"parameters + noise ({100 * r['noise']['coverage']:.0f} % inside)")
+            ax.plot(x, r["mean"][order], "C0-", lw=1.2, label="predictive mean")
+            ax.plot(x, r["observed"][order], ".", color="C3", ms=3, label="measured")
+            ax.set_title(f"{t} (prediction): {r['curve']}", fontsize=9)
+            ax.set_xlabel(r["x_label"])
+            ax.set_ylabel(labels.get(r["curve"], r["curve"]))
+            ax.legend(fontsize=7)
+        for ax in row_axes[sum(r["test"] == t for r in rows):]:
+            ax.axis("off")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
