@@ -22,16 +22,22 @@ def misfit_per_curve(likelihood, cls) -> dict:
 
 def chain_steps(likelihood, result) -> list:
     """One row per step of the loop's ``result`` (`loop.LoopResult`, its later steps in ``steps``): {step, base,
-    verdict (the base's screening), confirmed (candidate or "none"), class (the confirmed class or None),
+    verdict (the base's screening), confirmed (candidate or "none"; a tentative one confirmed jointly with the next
+    step's, `loop` step 6), jointly_with, tentative_refused ({candidate, why} or None), class (the confirmed class
+    or None),
     log_bayes_over_previous (its ln Z minus the step's base's), misfit_before (the base's per curve), misfit_left
     (the confirmed class's, else the base's)}."""
     rows = []
     for k, step in enumerate([result, *result.steps], start=1):
         base = step.classes[0]
-        confirmed = step.final.omitted_physics
+        joint = step.joint or {}
+        confirmed = joint["tentative"] if joint.get("explained") else step.final.omitted_physics
         cls = next((c for c in step.classes if c.role == "enriched" and c.candidate == confirmed), None)
         before = misfit_per_curve(likelihood, base)
         rows.append({"step": k, "base": base.name, "verdict": step.first.verdict, "confirmed": confirmed,
+                     "jointly_with": joint.get("with") if joint.get("explained") else None,
+                     "tentative_refused": None if not joint or joint["explained"] else
+                     {"candidate": joint["tentative"], "why": "; ".join(joint["left"])},
                      "class": None if cls is None else cls.name,
                      "log_bayes_over_previous": None if cls is None else cls.log_evidence - base.log_evidence,
                      "misfit_before": before, "misfit_left": before if cls is None else misfit_per_curve(likelihood,
@@ -46,10 +52,16 @@ def chain_markdown(rows: list) -> str:
         if r["class"] is None:
             why = ("its residual is consistent with noise" if r["verdict"] != "structured mismatch"
                    else "nothing more is confirmed")
+            if r["tentative_refused"]:
+                why = (f"{r['tentative_refused']['candidate']} was tried as the next step's base but is not confirmed "
+                       f"({r['tentative_refused']['why']})")
             lines.append(f"- Step {r['step']}: base {r['base']}; {why}: the discovery stops.")
         else:
+            joint = ("" if not r["jointly_with"] else
+                     f" (alone it left part of the located misfit; confirmed jointly with {r['jointly_with']}, "
+                     "whose class on top of it removes that misfit)")
             lines.append(f"- Step {r['step']}: base {r['base']}; confirmed **{r['confirmed']}**: {r['class']}, "
-                         f"ln B = {r['log_bayes_over_previous']:+.1f} over the step's base.")
+                         f"ln B = {r['log_bayes_over_previous']:+.1f} over the step's base{joint}.")
     curves = list(rows[0]["misfit_before"])
     lines += ["", "Misfit per curve (RMS of U_obs/U_sim - 1, %): the first base, then the class each step leaves.",
               "", "| curve | base | " + " | ".join(f"after step {r['step']}" for r in rows) + " |",

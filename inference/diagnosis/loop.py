@@ -29,6 +29,11 @@ Steps of `run_loop`:
    rule. The discovery stops when a step confirms nothing, when the new base's screening finds no structure (its
    residual is noise: nothing is calibrated), or after ``max_steps`` steps. Each later step is a `LoopResult` in
    ``LoopResult.steps`` (the first step is the result itself); ``LoopResult.chain`` lists the confirmed candidates.
+   Two effects at once can hide each other: the leading candidate may pass every check but leave part of the
+   located misfit, which belongs to the other effect (`records.Conclusion.tentative`). Such a candidate is adopted
+   tentatively (once in a chain): when the next step confirms a second effect on top of it and the combined class
+   removes the misfit located on the tentative step's base (`rank.misfit_explained`, the rule's reduction), both
+   are confirmed (``LoopResult.joint`` of that step); otherwise neither is, and the discovery stops.
 The loop's settings (alpha, level, n_shifts and the rule) stay with its result (``LoopResult.settings``), so that
 ``files.write_input(..., **result.settings)`` records them for the re-diagnosis of the run directory (of each step).
 """
@@ -39,8 +44,10 @@ from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 from ..tmcmc import SamplerError
+from .rank import located_misfit, misfit_explained
 from .records import DecisionRule, Diagnosis, ModelClass
 from .report import diagnose
+from .screening import relative_residuals
 
 __all__ = ["LoopProblem", "LoopResult", "run_loop", "ENRICH", "MAX_STEPS"]
 
@@ -97,7 +104,9 @@ class LoopResult:
     diagnose_final_s (the second; 0 when none), calibration_s {class: s}, loop_s} in seconds (the first step's
     loop_s: the whole loop's); settings: the diagnosis settings {alpha, level, n_shifts, rule} (the keywords of
     `files.write_input`); steps: the later steps of the stepwise discovery (module docstring, step 6), each a
-    LoopResult; candidates: the candidates as the step's diagnosis read them (plain data).
+    LoopResult; candidates: the candidates as the step's diagnosis read them (plain data); joint: for a step whose
+    tentative candidate was adopted, {tentative, with (the next step's confirmed candidate or None), explained (the
+    combined class removes this step's located misfit), left (what it leaves, in words)}, else None.
     """
 
     first: Diagnosis
@@ -111,11 +120,21 @@ class LoopResult:
     settings: dict = field(default_factory=dict)
     steps: list = field(default_factory=list)
     candidates: list = field(default_factory=list)
+    joint: dict | None = None
 
     @property
     def chain(self) -> list:
-        """The candidates confirmed step by step (module docstring, step 6), in order."""
-        return [s.final.omitted_physics for s in [self, *self.steps] if s.final.omitted_physics != "none"]
+        """The candidates confirmed step by step (module docstring, step 6), in order: a tentative one when the
+        next step's effect explained the rest with it; nothing from a tentative step on when it did not."""
+        out = []
+        for s in [self, *self.steps]:
+            if s.joint is not None:
+                if not s.joint["explained"]:
+                    break
+                out.append(s.joint["tentative"])
+            elif s.final.omitted_physics != "none":
+                out.append(s.final.omitted_physics)
+        return out
 
 
 def _chosen(first: Diagnosis, enrich: str) -> tuple:
@@ -156,23 +175,49 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), 
     base = replace(problem.calibrate(None), role="base", candidate=None)
     result = _step(problem, base, settings, enrich)
     adopt = getattr(problem, "adopt", None)
-    last = result
-    while adopt is not None and last.final.omitted_physics != "none" and 1 + len(result.steps) < max_steps:
-        confirmed = next(c for c in last.classes if c.role == "enriched" and c.candidate == last.final.omitted_physics)
+    last, tried_tentative = result, False
+    while adopt is not None and 1 + len(result.steps) < max_steps:
+        name, tentative = last.final.omitted_physics, False
+        if name == "none":
+            if last.final.tentative is None or tried_tentative:
+                break
+            name, tentative, tried_tentative = last.final.tentative, True, True
+        confirmed = next(c for c in last.classes if c.role == "enriched" and c.candidate == name)
         base = replace(adopt(confirmed), role="base", candidate=None)
         t0 = time.perf_counter()
         covariates = problem.covariates(base)
         alone = diagnose(problem.likelihood, [base], covariates, problem.candidates(), problem.description,
                          **settings)
         if alone.verdict != "structured mismatch":   # the residual left is noise: nothing to calibrate
-            last = LoopResult(alone, alone, [base], covariates, alone.named, [], {
+            step = LoopResult(alone, alone, [base], covariates, alone.named, [], {
                 "screen_and_rank_s": time.perf_counter() - t0, "diagnose_final_s": 0.0,
                 "calibration_s": {}, "loop_s": time.perf_counter() - t0}, {}, settings, [], problem.candidates())
         else:
-            last = _step(problem, base, settings, enrich)
-        result.steps.append(last)
+            step = _step(problem, base, settings, enrich)
+        result.steps.append(step)
+        if tentative:
+            _joint(problem.likelihood, last, step, name, rule)
+            if not last.joint["explained"]:
+                break
+        last = step
     result.timing["loop_s"] = time.perf_counter() - t_loop
     return result
+
+
+def _joint(likelihood, step: LoopResult, after: LoopResult, tentative: str, rule: DecisionRule):
+    """``step.joint``: whether the class the next step (``after``) confirmed on top of ``step``'s tentative candidate
+    removes the misfit located on ``step``'s base (module docstring, step 6)."""
+    second = after.final.omitted_physics
+    if second == "none":
+        step.joint = {"tentative": tentative, "with": None, "explained": False,
+                      "left": ["no second effect was confirmed on top of it"]}
+        return
+    combined = next(c for c in after.classes if c.role == "enriched" and c.candidate == second)
+    base = step.classes[0]
+    base_r = relative_residuals(likelihood, base.map_simulated)
+    explained, left = misfit_explained(located_misfit(step.final.screens[base.name], base_r), base_r,
+                                       relative_residuals(likelihood, combined.map_simulated), rule.misfit_reduction)
+    step.joint = {"tentative": tentative, "with": second, "explained": explained, "left": left}
 
 
 def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str) -> LoopResult:

@@ -324,11 +324,13 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
     contenders = [k for k in order if by_candidate[k] > by_candidate[leader] - margin] if order else []
     chosen = contenders[0] if len(contenders) == 1 else next(
         (r.name for r in ranked if r.named and r.name in contenders), None)
-    omitted = "none"
-    if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] \
-            and explained.get(chosen, (True, []))[0] and not blocks[chosen] \
+    omitted, tentative = "none", None
+    if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] and not blocks[chosen] \
             and over_form.get(chosen, form_lead) >= form_lead:
-        omitted = chosen
+        if explained.get(chosen, (True, []))[0]:
+            omitted = chosen
+        else:   # all but its pattern or misfit explained: a second effect may hold the rest (`loop`, step 6)
+            tentative = chosen
     decisions = []
     for r in ranked:
         name, lnb = r.name, by_candidate.get(r.name)
@@ -375,7 +377,7 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
         form = {"class": model_form.name, "log_bayes": lnb_form,
                 "log_bayes_enriched": {enriched[k].name: v for k, v in over_form.items()},
                 "prevails": omitted == "none" and lnb_form >= threshold}
-    return Conclusion(omitted, log_bayes, tuple(decisions), rule, form)
+    return Conclusion(omitted, log_bayes, tuple(decisions), rule, form, tentative)
 
 
 def _against(entry) -> str:

@@ -253,13 +253,16 @@ class Conclusion:
     enriched class over the base {class: ln Z - ln Z_base}, the decisions in ranked order and the rule applied;
     model_form: None without a model-form class, else {class, log_bayes (over the base), log_bayes_enriched
     {enriched class: ln Z - ln Z_model_form}, prevails (no enrichment is confirmed and the model-form class beats the
-    base by the threshold: a misfit of model form)}."""
+    base by the threshold: a misfit of model form)}; tentative: when nothing is confirmed, the candidate that passes
+    every check but leaves part of the located misfit or of its own pattern (a second effect may hold the rest: the
+    stepwise loop tries it as the next step's base), else None."""
 
     omitted_physics: str
     log_bayes: dict
     candidates: tuple
     rule: DecisionRule
     model_form: dict | None = None
+    tentative: str | None = None
 
 
 @dataclass(frozen=True)
@@ -313,7 +316,8 @@ class Diagnosis:
     base class, with their decisions; classes: every class; log_bayes: {enriched class: ln B}; rule: the decision
     rule applied; warnings: {class: poor-fit warnings}; next_tests: per candidate not named, what the records lack;
     screens: {class: ScreenReport}; wall_s: the diagnosis' wall time (s); model_form: the model-form verdict of
-    `Conclusion` with, when it prevails, where the discrepancy lies ({test, curve, x range, size}, largest first).
+    `Conclusion` with, when it prevails, where the discrepancy lies ({test, curve, x range, size}, largest first);
+    tentative: `Conclusion.tentative`.
     """
 
     description: str
@@ -332,6 +336,7 @@ class Diagnosis:
     screens: dict
     wall_s: float = 0.0
     model_form: dict | None = None
+    tentative: str | None = None
 
     @property
     def named(self) -> list:
@@ -351,7 +356,7 @@ class Diagnosis:
                 "warnings": self.warnings, "next_tests": [{"candidate": n.candidate, "needs": list(n.needs)}
                                                           for n in self.next_tests],
                 "screens": {name: rep.to_dict() for name, rep in self.screens.items()}, "wall_s": self.wall_s,
-                "model_form": self.model_form}
+                "model_form": self.model_form, "tentative": self.tentative}
 
     def to_json(self) -> str:
         """DIR/diagnosis.json's text (numpy scalars and arrays as plain numbers and lists)."""
@@ -369,7 +374,7 @@ class Diagnosis:
                    d["log_bayes"], DecisionRule(d["threshold_log_bayes"], d["margin_log_bayes"]), d["warnings"],
                    tuple(NextTest(n["candidate"], tuple(n["needs"])) for n in d["next_tests"]),
                    {name: ScreenReport.from_dict(rep) for name, rep in d["screens"].items()}, d["wall_s"],
-                   d.get("model_form"))
+                   d.get("model_form"), d.get("tentative"))
 
 
 def _candidate_dict(c: DiagnosedCandidate) -> dict:

@@ -108,7 +108,8 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
                     _recommendation(verdict.omitted_physics, ranked, base_screen, warnings.get(base.name), form),
                     regions,
                     tuple(base_screen.attribution), tuple(candidates_out), summaries, verdict.log_bayes, rule,
-                    warnings, next_tests(ranked, base_screen.attribution, recorded), screens, model_form=form)
+                    warnings, next_tests(ranked, base_screen.attribution, recorded), screens, model_form=form,
+                    tentative=verdict.tentative)
     return replace(out, wall_s=time.perf_counter() - t0)
 
 

@@ -117,3 +117,21 @@ def test_the_chain_reports_each_step_and_the_misfit_left(both):
     assert rows[0]["misfit_before"]["T2/y"] > 0.03
     text = diagnosis.chain_markdown(rows)
     assert "Step 3: base" in text and "consistent with noise" in text and "| T1/y |" in text
+
+
+def test_a_tentative_candidate_counts_only_when_the_next_effect_explains_the_rest():
+    from dataclasses import replace as with_
+
+    from inference.diagnosis import LoopResult
+
+    def step(omitted, joint=None):
+        final = diagnosis.Diagnosis("", 0.05, "structured mismatch", omitted, "", (), (), (), (), {},
+                                    diagnosis.DecisionRule(), {}, (), {})
+        return LoopResult(final, final, [], {}, [], [], {}, joint=joint)
+
+    second = step("swelling")
+    first = with_(step("none", {"tentative": "viscosity", "with": "swelling", "explained": True, "left": []}),
+                  steps=[second])
+    assert first.chain == ["viscosity", "swelling"]
+    refused = with_(first, joint={**first.joint, "explained": False})
+    assert refused.chain == []

@@ -204,3 +204,18 @@ def test_a_lower_bound_that_clears_the_base_and_the_model_form_class_checks_the_
     short = replace(enriched, evidence={**ev, "log_lower": 258.0})
     d = diagnosis.conclude(_ranked("A"), [base, form, short], rule)
     assert d.omitted_physics == "none" and "its 95 % lower bound 258.0 falls short of 259.7" in d.candidates[0].decision
+
+
+def test_a_leader_that_leaves_its_misfit_is_tentative_not_confirmed():
+    """Two effects at once: the leading class passes every check but leaves the located misfit (the other effect's):
+    nothing is confirmed and it is the tentative candidate the stepwise loop tries next; below the threshold it is
+    not even that."""
+    base = _class("base", "base", None, 0.0)
+    leader = _class("base + A", "enriched", "A", 58.6, _params(M=1.2, xi=8.0))
+    left = {"A": (False, ["the located misfit falls only to 100 %"])}
+    c = diagnosis.conclude(_ranked("A"), [base, leader], RULE, explained=left)
+    assert c.omitted_physics == "none" and c.tentative == "A"
+    c = diagnosis.conclude(_ranked("A"), [base, replace(leader, log_evidence=16.0)], RULE, explained=left)
+    assert c.omitted_physics == "none" and c.tentative is None
+    c = diagnosis.conclude(_ranked("A"), [base, leader], RULE)
+    assert c.omitted_physics == "A" and c.tentative is None
