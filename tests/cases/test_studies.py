@@ -80,8 +80,8 @@ def test_a_predicted_test_outside_the_sand_route_or_no_calibrated_test_is_refuse
     text = (examples / "oedometer_crs.toml").read_text().replace('file = "data/', f'file = "{examples / "data"}/')
     path = tmp_path / "crs.toml"
     path.write_text(text.replace('name = "CRS_fast"\n', 'name = "CRS_fast"\nrole = "predict"\n'))
-    with pytest.raises(StudyError, match=r"tests\['CRS_fast'\]\.role = 'predict': predicted tests are run by \[runner\] "
-                       'route = "sand"'):
+    with pytest.raises(StudyError, match=r"tests\['CRS_fast'\]\.role = 'predict': predicted tests are run by "
+                       r'\[runner\] route = "sand"'):
         load_study(path)
     path = _edited(tmp_path, 'name = "test2"\n', 'name = "test2"\nrole = "predict"\n')
     text = path.read_text().replace('name = "test6"\n', 'name = "test6"\nrole = "predict"\n').replace(

@@ -93,6 +93,9 @@ class LoopProblem:
     enrichment_priors: dict = {}
     #: where the base class is calibrated, relative to the loop's directory
     base_dir = "base"
+    #: the candidates the stepwise discovery confirmed (:meth:`adopt`) and their switches (none before it steps)
+    adopted: tuple = ()
+    adopted_switches: dict = {}
     #: the fraction of a sampler stage's solves that may fail before a class's calibration stops (every class: base,
     #: model-form, enriched): a prior holds regions where the model cannot follow the programme's controls (M below
     #: the stress ratio of a K0 consolidation path; structure collapsing faster than it hardens under

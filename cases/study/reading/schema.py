@@ -171,7 +171,8 @@ def load_study(path, check_files=True) -> Study:
     runner = read_runner(ck, ck.table(doc.get("runner", {}), "runner"), names, tuple(references), calibrated)
     predicted = [i for i, t in enumerate(tests) if t.role == "predict"]
     if predicted and runner["route"] != "sand":
-        ck.fail(f"tests[{tests[predicted[0]].name!r}].role", "predict", 'predicted tests are run by [runner] route = "sand" studies '
+        ck.fail(f"tests[{tests[predicted[0]].name!r}].role", "predict",
+                'predicted tests are run by [runner] route = "sand" studies '
                 f'(this study\'s route is {runner["route"]!r}); give role = "calibrate" or leave the test out')
     enrichment = read_enrichment_priors(ck, doc.get("enrichment", {}), model, switches,
                                         any("sbp" in (t.type, t.apparatus) for t in tests))
