@@ -70,7 +70,7 @@ from .records import (
     SignatureItem,
 )
 from .screening import ScreenReport
-from .trust import confirmation_blocks, importance_checked, sampler_disagrees
+from .trust import confirmation_blocks, highest_estimate, importance_checked, sampler_disagrees
 
 __all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "rank_candidates", "pattern_explained",
            "misfit_explained", "conclude"]
@@ -308,7 +308,8 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
     blocks = {}
     # the ln Z an enriched class must reach to confirm: the base's plus the threshold, the model-form class's plus
     # its margin (`trust`: a lower bound of the class's ln Z that clears it is a check of its evidence)
-    floor = max(lnz0 + threshold, -np.inf if model_form is None else model_form.log_evidence + form_lead)
+    floor = max(highest_estimate(base, rule) + threshold,
+                -np.inf if model_form is None else highest_estimate(model_form, rule) + form_lead)
     for name, cl in enriched.items():
         reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule, floor)
         if numerics:

@@ -14,7 +14,8 @@ A class cannot confirm when
    errors of the latter and 1 nat, or when its lower bound (``inference.mode_evidence``'s ``log_lower``: ln Z is
    above it with probability 0.95 whatever the importance proposal's fit, by Markov's inequality) already clears
    what the class must reach to confirm (the base's ln Z plus the threshold, the model-form class's plus its
-   margin), or when it agrees within three standard errors and 1 nat with the sampler's own ln Z;
+   margin; for a class whose own estimate had no importance check, the highest of its estimates:
+   `highest_estimate`), or when it agrees within three standard errors and 1 nat with the sampler's own ln Z;
 4. the sampler's own ln Z favours the base class, while the refined estimates favour the enriched one: two
    estimates that disagree in sign are a warning, not a licence to take the larger one (`sampler_disagrees`). It
    does not apply when both refined estimates passed an importance check (the first three ways of check 3): the
@@ -38,7 +39,8 @@ import numpy as np
 from .records import DecisionRule, ModelClass
 
 __all__ = [
-    "IMPORTANCE_CHECKS", "confirmation_blocks", "evidence_check", "evidence_trusted", "importance_checked",
+    "IMPORTANCE_CHECKS", "confirmation_blocks", "evidence_check", "evidence_trusted", "highest_estimate",
+    "importance_checked",
     "sampler_disagrees", "numerics_comparable",
 ]
 
@@ -96,6 +98,16 @@ def evidence_trusted(cls: ModelClass, rule: DecisionRule, floor: float | None = 
         why += f"; its 95 % lower bound {ev['log_lower']:.1f} falls short of {floor:.1f}"
     gap = "" if sampler is None else f", and the sampler's estimate differs by {ev['log_evidence'] - sampler:+.1f}"
     return f"evidence not trusted: {why}{gap}"
+
+
+def highest_estimate(cls: ModelClass, rule: DecisionRule) -> float:
+    """The class's ln Z when its refined estimate passed an importance check, else the highest of its refined
+    estimates (Laplace, importance sampling): what a class compared with must be taken to reach when its own value is
+    not checked (the floor of check 3's lower bound)."""
+    ev = cls.evidence or {}
+    if importance_checked(cls, rule):
+        return cls.log_evidence
+    return max(v for v in (cls.log_evidence, ev.get("log_laplace"), ev.get("log_is")) if v is not None)
 
 
 def importance_checked(cls: ModelClass, rule: DecisionRule, floor: float | None = None) -> bool:

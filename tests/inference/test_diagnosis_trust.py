@@ -201,6 +201,10 @@ def test_a_lower_bound_that_clears_the_base_and_the_model_form_class_checks_the_
     assert evidence_check(enriched, rule) == ""
     assert evidence_check(enriched, rule, floor=259.71) == "its 95 % lower bound clears what it must reach"
     assert diagnosis.conclude(_ranked("A"), [base, form, enriched], rule).omitted_physics == "A"
+    # a model-form class whose own estimates were not checked is taken at the higher of them
+    unchecked = replace(form, evidence={"log_evidence": 259.71, "method": "Laplace", "log_laplace": 259.71,
+                                        "log_is": 262.5, "ess": 3.0, "n_draws": 1024, "std_error": 0.7})
+    assert diagnosis.conclude(_ranked("A"), [base, unchecked, enriched], rule).omitted_physics == "none"
     short = replace(enriched, evidence={**ev, "log_lower": 258.0})
     d = diagnosis.conclude(_ranked("A"), [base, form, short], rule)
     assert d.omitted_physics == "none" and "its 95 % lower bound 258.0 falls short of 259.7" in d.candidates[0].decision
