@@ -7,9 +7,11 @@ record (`ModelClass`), gives the base class's per-point covariates and the candi
 directory, `files.write_input` and `files.write_diagnosis`).
 
 Steps of `run_loop`:
-1. candidates = problem.candidates(); base = problem.calibrate(None); covariates = problem.covariates(base);
-   the model-form class (the base with a discrepancy, ``problem.calibrate_model_form()``, optional) beside it;
-2. first diagnosis (`report.diagnose`) of the base class alone;
+1. base = problem.calibrate(None); candidates = problem.candidates(); covariates = problem.covariates(base);
+2. first diagnosis (`report.diagnose`) of the base class alone; when its residual is consistent with noise the step
+   ends there (nothing is calibrated beside the base); else the model-form class (the base with a discrepancy,
+   ``problem.calibrate_model_form()``, optional) is calibrated and the first diagnosis made with it beside the
+   base;
 3. the candidates to enrich, by the problem's ``enrich`` (optional attribute, or `run_loop`'s argument):
    "named": the first candidate in ranked order that is named and has an enrichment (named candidates before it
    without an enrichment are listed as "named without enrichment"); "all" (default): that one, then, when the
@@ -26,8 +28,8 @@ Steps of `run_loop`:
 6. stepwise discovery (a problem with ``adopt``): when an enrichment is confirmed, ``problem.adopt(class)`` makes
    that enriched class the base of the next step, and steps 2-5 run again on it: the remaining candidates are
    enriched on top of it (combined classes), beside a model-form class of the new base, and confirmed by the same
-   rule. The discovery stops when a step confirms nothing, when the new base's screening finds no structure (its
-   residual is noise: nothing is calibrated), or after ``max_steps`` steps. Each later step is a `LoopResult` in
+   rule. The discovery stops when a step confirms nothing, when the new base's screening finds no structure (step
+   2: nothing is calibrated), or after ``max_steps`` steps. Each later step is a `LoopResult` in
    ``LoopResult.steps`` (the first step is the result itself); ``LoopResult.chain`` lists the confirmed candidates.
    Two effects at once can hide each other: the leading candidate may pass every check but leave part of the
    located misfit, which belongs to the other effect (`records.Conclusion.tentative`). Such a candidate is adopted
@@ -183,17 +185,7 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), 
                 break
             name, tentative, tried_tentative = last.final.tentative, True, True
         confirmed = next(c for c in last.classes if c.role == "enriched" and c.candidate == name)
-        base = replace(adopt(confirmed), role="base", candidate=None)
-        t0 = time.perf_counter()
-        covariates = problem.covariates(base)
-        alone = diagnose(problem.likelihood, [base], covariates, problem.candidates(), problem.description,
-                         **settings)
-        if alone.verdict != "structured mismatch":   # the residual left is noise: nothing to calibrate
-            step = LoopResult(alone, alone, [base], covariates, alone.named, [], {
-                "screen_and_rank_s": time.perf_counter() - t0, "diagnose_final_s": 0.0,
-                "calibration_s": {}, "loop_s": time.perf_counter() - t0}, {}, settings, [], problem.candidates())
-        else:
-            step = _step(problem, base, settings, enrich)
+        step = _step(problem, replace(adopt(confirmed), role="base", candidate=None), settings, enrich)
         result.steps.append(step)
         if tentative:
             _joint(problem.likelihood, last, step, name, rule)
@@ -226,12 +218,19 @@ def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str) -
     candidates = problem.candidates()
     covariates = problem.covariates(base)
     classes = [base]
-    model_form = getattr(problem, "calibrate_model_form", None)
-    if model_form is not None:
-        classes.append(replace(model_form(), role="model form", candidate=None))
     t0 = time.perf_counter()
     first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
     screen_s = time.perf_counter() - t0
+    if first.verdict != "structured mismatch":   # the residual is noise: no class is calibrated beside the base
+        return LoopResult(first, first, classes, covariates, first.named, [], {
+            "screen_and_rank_s": screen_s, "diagnose_final_s": 0.0, "calibration_s": {base.name: base.wall_s},
+            "loop_s": time.perf_counter() - t_step}, {}, settings, [], candidates)
+    model_form = getattr(problem, "calibrate_model_form", None)
+    if model_form is not None:
+        classes.append(replace(model_form(), role="model form", candidate=None))
+        t0 = time.perf_counter()
+        first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
+        screen_s += time.perf_counter() - t0
     skipped, chosen, n_named_rule = _chosen(first, enrich)
     also = getattr(problem, "also_enrich", None)
     extra = [name for name in (also(first) if also else []) if name not in chosen]

@@ -130,10 +130,19 @@ def run_case(case: str, data: Path, out: Path, timeout: float | None = None) -> 
             os.killpg(proc.pid, signal.SIGKILL)
             rc, timed_out = proc.wait(), True
     run = {"returncode": rc, "timed_out": timed_out, "wall_s": time.perf_counter() - t0, "started": started,
-           "command": " ".join(cmd)}
+           "command": " ".join(cmd), "commit": _commit()}
     (out / case).mkdir(parents=True, exist_ok=True)
     (out / case / RUN_FILE).write_text(json.dumps(run, indent=1) + "\n")
     return run
+
+
+def _commit() -> str | None:
+    """The git commit of the code that ran the case (None outside a git checkout)."""
+    try:
+        return subprocess.run(["git", "-C", str(Path(__file__).parent), "rev-parse", "HEAD"], capture_output=True,
+                              text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
 
 
 def _error_tail(out: Path, case: str, lines=25) -> str:
