@@ -200,7 +200,7 @@ def _fmt(v, spec=".3g"):
 def _region_words(r) -> str:
     where = "above" if r.sign == "+" else "below"
     unit = "" if r.x_unit == "-" else f" {r.x_unit}"
-    return (f"{r.curve} at {r.x_start:.3g}-{r.x_end:.3g}{unit}: recorded {where} simulated by "
+    return (f"{r.curve} at {r.x_start:.3g} to {r.x_end:.3g}{unit}: recorded {where} simulated by "
             f"{abs(100 * r.mean_relative):.1f} %")
 
 
@@ -241,7 +241,7 @@ def _engineer_summary(d: Diagnosis) -> list:
         lines.append("To separate the remaining hypotheses: " + "; ".join(
             f"{n.candidate} needs {', '.join(n.needs)}" for n in d.next_tests) + ".")
     if d.model_form is not None and d.model_form["prevails"]:
-        where = "; ".join(f"{w['test']} {w['curve']} at {w['x_start']:.3g}-{w['x_end']:.3g}"
+        where = "; ".join(f"{w['test']} {w['curve']} at {w['x_start']:.3g} to {w['x_end']:.3g}"
                           f"{'' if w['x_unit'] == '-' else ' ' + w['x_unit']} ({w['x_name']}): up to "
                           f"{100 * w['max']:.1f} % (RMS {100 * w['rms']:.1f} %)" for w in d.model_form["where"])
         lines.append("The misfit is of model form: a smooth discrepancy without physics (the base plus a Gaussian-"

@@ -264,7 +264,8 @@ class LoopProblem:
         (:mod:`cases.study.outputs.calibration_warnings`). With error groups, sigma_eps is each curve's sigma at the MAP
         (a list in the likelihood's curve order). With a refined ``evidence`` (``inference.mode_evidence``) its ln Z and
         mode are the class's log-evidence and MAP (TMCMC's ln Z is its ``sampler_log_evidence``, also in
-        ``extra["log_evidence_tmcmc"]``); ``prior`` gives the ranges the diagnosis checks the mode against; a
+        ``extra["log_evidence_tmcmc"]``), and J_g is taken there too, so that every column of the class's row is of
+        one point; ``prior`` gives the ranges the diagnosis checks the mode against; a
         model-form class (a likelihood with a discrepancy) records where its discrepancy lies."""
         map_theta = post.map_theta if evidence is None else np.array(evidence.mode)
         params, sigma = like.split(map_theta)
@@ -279,7 +280,7 @@ class LoopProblem:
         return ModelClass(
             name=name, role="base", candidate=None,
             log_evidence=float(post.log_evidence if evidence is None else evidence.log_evidence),
-            J_g=summary["J_g_at_map"],
+            J_g=summary["J_g_at_map"] if evidence is None else like.goodness_of_fit(map_simulated),
             parameters={n: {"map": float(m), "mean": post.mean[n], "std": post.std[n], "q2.5": q[n][0],
                             "q97.5": q[n][2]} for n, m in zip(post.names, map_theta)},
             sigma_eps=sigma if isinstance(sigma, list) else float(sigma), map_simulated=map_simulated,
