@@ -85,11 +85,10 @@ def stage_trend(residuals: dict, cov: dict, n_shifts: int, rng) -> dict | None:
             means = np.array([m for _, _, m, _ in g])
             points = np.array([n for _, _, _, n in g], dtype=float)
             ranks = stats.rankdata([level for _, level, _, _ in g])
-            d = _second_difference(means)
-            t_obs += float(_correlation(d, _second_difference(ranks)))
+            d, dx = _second_difference(means), _second_difference(ranks)
+            t_obs += float(_correlation(d, dx))
             shuffled = ranks[np.argsort(rng.random((n_shifts, ranks.size)), axis=1)]
             t_null += _correlation(d[None, :], _second_difference(shuffled))
-            dx = _second_difference(ranks)
             beta = float(d @ dx / (dx @ dx)) if dx @ dx > 0 else 0.0
             q_explained += float(np.sum(points[1:-1] * (beta * dx) ** 2))
             r = np.concatenate([residuals[test, c][np.isfinite(residuals[test, c])] for c, _, _, _ in g])

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.report import pyplot
+from cases.study.outputs.figures.canvas import pyplot
+from inference.diagnosis import simulate_samples
 from inference.prediction import band_scores, prediction_bands
 
 __all__ = ["draws_at_records", "score_predictions", "prediction_lines", "plot_predictions"]
@@ -23,7 +24,7 @@ def draws_at_records(like, post, n_draws=200, seed=0):
     draws = post.samples[idx]
     like.bind(post.names)
     try:
-        sims = like.simulated_many(draws)
+        sims, sigma = simulate_samples(like, draws)
     except Exception:  # noqa: BLE001 - one failed draw: keep the others, each solved alone
         kept, rows = [], []
         for i, theta in enumerate(draws):
@@ -34,9 +35,8 @@ def draws_at_records(like, post, n_draws=200, seed=0):
                 continue
         if not kept:
             raise
-        draws = draws[kept]
         sims = {key: np.concatenate([r[key] for r in rows]) for key in rows[0]}
-    sigma = like.curve_sigmas(draws)
+        sigma = like.curve_sigmas(draws[kept])
     return sims, sigma if sigma.ndim == 2 else np.repeat(sigma[:, None], len(like.curve_keys), axis=1)
 
 
