@@ -8,8 +8,12 @@ directory, `files.write_input` and `files.write_diagnosis`).
 
 Steps of `run_loop`:
 1. base = problem.calibrate(None); candidates = problem.candidates(); covariates = problem.covariates(base);
-2. first diagnosis (`report.diagnose`) of the base class alone; when its residual is consistent with noise the step
-   ends there (nothing is calibrated beside the base); else the model-form class (the base with a discrepancy,
+2. first diagnosis (`report.diagnose`) of the base class alone; when its screening finds structure and the problem
+   writes its base in other conventions (``problem.compare_conventions(base)``, optional: the same model written
+   another way, e.g. specific volume 1 + e or 1 + e0), those compete first, and a convention the data prefer becomes
+   the base, whose first diagnosis replaces the own convention's (a convention is never asked for when the base's
+   residual is noise: it could only feed a line of the report); when the base's residual is consistent with noise
+   the step ends there (nothing is calibrated beside the base); else the model-form class (the base with a discrepancy,
    ``problem.calibrate_model_form()``, optional) is calibrated and the first diagnosis made with it beside the
    base;
 3. the candidates to enrich, by the problem's ``enrich`` (optional attribute, or `run_loop`'s argument):
@@ -64,8 +68,8 @@ class LoopProblem(Protocol):
 
     likelihood: an inference.Likelihood of the recorded curves (the screening reads its observations and near-zero
     floor); description: one line for the diagnosis report, read after the base class is calibrated.
-    ``also_enrich``, ``calibrate_model_form``, ``adopt`` and ``enrich`` ("all" or "named", module docstring step 3)
-    are optional.
+    ``compare_conventions``, ``also_enrich``, ``calibrate_model_form``, ``adopt`` and ``enrich`` ("all" or "named",
+    module docstring step 3) are optional.
     """
 
     likelihood: object
@@ -79,6 +83,11 @@ class LoopProblem(Protocol):
 
     def covariates(self, base: ModelClass) -> dict:
         """Per-point covariates of the calibrated base class, in the form of ``screen``."""
+
+    def compare_conventions(self, base: ModelClass) -> ModelClass | None:
+        """Calibrate the base class in its other conventions (the same model written another way); return the
+        record of the one the data prefer when it replaces ``base`` (the problem's likelihood, description and
+        covariates then follow it), else None."""
 
     def calibrate_model_form(self) -> ModelClass:
         """Calibrate the base class with a model-form discrepancy (``inference.Discrepancy``): the physics-free
@@ -103,7 +112,8 @@ class LoopResult:
     named: candidates named in the final diagnosis; named_without_enrichment: named candidates ranked above the chosen
     one that have no enrichment for this base class; not_calibrated: {candidate: reason} of the candidates chosen
     under enrich "all" whose enriched class the problem refused; timing: {screen_and_rank_s (the first diagnosis),
-    diagnose_final_s (the second; 0 when none), calibration_s {class: s}, loop_s} in seconds (the first step's
+    diagnose_final_s (the second; 0 when none), calibration_s {class: s}, conventions_s (the other conventions of the
+    base, when compared), loop_s} in seconds (the first step's
     loop_s: the whole loop's); settings: the diagnosis settings {alpha, level, n_shifts, rule} (the keywords of
     `files.write_input`); steps: the later steps of the stepwise discovery (module docstring, step 6), each a
     LoopResult; candidates: the candidates as the step's diagnosis read them (plain data); joint: for a step whose
@@ -175,7 +185,7 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), 
     t_loop = time.perf_counter()
     settings = {"alpha": alpha, "level": level, "rule": rule, "n_shifts": n_shifts}
     base = replace(problem.calibrate(None), role="base", candidate=None)
-    result = _step(problem, base, settings, enrich)
+    result = _step(problem, base, settings, enrich, getattr(problem, "compare_conventions", None))
     adopt = getattr(problem, "adopt", None)
     last, tried_tentative = result, False
     while adopt is not None and 1 + len(result.steps) < max_steps:
@@ -212,19 +222,30 @@ def _joint(likelihood, step: LoopResult, after: LoopResult, tentative: str, rule
     step.joint = {"tentative": tentative, "with": second, "explained": explained, "left": left}
 
 
-def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str) -> LoopResult:
-    """One step of the loop from the calibrated ``base`` class (module docstring, steps 1-5)."""
+def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str, conventions=None) -> LoopResult:
+    """One step of the loop from the calibrated ``base`` class (module docstring, steps 1-5); ``conventions``: the
+    problem's ``compare_conventions`` (the first step only)."""
     t_step = time.perf_counter()
     candidates = problem.candidates()
     covariates = problem.covariates(base)
     classes = [base]
     t0 = time.perf_counter()
     first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
-    screen_s = time.perf_counter() - t0
+    screen_s, conventions_s = time.perf_counter() - t0, {}
+    if first.verdict == "structured mismatch" and conventions is not None:
+        t0 = time.perf_counter()
+        other = conventions(base)
+        conventions_s = {"conventions_s": time.perf_counter() - t0}
+        if other is not None:  # the data prefer another convention: it is the base, screened afresh
+            base = replace(other, role="base", candidate=None)
+            candidates, covariates, classes = problem.candidates(), problem.covariates(base), [base]
+        t0 = time.perf_counter()  # again: the description now says which convention the data prefer
+        first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
+        screen_s += time.perf_counter() - t0
     if first.verdict != "structured mismatch":   # the residual is noise: no class is calibrated beside the base
         return LoopResult(first, first, classes, covariates, first.named, [], {
             "screen_and_rank_s": screen_s, "diagnose_final_s": 0.0, "calibration_s": {base.name: base.wall_s},
-            "loop_s": time.perf_counter() - t_step}, {}, settings, [], candidates)
+            **conventions_s, "loop_s": time.perf_counter() - t_step}, {}, settings, [], candidates)
     model_form = getattr(problem, "calibrate_model_form", None)
     if model_form is not None:
         classes.append(replace(model_form(), role="model form", candidate=None))
@@ -250,6 +271,7 @@ def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str) -
         final = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
         final_s = time.perf_counter() - t0
     timing = {"screen_and_rank_s": screen_s, "diagnose_final_s": final_s,
-              "calibration_s": {c.name: c.wall_s for c in classes}, "loop_s": time.perf_counter() - t_step}
+              "calibration_s": {c.name: c.wall_s for c in classes}, **conventions_s,
+              "loop_s": time.perf_counter() - t_step}
     return LoopResult(first, final, classes, covariates, final.named, skipped, timing, refused, settings, [],
                       candidates)

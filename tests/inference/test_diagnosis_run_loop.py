@@ -6,6 +6,7 @@ right, the value of b), the base class's evidence by quadrature (a integrated in
 and the run-directory route (files) for the in-memory diagnosis."""
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -233,3 +234,38 @@ def test_the_directory_is_rediagnosed_under_the_loops_decision_rule(tmp_path):
     relaxed = json.loads((tmp_path / "diagnosis.json").read_text())
     assert relaxed["omitted_physics"] == "curvature" and relaxed["threshold_log_bayes"] == 3.0
     assert relaxed["margin_log_bayes"] == 5.0
+
+
+class Written(Polynomial):
+    """The toy whose base is also written another way: y = a x + b x^2 stands for "the same model in another
+    convention" (what the soil side's specific volume 1 + e0 is to 1 + e); the loop must ask for it only after the
+    base's screening found structure."""
+
+    def __init__(self, b):
+        super().__init__(b, also=["saturation"])
+        self.asked = 0
+
+    def compare_conventions(self, base):
+        self.asked += 1
+        other = self.calibrate("curvature")
+        if other.log_evidence - base.log_evidence < 3.0:
+            return None
+        self.likelihood = Likelihood(self.observations, self.forward("curvature"))
+        self.description += "; written another way"
+        return replace(other, name="y = a x (written another way)")
+
+
+@pytest.mark.parametrize("b", [B, 0.0])
+def test_conventions_are_compared_only_on_structure_and_the_preferred_one_becomes_the_base(b):
+    problem = Written(b)
+    result = run_loop(problem, n_shifts=200)
+    if b == 0.0:  # noise: the other convention is never calibrated
+        assert problem.asked == 0 and "conventions_s" not in result.timing
+        assert [c.name for c in result.classes] == ["y = a x"]
+        return
+    # structure: the other writing explains the curvature, replaces the base, and its screening finds noise, so no
+    # candidate is calibrated and nothing is named
+    assert problem.asked == 1 and result.timing["conventions_s"] > 0
+    assert [c.name for c in result.classes] == ["y = a x (written another way)"]
+    assert result.classes[0].role == "base" and result.first.verdict == "consistent with noise"
+    assert result.final.omitted_physics == "none" and result.final.description.endswith("written another way")

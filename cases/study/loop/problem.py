@@ -300,7 +300,7 @@ class LoopProblem:
         self.observations, self.run, self.out = observations, run, Path(out)
         self.seed, self.settings, self.label = seed, settings, label
         self.likelihood, self.description, self.base_mode = None, "", None
-        self.convention, self.conventions_compared = {}, []
+        self.convention, self.conventions_compared, self.own_base = {}, [], None
         # the stepwise discovery: the confirmed candidates, their switches, where the step's classes go
         self.adopted, self.adopted_switches, self.class_root, self.calibrated = (), {}, self.out, {}
         self.base_name = None
@@ -352,41 +352,63 @@ class LoopProblem:
                 self.class_root / f"enriched_{candidate.replace(' ', '_')}")
 
     def calibrate_base(self) -> ModelClass:
-        """The base class in each of its conventions (``constitutive.registry.conventions``: the same model written
-        another way, e.g. specific volume 1 + e or 1 + e0), its own in DIR/<base_dir>, the others in
-        DIR/convention_<option>_<value>; the one with the highest ln Z becomes the base class when it beats the
-        base's own by :data:`CONVENTION_LOG_BAYES` (its convention is then kept by the enriched and model-form
-        classes), and the description says which the data prefer."""
-        tried = []
-        for option, value, words in conventions(self.model, self.base_switches) or [(None, None, "")]:
-            own = not tried
-            switches = dict(self.base_switches) if own else {**self.base_switches, option: value}
-            if own or option in model_spec(self.model).cls.option_names:
+        """The base class in its own convention, in DIR/<base_dir> (:meth:`compare_conventions` writes it the other
+        ways when its residual is structured)."""
+        cls, post, like = self.calibrate_class(self.observations, class_name(self.base_switches, self.model),
+                                               dict(self.base_switches), self.base_bounds,
+                                               tuple(self.base_log_uniform), self.run, self.out / self.base_dir,
+                                               self.seed, self.settings)
+        self.own_base = (cls, post, like)
+        return self.take_base("", {}, cls, post, like)
+
+    def take_base(self, words: str, convention: dict, cls: ModelClass, post, like) -> ModelClass:
+        """Make ``cls`` (the base written with ``convention``) the base class: its likelihood, description, mode and
+        the convention every later class is written in; returns its record with the discretisation error measured
+        at its mode."""
+        self.convention = convention
+        self.likelihood, self.description = like, self.describe(self.label, cls.name)
+        self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
+        others = conventions(self.model, self.base_switches) or []
+        if len(others) > 1 and not self.conventions_compared:
+            self.description += (" The same model written another way (" + "; ".join(w for _, _, w in others[1:])
+                                 + ") is compared only when the base's residual is structured.")
+        return replace(cls, numerical_error=self.numerical_error(like, cls, {**self.base_switches, **convention}))
+
+    def compare_conventions(self, base: ModelClass) -> ModelClass | None:
+        """The base class in each of its other conventions (``constitutive.registry.conventions``: the same model
+        written another way, e.g. specific volume 1 + e or 1 + e0), in DIR/convention_<option>_<value>; the one with
+        the highest ln Z becomes the base class when it beats the base's own by :data:`CONVENTION_LOG_BAYES` (its
+        convention is then kept by the enriched and model-form classes; returned), else None. The description says
+        which the data prefer."""
+        own_words = (conventions(self.model, self.base_switches) or [(None, None, "")])[0][2]
+        tried = [(own_words, {}, *self.own_base)]
+        for option, value, words in (conventions(self.model, self.base_switches) or [])[1:]:
+            switches = {**self.base_switches, option: value}
+            if option in model_spec(self.model).cls.option_names:
                 name = class_name(switches, self.model)
             else:  # written through the enrichment family (Modified Cam Clay as ANICREEP with every physics off)
                 family = enrichment_family(self.model)
                 name = class_name({**family.switches, **switches}, family.model)
-            out = self.out / (self.base_dir if own else f"convention_{option}_{value}")
             cls, post, like = self.calibrate_class(self.observations, name, switches,
-                                                   self.base_bounds, tuple(self.base_log_uniform), self.run, out,
-                                                   self.seed, self.settings)
-            tried.append((words, {} if own else {option: value}, cls, post, like))
+                                                   self.base_bounds, tuple(self.base_log_uniform), self.run,
+                                                   self.out / f"convention_{option}_{value}", self.seed,
+                                                   self.settings)
+            tried.append((words, {option: value}, cls, post, like))
+        if len(tried) == 1:
+            return None
+        self.conventions_compared = [{"convention": w, "switches": s, "class": c.name, "log_evidence": c.log_evidence,
+                                      "wall_s": c.wall_s} for w, s, c, _, _ in tried]
         # another convention replaces the base's own only when the data prefer it clearly (ln B >= 3, "strong"): in
         # an undrained test 1 + e and 1 + e0 are the same and their ln Z differ by rounding
         best = max(tried, key=lambda c: c[2].log_evidence)
-        own = tried[0]
-        words, convention, cls, post, like = (best if best[2].log_evidence - own[2].log_evidence >= CONVENTION_LOG_BAYES
-                                              else own)
-        self.convention = convention
-        self.likelihood, self.description = like, self.describe(self.label, cls.name)
-        if len(tried) > 1:
-            compared = "; ".join(f"{w}: ln Z = {c.log_evidence:.1f}" for w, _, c, _, _ in tried)
-            self.description += (f" Conventions compared (the same model written another way): {compared}; "
-                                 f"the base is written with {words}.")
-        self.conventions_compared = [{"convention": w, "switches": s, "class": c.name, "log_evidence": c.log_evidence,
-                                      "wall_s": c.wall_s} for w, s, c, _, _ in tried]
-        self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
-        return replace(cls, numerical_error=self.numerical_error(like, cls, {**self.base_switches, **convention}))
+        chosen = best if best[2].log_evidence - tried[0][2].log_evidence >= CONVENTION_LOG_BAYES else tried[0]
+        record = self.take_base(*chosen) if chosen is not tried[0] else None
+        if record is None:
+            self.description = self.describe(self.label, base.name)
+        compared = "; ".join(f"{w}: ln Z = {c.log_evidence:.1f}" for w, _, c, _, _ in tried)
+        self.description += (f" Conventions compared (the same model written another way): {compared}; "
+                             f"the base is written with {chosen[0]}.")
+        return record
 
     def calibrate_model_form(self) -> ModelClass:
         """The base class (after :meth:`adopt`, the confirmed class) with a model-form discrepancy
