@@ -13,11 +13,13 @@ REAL = ROOT / "cases" / "data" / "real"
 DATASETS = sorted(p for p in REAL.iterdir() if p.is_dir())
 STUDIES = sorted((ROOT / "cases" / "examples").glob("real_*.toml"))
 LICENCES = ("CC BY 4.0", "CC-BY-4.0", "CC0", "ODC-BY", "ODbL", "MIT License")
+SHIPPED = {"speswhite_ciu_ratestep", "kaolin_ciu_ratestep"}  # the issue asks for at least two measured data sets
 
 
 def test_there_are_measured_data_sets_and_studies():
     assert DATASETS and STUDIES
     assert {s.stem.removeprefix("real_") for s in STUDIES} == {d.name for d in DATASETS}
+    assert SHIPPED <= {d.name for d in DATASETS}
 
 
 @pytest.mark.parametrize("folder", DATASETS, ids=lambda p: p.name)
