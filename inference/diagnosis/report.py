@@ -8,7 +8,7 @@ of the base class, the mismatch regions, the covariate attribution, the ranked c
 class the log-evidence, ln B against the base, J_g at the MAP, parameters and residual-structure statistics
 (before/after), the full screening of every class, the omitted physics ("none" when nothing is confirmed, by ln B, the
 margin and the candidate's own pattern: `rank.conclude`, whose docstring states how to calibrate the threshold on
-negative controls), the recommendation, the poor-fit warnings of the classes and, per candidate not named, what the
+negative controls), the recommendation, the calibration warnings of the classes and, per candidate not named, what the
 records lack to test it (`next_tests`). Every class is screened with the covariates (the enriched classes' screenings
 tell whether the candidate's own pattern is gone). The Markdown report says, when no catalog entry explains the
 structure, where (test, curve, abscissa range), how (sign and size) and which covariates the residual follows.
@@ -162,8 +162,8 @@ def next_tests(ranked: list, attribution: list, recorded: list) -> tuple:
 
 def _recommendation(omitted, ranked, report, warnings=None, model_form=None) -> str:
     """The recommendation in one line, from the omitted physics, the ranked candidates, the base class's screening,
-    its poor-fit warnings and the model-form verdict (`rank.conclude`)."""
-    poor = f"; the base model fits poorly ({'; '.join(warnings)})" if warnings else ""
+    its calibration warnings and the model-form verdict (`rank.conclude`)."""
+    poor = f"; warnings on the base class's calibration: {'; '.join(warnings)}" if warnings else ""
     if report.verdict != "structured mismatch":
         return "no structured mismatch: no enrichment recommended" + poor
     if omitted != "none":
@@ -206,7 +206,7 @@ def _region_words(r) -> str:
 
 def _engineer_summary(d: Diagnosis) -> list:
     """The conclusion in words, from the diagnosis."""
-    poor = [f"Poor fit of {name}: {'; '.join(w)}." for name, w in d.warnings.items()]
+    poor = [f"Calibration warnings of {name}: {'; '.join(w)}." for name, w in d.warnings.items()]
     if d.verdict != "structured mismatch":
         return ["The base model's residuals are consistent with the measurement noise (no test, curve or strain "
                 "range misfits beyond the false-alarm level): nothing is missing that these records can reveal, and "

@@ -302,8 +302,8 @@ def test_loop_enriches_every_enrichable_candidate_and_decides():
     assert decisions["slope"].plausible and not decisions["slope"].named
     assert decisions["never"].decision.startswith("not confirmed: ln B = -5.00 < 3")
     assert final.warnings == {"None": ["sigma_eps near its upper bound"]}
-    assert "fits poorly (sigma_eps near its upper bound)" in final.recommendation
-    assert "Poor fit of None: sigma_eps near its upper bound." in diagnosis.markdown(final)
+    assert "warnings on the base class's calibration: sigma_eps near its upper bound" in final.recommendation
+    assert "Calibration warnings of None: sigma_eps near its upper bound." in diagnosis.markdown(final)
     named_only = Fixed(enrich="named")
     run_loop(named_only, n_shifts=200)
     assert named_only.calibrated == [None, "step"]

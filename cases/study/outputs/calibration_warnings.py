@@ -6,8 +6,9 @@
 - an error parameter (sigma_eps or sigma_eps_<group>) whose MAP is within ``SIGMA_TOLERANCE`` (2 %) of the box width
   from its upper bound: the model cannot fit the curves within the noise the prior allows;
 - failed solves: draws on which the model could not follow the programme (a stress path the model cannot reach, an
-  integration that failed) count as zero likelihood; the line gives how many of the run's evaluations failed and
-  the most frequent reason (every failed solve with its parameters is in failed_solves.jsonl);
+  integration that failed) count as zero likelihood; the line gives how many of the run's evaluations failed, how
+  many of them at the final stage (the posterior: only those concern the calibrated parameters) and the most
+  frequent reason (every failed solve with its parameters is in failed_solves.jsonl);
 - a poor fit: a curve whose RMS relative residual (U_obs - U_num)/U_obs at the MAP, over the points Eq. (5) uses,
   exceeds ``POOR_FIT_RATIO`` (3) times the median over the curves of their error parameter at the MAP (under the
   error model of Eq. (1), docs/reference.md section 1, the RMS is about sigma_eps); the line names the test, the
@@ -86,8 +87,12 @@ def failure_warnings(post) -> list:
     shape, count = groups.most_common(1)[0]
     example = " ".join(next(str(f["reason"]) for f in post.failures
                             if _NUMBER.sub("#", str(f["reason"])) == shape).split())
-    return [f"{len(post.failures)} of {post.n_forward_solves} forward solves failed and count as zero likelihood "
-            f"(failed_solves.jsonl); most frequent reason ({count}): {example}"]
+    last = len(post.stages) - 1
+    final = sum(f.get("stage") == last for f in post.failures)
+    where = (f"{final} of them at the final stage: the posterior reaches parameters the programme cannot follow"
+             if final else "none at the final stage: regions of the prior the programme cannot follow")
+    return [f"{len(post.failures)} of {post.n_forward_solves} forward solves failed and count as zero likelihood, "
+            f"{where} (failed_solves.jsonl); most frequent reason ({count}): {example}"]
 
 
 def _worst_window(x, r2):

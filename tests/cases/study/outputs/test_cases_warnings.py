@@ -3,7 +3,13 @@ on prior bounds, sigma_eps at its ceiling, poor fits with the range where the re
 import numpy as np
 import pytest
 
-from cases.study.outputs.calibration_warnings import bound_warnings, calibration_warnings, fit_warnings, sigma_warnings
+from cases.study.outputs.calibration_warnings import (
+    bound_warnings,
+    calibration_warnings,
+    failure_warnings,
+    fit_warnings,
+    sigma_warnings,
+)
 from inference import Bound, Curve, Likelihood, Observations, Posterior, Prior, Test
 
 
@@ -104,3 +110,22 @@ def test_an_error_parameter_on_its_lower_bound_is_a_bound_warning():
     assert bound_warnings(post, lower_only=("sigma_eps",)) == [
         "sigma_eps MAP 0.0102, 2.5 % quantile 0.0105, 97.5 % quantile 0.0105 at the lower bound 0.01 of its prior: "
         "widen the bound or fix it"]
+
+
+def test_failed_solves_say_whether_the_posterior_reached_them():
+    """Failures of prior draws (early stages) are regions the programme cannot follow; only failures at the final
+    stage concern the calibrated parameters, and the line says which it is."""
+    samples = np.tile([70.0, 0.5, 1e-3, 0.02], (10, 1))
+    reason = "ForwardModelError: integration failed at p' = {} kPa"
+    post = _posterior(PRIOR, samples, samples[0])
+    post.stages, post.n_forward_solves = [{}, {}, {}], 300
+    post.failures = [{"stage": 0, "reason": reason.format(25)}, {"stage": 1, "reason": reason.format(50)}]
+    assert failure_warnings(post) == [
+        "2 of 300 forward solves failed and count as zero likelihood, none at the final stage: regions of the prior "
+        "the programme cannot follow (failed_solves.jsonl); most frequent reason (2): " + reason.format(25)]
+    post.failures.append({"stage": 2, "reason": "ValueError: negative stress"})
+    line, = failure_warnings(post)
+    assert line.startswith("3 of 300 forward solves failed and count as zero likelihood, 1 of them at the final "
+                           "stage: the posterior reaches parameters the programme cannot follow")
+    post.failures = []
+    assert failure_warnings(post) == []
