@@ -147,3 +147,25 @@ def test_viscous_relaxation_signs_after_loading_and_unloading():
     assert items["hold time after unloading", physics_catalog.EFFECTIVE_STRESS_CURVES] == +1
     assert items["hold time after unloading", physics_catalog.STRAIN_CURVES] == -1
     assert all(i["covariate"] in physics_catalog.COVARIATES for c in physics_catalog.CATALOG for i in c.signature)
+
+
+def test_a_staged_record_without_times_takes_the_time_of_its_strain_rate(tmp_path):
+    """real_kaolin_ciu_ratestep.toml: MEASURED rate-step shears whose file gives no times (empty time columns) and a
+    consolidation stage recorded by stress: a shear stage's time is its strain over its rate (the stage's own
+    definition), the consolidation stage, with neither times nor a rate, has no time; no covariate is undefined on
+    every point (the screening refuses such a covariate)."""
+    study, obs, cov = _study_covariates("real_kaolin_ciu_ratestep.toml")
+    spec = study.tests[0]
+    shears = {s.name: s for s in spec.stages if s.procedure.shearing}
+    assert len(shears) == 20
+    for (test, key), t in cov["time"].items():
+        stage = key.split("@")[1]
+        assert stage in shears
+        x = obs[test].curves[key].x
+        np.testing.assert_allclose(t, np.abs(x) / 100.0 / shears[stage].strain_rate, rtol=1e-12)
+    assert {key.split("@")[1] for _, key in cov["time"]} == set(shears)
+    for name, spec_ in cov.items():
+        values = spec_["values"] if "values" in spec_ else spec_
+        arrays = [np.atleast_1d(np.asarray(v)) for v in values.values()]
+        numeric = [a for a in arrays if a.dtype.kind == "f"]
+        assert not numeric or any(np.isfinite(a).any() for a in numeric), name
