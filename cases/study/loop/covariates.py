@@ -92,16 +92,19 @@ def _stage_of(spec, key):
 
 def _stage_time(spec, stage, phase: StagePhase, curve, recorded):
     """Time since the stage start (s) of a staged curve's records: the recorded times when the file gives any,
-    else, for a rate-controlled stage, its strain over its rate; None when neither is known."""
+    else, for a rate-controlled stage, its strain over its rate; None when neither gives a finite time (the
+    screening refuses a covariate defined on no point)."""
+    recorded = None if recorded is None else np.asarray(recorded, dtype=float)
     if curve.x_name == "time":
-        return np.asarray(curve.x, dtype=float)
-    if recorded is not None and np.isfinite(np.asarray(recorded, dtype=float)).any():
-        t = np.asarray(recorded, dtype=float)
-        return t - (phase.start if phase.start is not None else t[0])
-    if stage.procedure.rate_controlled and stage.strain_rate:
+        t = np.asarray(curve.x, dtype=float)
+    elif recorded is not None and np.isfinite(recorded).any():
+        t = recorded - (phase.start if phase.start is not None else recorded[0])
+    elif stage.procedure.rate_controlled and stage.strain_rate:
         x = np.asarray(curve.x, dtype=float) / 100.0
-        return np.abs(x - (0.0 if stage.procedure.shearing else x[0])) / abs(stage.strain_rate)
-    return None
+        t = np.abs(x - (0.0 if stage.procedure.shearing else x[0])) / abs(stage.strain_rate)
+    else:
+        return None
+    return t if np.isfinite(t).any() else None
 
 
 def _deviator(test, keys):
@@ -146,7 +149,7 @@ def _within_test(spec, test, map_curves, times, out):
                     out[f"hold time after {phase.phase}"][spec.name, key] = held
             elif phase.phase == "hold":
                 t = _stage_time(spec, stage, phase, curve, times.get(key))
-                if t is not None and np.isfinite(t).any():
+                if t is not None:
                     out[f"hold time after {phase.after}"][spec.name, key] = t
             out["loading phase"][spec.name, key] = kind.astype(str)
             out["overconsolidation"][spec.name, key] = phase.ocr
@@ -167,7 +170,7 @@ def _staged_along(spec, test, times, cov):
     for key, curve in test.curves.items():
         k, stage = _stage_of(spec, key)
         t = _stage_time(spec, stage, phases[k], curve, times.get(key))
-        if t is not None and np.isfinite(t).any():
+        if t is not None:
             cov["time"][spec.name, key] = t
         if curve.x_name in ("axial_strain", "cavity_strain"):
             cov["strain level"][spec.name, key] = np.abs(np.asarray(curve.x, dtype=float)) / 100.0

@@ -149,7 +149,7 @@ def test_viscous_relaxation_signs_after_loading_and_unloading():
     assert all(i["covariate"] in physics_catalog.COVARIATES for c in physics_catalog.CATALOG for i in c.signature)
 
 
-def test_a_staged_record_without_times_takes_the_time_of_its_strain_rate(tmp_path):
+def test_a_staged_record_without_times_takes_the_time_of_its_strain_rate():
     """real_kaolin_ciu_ratestep.toml: MEASURED rate-step shears whose file gives no times (empty time columns) and a
     consolidation stage recorded by stress: a shear stage's time is its strain over its rate (the stage's own
     definition), the consolidation stage, with neither times nor a rate, has no time; no covariate is undefined on
