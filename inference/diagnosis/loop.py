@@ -236,12 +236,14 @@ def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str, c
         t0 = time.perf_counter()
         other = conventions(base)
         conventions_s = {"conventions_s": time.perf_counter() - t0}
-        if other is not None:  # the data prefer another convention: it is the base, screened afresh
+        if other is None:  # the own convention stays: only the description (which the data prefer) changes
+            first = replace(first, description=problem.description)
+        else:  # the data prefer another convention: it is the base, screened afresh
             base = replace(other, role="base", candidate=None)
             candidates, covariates, classes = problem.candidates(), problem.covariates(base), [base]
-        t0 = time.perf_counter()  # again: the description now says which convention the data prefer
-        first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
-        screen_s += time.perf_counter() - t0
+            t0 = time.perf_counter()
+            first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
+            screen_s += time.perf_counter() - t0
     if first.verdict != "structured mismatch":   # the residual is noise: no class is calibrated beside the base
         return LoopResult(first, first, classes, covariates, first.named, [], {
             "screen_and_rank_s": screen_s, "diagnose_final_s": 0.0, "calibration_s": {base.name: base.wall_s},

@@ -241,16 +241,17 @@ class Written(Polynomial):
     convention" (what the soil side's specific volume 1 + e0 is to 1 + e); the loop must ask for it only after the
     base's screening found structure."""
 
-    def __init__(self, b):
+    def __init__(self, b, writing="curvature"):
         super().__init__(b, also=["saturation"])
-        self.asked = 0
+        self.asked, self.writing = 0, writing
 
     def compare_conventions(self, base):
         self.asked += 1
-        other = self.calibrate("curvature")
+        other = self.calibrate(self.writing)
+        self.description += "; compared with the other writing"
         if other.log_evidence - base.log_evidence < 3.0:
             return None
-        self.likelihood = Likelihood(self.observations, self.forward("curvature"))
+        self.likelihood = Likelihood(self.observations, self.forward(self.writing))
         self.description += "; written another way"
         return replace(other, name="y = a x (written another way)")
 
@@ -269,3 +270,16 @@ def test_conventions_are_compared_only_on_structure_and_the_preferred_one_become
     assert [c.name for c in result.classes] == ["y = a x (written another way)"]
     assert result.classes[0].role == "base" and result.first.verdict == "consistent with noise"
     assert result.final.omitted_physics == "none" and result.final.description.endswith("written another way")
+
+
+def test_a_convention_the_data_do_not_prefer_leaves_the_base_and_its_screening():
+    """The other writing is the opposite curvature (worse than the base): the base stays, its first diagnosis is the
+    one before the comparison with the problem's new description, and the curvature is confirmed as without it."""
+    plain = run_loop(Polynomial(B, also=["saturation"]), n_shifts=200)
+    problem = Written(B, writing="saturation")
+    result = run_loop(problem, n_shifts=200)
+    assert problem.asked == 1 and result.classes[0].name == "y = a x"
+    assert result.first.description.endswith("; compared with the other writing")
+    assert (_without_wall_times(replace(result.first, description="").to_dict())
+            == _without_wall_times(replace(plain.first, description="").to_dict()))
+    assert result.final.omitted_physics == plain.final.omitted_physics == "curvature"

@@ -359,20 +359,31 @@ class LoopProblem:
                                                tuple(self.base_log_uniform), self.run, self.out / self.base_dir,
                                                self.seed, self.settings)
         self.own_base = (cls, post, like)
-        return self.take_base("", {}, cls, post, like)
+        return self.take_base({}, cls, post, like)
 
-    def take_base(self, words: str, convention: dict, cls: ModelClass, post, like) -> ModelClass:
+    def take_base(self, convention: dict, cls: ModelClass, post, like) -> ModelClass:
         """Make ``cls`` (the base written with ``convention``) the base class: its likelihood, description, mode and
         the convention every later class is written in; returns its record with the discretisation error measured
         at its mode."""
         self.convention = convention
-        self.likelihood, self.description = like, self.describe(self.label, cls.name)
-        self.base_mode = dict(zip(post.names, cls.extra["map_theta"]))
-        others = conventions(self.model, self.base_switches) or []
-        if len(others) > 1 and not self.conventions_compared:
-            self.description += (" The same model written another way (" + "; ".join(w for _, _, w in others[1:])
-                                 + ") is compared only when the base's residual is structured.")
+        self.likelihood, self.base_mode = like, dict(zip(post.names, cls.extra["map_theta"]))
+        self.describe_base(cls.name)
         return replace(cls, numerical_error=self.numerical_error(like, cls, {**self.base_switches, **convention}))
+
+    def describe_base(self, name: str):
+        """The description of the base class ``name`` and of its conventions: which the data prefer once they were
+        compared, else that they are compared only on a structured residual."""
+        writings = conventions(self.model, self.base_switches) or []
+        self.description = self.describe(self.label, name)
+        if self.conventions_compared:
+            compared = "; ".join(f"{c['convention']}: ln Z = {c['log_evidence']:.1f}"
+                                 for c in self.conventions_compared)
+            chosen = next(c["convention"] for c in self.conventions_compared if c["switches"] == self.convention)
+            self.description += (f" Conventions compared (the same model written another way): {compared}; "
+                                 f"the base is written with {chosen}.")
+        elif len(writings) > 1:
+            self.description += (" The same model written another way (" + "; ".join(w for _, _, w in writings[1:])
+                                 + ") is compared only when the base's residual is structured.")
 
     def compare_conventions(self, base: ModelClass) -> ModelClass | None:
         """The base class in each of its other conventions (``constitutive.registry.conventions``: the same model
@@ -380,9 +391,11 @@ class LoopProblem:
         the highest ln Z becomes the base class when it beats the base's own by :data:`CONVENTION_LOG_BAYES` (its
         convention is then kept by the enriched and model-form classes; returned), else None. The description says
         which the data prefer."""
-        own_words = (conventions(self.model, self.base_switches) or [(None, None, "")])[0][2]
-        tried = [(own_words, {}, *self.own_base)]
-        for option, value, words in (conventions(self.model, self.base_switches) or [])[1:]:
+        writings = conventions(self.model, self.base_switches) or []
+        if len(writings) < 2:
+            return None
+        tried = [(writings[0][2], {}, *self.own_base)]
+        for option, value, words in writings[1:]:
             switches = {**self.base_switches, option: value}
             if option in model_spec(self.model).cls.option_names:
                 name = class_name(switches, self.model)
@@ -394,21 +407,15 @@ class LoopProblem:
                                                    self.out / f"convention_{option}_{value}", self.seed,
                                                    self.settings)
             tried.append((words, {option: value}, cls, post, like))
-        if len(tried) == 1:
-            return None
         self.conventions_compared = [{"convention": w, "switches": s, "class": c.name, "log_evidence": c.log_evidence,
                                       "wall_s": c.wall_s} for w, s, c, _, _ in tried]
         # another convention replaces the base's own only when the data prefer it clearly (ln B >= 3, "strong"): in
         # an undrained test 1 + e and 1 + e0 are the same and their ln Z differ by rounding
         best = max(tried, key=lambda c: c[2].log_evidence)
-        chosen = best if best[2].log_evidence - tried[0][2].log_evidence >= CONVENTION_LOG_BAYES else tried[0]
-        record = self.take_base(*chosen) if chosen is not tried[0] else None
-        if record is None:
-            self.description = self.describe(self.label, base.name)
-        compared = "; ".join(f"{w}: ln Z = {c.log_evidence:.1f}" for w, _, c, _, _ in tried)
-        self.description += (f" Conventions compared (the same model written another way): {compared}; "
-                             f"the base is written with {chosen[0]}.")
-        return record
+        if best[2].log_evidence - tried[0][2].log_evidence < CONVENTION_LOG_BAYES:
+            self.describe_base(base.name)
+            return None
+        return self.take_base(*best[1:])
 
     def calibrate_model_form(self) -> ModelClass:
         """The base class (after :meth:`adopt`, the confirmed class) with a model-form discrepancy
