@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from ._mixed_control_kernel import drive_points
 from .jit import STRAIN_TO_TENSOR as _T
 from .jit import VOIGT_IDENTITY as _I
 from .jit import VOIGT_WEIGHTS as _W
@@ -96,7 +97,7 @@ def stability_margin(sig, pc, v, prm, constant_G):
     return 1.0 + M2 * p * v / (lam - kap) * pc * f_p / ndn if ndn > 0.0 else 1.0
 
 
-@jit(inline="always")  # one call site (update_points): compiled once, inside it
+@jit(inline="always")  # one call site (_update_point): compiled once, inside it
 def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o, tan_o, s_n, Pde, s_tr, n_tr,
                  q_eps):
     """Backward-Euler return mapping of one point over one (sub-)increment. Fills sig_o, dep_o (plastic strain
@@ -170,47 +171,99 @@ def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o
 
 
 @jit
+def _update_point(sig, pc, e, deps, prm, constant_G, tol, max_it, max_depth, stress_out, dep_out, tangent_out,
+                  failure_out, work):
+    """One increment ``deps`` (6,) of one point from stress ``sig`` (6,), p'_c ``pc`` and void ratio ``e``; fills
+    ``stress_out``, ``dep_out`` (the plastic strain increment) and ``tangent_out``. A sub-step that fails is split
+    into halves (depth-first bisection, ``max_depth`` levels; the void ratio is updated between sub-steps,
+    e <- e - (1 + e) d eps_v). Returns (converged, p'_c at the end); where it fails at the deepest level
+    ``failure_out`` (5,) gets p', q, p'_c at the start of the sub-step that failed, the fraction of the increment
+    done before it and :func:`stability_margin` there. ``work`` (>= 8, 6): scratch rows."""
+    sig_c, sub, dep_c, s_n = work[0], work[1], work[2], work[3]
+    Pde, s_tr, n_tr, q_eps = work[4], work[5], work[6], work[7]
+    sig_c[:] = sig
+    pc_c = pc
+    e_c = e
+    dep_out[:] = 0.0
+    units = 1 << max_depth
+    pos = 0
+    level = 0
+    while pos < units:
+        frac = 1.0 / (1 << level)
+        for k in range(6):
+            sub[k] = deps[k] * frac
+        ok, pc_new = _local_solve(sig_c, pc_c, 1.0 + e_c, sub, prm, constant_G, tol, max_it, stress_out, dep_c,
+                                  tangent_out, s_n, Pde, s_tr, n_tr, q_eps)
+        if not ok:
+            if level >= max_depth:
+                p_c = (sig_c[0] + sig_c[1] + sig_c[2]) / 3.0
+                q2 = 0.0
+                for k in range(6):
+                    q2 += _W[k] * (sig_c[k] - p_c * _I[k]) ** 2
+                failure_out[0], failure_out[1], failure_out[2] = p_c, math.sqrt(1.5 * q2), pc_c
+                failure_out[3] = pos / units
+                failure_out[4] = stability_margin(sig_c, pc_c, 1.0 + e_c, prm, constant_G)
+                return False, pc_c
+            level += 1
+            continue
+        sig_c[:] = stress_out
+        pc_c = pc_new
+        e_c -= (1.0 + e_c) * (sub[0] + sub[1] + sub[2])
+        for k in range(6):
+            dep_out[k] += dep_c[k]
+        pos, level = next_substep(pos, level, units)
+    return True, pc_c
+
+
+@jit
 def update_points(stress, pc, void_ratio, deps, prm, constant_G, tol, max_it, max_depth,
                   stress_out, pc_out, dep_out, tangent_out, failure_out):
     """One increment at every point (stress, deps (n, 6); pc, void_ratio (n,); prm (n, 4) in the order
-    PARAMETER_COLUMNS). A point that fails is split into halves (depth-first bisection, ``max_depth`` levels; the
-    void ratio is updated between sub-steps, e <- e - (1 + e) d eps_v). Returns the index of the first point that
-    failed at the deepest level, or -1; for that point ``failure_out`` (5,) gets p', q, p'_c at the start of the
-    sub-step that failed, the fraction of the increment done before it and :func:`stability_margin` there."""
-    n = stress.shape[0]
-    sig_c, sub, dep_c = np.empty(6), np.empty(6), np.empty(6)
-    s_n, Pde, s_tr, n_tr, q_eps = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-    units = 1 << max_depth
-    for i in range(n):
-        sig_c[:] = stress[i]
-        pc_c = pc[i]
-        e_c = void_ratio[i]
-        dep_out[i, :] = 0.0
-        pos = 0
-        level = 0
-        while pos < units:
-            frac = 1.0 / (1 << level)
-            for k in range(6):
-                sub[k] = deps[i, k] * frac
-            ok, pc_new = _local_solve(sig_c, pc_c, 1.0 + e_c, sub, prm[i], constant_G, tol, max_it, stress_out[i],
-                                      dep_c, tangent_out[i], s_n, Pde, s_tr, n_tr, q_eps)
-            if not ok:
-                if level >= max_depth:
-                    p_c = (sig_c[0] + sig_c[1] + sig_c[2]) / 3.0
-                    q2 = 0.0
-                    for k in range(6):
-                        q2 += _W[k] * (sig_c[k] - p_c * _I[k]) ** 2
-                    failure_out[0], failure_out[1], failure_out[2] = p_c, math.sqrt(1.5 * q2), pc_c
-                    failure_out[3] = pos / units
-                    failure_out[4] = stability_margin(sig_c, pc_c, 1.0 + e_c, prm[i], constant_G)
-                    return i
-                level += 1
-                continue
-            sig_c[:] = stress_out[i]
-            pc_c = pc_new
-            e_c -= (1.0 + e_c) * (sub[0] + sub[1] + sub[2])
-            for k in range(6):
-                dep_out[i, k] += dep_c[k]
-            pos, level = next_substep(pos, level, units)
-        pc_out[i] = pc_c
+    PARAMETER_COLUMNS), each by :func:`_update_point`. Returns the index of the first point that failed, or -1;
+    for that point ``failure_out`` (5,) as in :func:`_update_point`."""
+    work = np.empty((8, 6))
+    for i in range(stress.shape[0]):
+        ok, pc_new = _update_point(stress[i], pc[i], void_ratio[i], deps[i], prm[i], constant_G, tol, max_it,
+                                   max_depth, stress_out[i], dep_out[i], tangent_out[i], failure_out, work)
+        pc_out[i] = pc_new
+        if not ok:
+            return i
     return -1
+
+
+#: the columns of the state of :func:`point_update`: p'_c, the void ratio e and the plastic strain (6)
+STATE_COLUMNS = (("pc", 1), ("void_ratio", 1), ("plastic_strain", 6))
+#: scratch rows of :func:`point_update` (``work``)
+WORK_ROWS = 9
+#: codes of :func:`point_update`: the return mapping failed (info: ``_update_point``'s failure_out); the void
+#: ratio would fall to zero or below (info: the new and the old void ratio)
+RETURN_MAPPING_FAILED, VOID_RATIO_COLLAPSED = 1, 2
+
+
+@jit
+def point_update(stress, state, deps, dt, prm, settings, stress_out, state_out, tangent_out, info, work):
+    """The model's update of one point in the form of the compiled step loop
+    (``_mixed_control_kernel.drive_points``): ``state`` (8,) in STATE_COLUMNS, ``settings`` (constant_G as 0/1,
+    tol, max_it, max_depth); ``dt`` unused (rate independent). As ``ModifiedCamClay.update``: the return mapping,
+    then e <- e - (1 + e) d eps_v over the whole increment and the plastic strain accumulated. Returns 0, or a
+    failure code (``RETURN_MAPPING_FAILED``, ``VOID_RATIO_COLLAPSED``) with ``info`` filled."""
+    ok, pc = _update_point(stress, state[0], state[1], deps, prm, settings[0] != 0.0, settings[1], int(settings[2]),
+                           int(settings[3]), stress_out, work[8], tangent_out, info, work)
+    if not ok:
+        return RETURN_MAPPING_FAILED
+    e = state[1]
+    e_new = e - (1.0 + e) * (deps[0] + deps[1] + deps[2])
+    if e_new <= 0.0:
+        info[0], info[1] = e_new, e
+        return VOID_RATIO_COLLAPSED
+    state_out[0], state_out[1] = pc, e_new
+    for k in range(6):
+        state_out[2 + k] = state[2 + k] + work[8, k]
+    return 0
+
+
+@jit
+def drive(prm, settings, stress0, state0, steps, stop, newton, history, ending):
+    """``_mixed_control_kernel.drive_points`` with :func:`point_update` (the arguments are its)."""
+    return drive_points(point_update, prm, settings, np.empty((WORK_ROWS, 6)), 1, stress0, state0, steps, stop,
+                        newton, history, ending)

@@ -3,12 +3,16 @@ aimed at in a step, the start, Newton corrections and end of a step's Newton on 
 the excess pore pressure when undrained), and the step control of ``adaptive_control``. Arrays over n points,
 updated in place; only IEEE arithmetic and comparisons per point, so the results are the bits of the equivalent
 numpy expressions (tests/constitutive/test_compiled_steps.py). Compression positive, kPa, strains dimensionless.
+
+:func:`drive_points` is the whole of ``mixed_control`` (tangent predictor) for a model whose update of one point is
+compiled: every step of a point in one call, built from the same pieces on one-row views
+(tests/constitutive/test_compiled_step_loop.py).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .jit import jit
+from .jit import jit, next_substep
 
 #: m of sigma = sigma' + u m (the normal Voigt components as weights)
 _NORMAL_WEIGHT = np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])
@@ -281,3 +285,184 @@ def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments)
                     strain_origin[i, c] = strain[i, c]
                 u_origin[i] = u[i]
         h[i] = min(proposal, largest[segment[i], i])
+
+
+# The compiled step loop. Its three functions are inlined into the model's wrapper (e.g. ``_mcc_kernel.drive``):
+# the point update ``update`` is then a compile-time constant there, not a run-time argument, which numba cannot
+# cache.
+@jit(inline="always")
+def _solve_point(update, prm, settings, work, start, inc, dt, control, unknown, undrained, newton, trial, scratch,
+                 info, failed_deps):
+    """The Newton of one point over one (sub-)step, as ``mixed_control``'s ``_Step.solve`` for a point: from the
+    ``start`` (stress (1, 6), state, tangent (1, 6, 6)) under the step increments ``inc`` (1, 6) over ``dt``, the
+    unknown components ``unknown`` (and du when ``undrained``) from the tangent predictor, then Newton corrections
+    after each model ``update`` (into ``trial``) until converged. ``scratch``: (deps (1, 6), du (1,), target
+    (1, 6), dsig (1, 6), done (1,), ok (1,), a sub-step's increments (1, 6), no stress (0, 6)). Returns 0
+    (converged: ``trial`` and deps, du hold the step), -1 (no convergence within max_iterations) or the model's
+    failure code (``info`` filled, ``failed_deps`` the strain increment it failed on)."""
+    s, st, C = start
+    t_s, t_st, t_C = trial
+    deps, du, target, dsig, done, ok, _, no_stress = scratch
+    tol, max_iterations = newton[0], int(newton[1])
+    n_u = unknown.size + (1 if undrained else 0)
+    for c in range(6):
+        deps[0, c] = inc[0, c] if control[c] else 0.0
+    for a in range(unknown.size):
+        target[0, a] = inc[0, unknown[a]]
+    du[0] = 0.0
+    done[0] = False
+    if n_u:  # the predictor with the start-of-step tangent
+        for r in range(6):
+            v = 0.0
+            for c in range(6):
+                v += C[0, r, c] * deps[0, c]
+            dsig[0, r] = v
+        newton_correction(dsig, no_stress, C, deps, du, target, unknown, undrained, done, tol, ok)
+    for _ in range(max_iterations):
+        code = update(s[0], st, deps[0], dt, prm, settings, t_s[0], t_st, t_C[0], info, work)
+        if code != 0:
+            failed_deps[:] = deps[0]
+            return code
+        if not n_u:
+            return 0
+        for c in range(6):
+            dsig[0, c] = t_s[0, c] - s[0, c]
+        newton_correction(dsig, t_s, t_C, deps, du, target, unknown, undrained, done, tol, ok)
+        if ok[0]:
+            return 0
+    return -1
+
+
+@jit(inline="always")
+def _advance_point(update, prm, settings, work, committed, inc, dt, control, unknown, undrained, newton, cuts,
+                   moving, trial, scratch, total, info, failed_deps):
+    """One step of one point from its ``committed`` (stress, state, tangent) under ``inc`` (1, 6) over ``dt``, as
+    ``mixed_control``'s ``_Step.advance``: where the Newton fails the step is taken as two halves, recursively up to
+    ``cuts`` levels (depth-first bisection); the end in ``moving`` (stress, state, tangent), the strain and pore
+    pressure increments summed in ``total`` ((1, 6), (1,)). Returns (converged, the code of the last model failure
+    met on the way, 0 if none)."""
+    m_s, m_st, m_C = moving
+    t_s, t_st, t_C = trial
+    deps, du, step_in = scratch[0], scratch[1], scratch[6]
+    d_strain, d_u = total
+    m_s[:] = committed[0]
+    m_st[:] = committed[1]
+    m_C[:] = committed[2]
+    d_strain[:] = 0.0
+    d_u[0] = 0.0
+    last = 0
+    units = 1 << cuts
+    pos = 0
+    level = 0
+    while pos < units:
+        frac = 1.0 / (1 << level)
+        for c in range(6):
+            step_in[0, c] = inc[0, c] * frac
+        code = _solve_point(update, prm, settings, work, moving, step_in, dt * frac, control, unknown, undrained,
+                            newton, trial, scratch, info, failed_deps)
+        if code != 0:
+            if code > 0:
+                last = code
+            if level >= cuts:
+                return False, last
+            level += 1
+            continue
+        m_s[:] = t_s
+        m_st[:] = t_st
+        m_C[:] = t_C
+        for c in range(6):
+            d_strain[0, c] += deps[0, c]
+        d_u[0] += du[0]
+        pos, level = next_substep(pos, level, units)
+    return True, last
+
+
+@jit(inline="always")
+def drive_points(update, prm, settings, work, void_ratio_column, stress0, state0, steps, stop, newton, history,
+                 ending):
+    """``mixed_control`` compiled for a model whose update of one point is the compiled function ``update``
+    (stress (6,), state (S,), deps (6,), dt, prm row, settings, stress_out, state_out, tangent_out (6, 6), info,
+    work) -> 0 or a failure code > 0: every step of one point, then the next point (the points are independent).
+
+    stress0 (n, 6), state0 (n, S) (``void_ratio_column`` its void ratio). steps: (control (K, 6) bool, fresh (K, 6)
+    bool (a component that becomes stress-controlled at the step), unknown (K, 6) int (the stress-controlled
+    components first), n_unknown (K,), inc (K, n, 6), dt (K, n), undrained (K,), record (K,), active (K, n)). stop:
+    (component (-1: none), target (n,), direction (n,)). newton: (tol, max_iterations, max_cuts). history: (stress
+    (n, R, 6), strain (n, R, 6), pore pressure, void ratio, time (n, R)), column 0 the start, then the recorded
+    steps (NaN but the time where a point has failed). ending: (final stress (n, 6), final state (n, S), fail_step
+    (n,) (-1: none; -2: the start's zero increment failed), fail_code (n,) (the last model failure code met in the
+    failing step, 0 none), fail_info (n, I), fail_deps (n, 6) (its strain increment), stop_step (n,), stop_value
+    (n,)). The arithmetic per point is that of ``mixed_control`` with ``predictor="tangent"``, except that a cut
+    step's strain increments are summed in order (the driver sums the halves' sums)."""
+    control, fresh, unknown, n_unknown, inc, dt, undrained, record, active = steps
+    stop_component, stop_target, stop_direction = stop
+    h_stress, h_strain, h_u, h_e, h_time = history
+    final_stress, final_state, fail_step, fail_code, fail_info, fail_deps, stop_step, stop_value = ending
+    max_cuts = int(newton[2])
+    n, n_steps, n_state = stress0.shape[0], dt.shape[0], state0.shape[1]
+    committed = (np.empty((1, 6)), np.empty(n_state), np.empty((1, 6, 6)))
+    moving = (np.empty((1, 6)), np.empty(n_state), np.empty((1, 6, 6)))
+    trial = (np.empty((1, 6)), np.empty(n_state), np.empty((1, 6, 6)))
+    scratch = (np.empty((1, 6)), np.empty(1), np.empty((1, 6)), np.empty((1, 6)), np.empty(1, dtype=np.bool_),
+               np.empty(1, dtype=np.bool_), np.empty((1, 6)), np.empty((0, 6)))
+    total = (np.empty((1, 6)), np.empty(1))
+    s, st, C = committed
+    u, taking_row, prescribed, step_inc = np.empty(1), np.empty(1, dtype=np.bool_), np.empty((1, 6)), np.empty((1, 6))
+    strain = np.empty(6)
+    zero = np.zeros(6)
+    info = np.empty(fail_info.shape[1])
+    for i in range(n):
+        s[0] = stress0[i]
+        st[:] = state0[i]
+        strain[:] = 0.0
+        u[0] = 0.0
+        t = 0.0
+        prescribed[:] = 0.0
+        alive, stopped = True, False
+        fail_step[i], fail_code[i], stop_step[i], stop_value[i] = -1, 0, -1, np.nan
+        code = update(s[0], st, zero, 0.0, prm[i], settings, trial[0][0], trial[1], C[0], info, work)
+        if code != 0:
+            fail_step[i], fail_code[i] = -2, code
+            fail_info[i] = info
+            fail_deps[i] = 0.0
+            continue
+        column = 0
+        for k in range(-1, n_steps):
+            if k >= 0:
+                taking = active[k, i] and not stopped
+                taking_row[0] = taking
+                aim_step(s, u, inc[k, i:i + 1], control[k], fresh[k], taking_row, prescribed, step_inc)
+                if alive and taking:
+                    unknowns = unknown[k, :n_unknown[k]]
+                    cuts = max_cuts if n_unknown[k] or undrained[k] else 0
+                    ok, code = _advance_point(update, prm[i], settings, work, committed, step_inc, dt[k, i],
+                                              control[k], unknowns, undrained[k], newton, cuts, moving, trial,
+                                              scratch, total, info, fail_deps[i])
+                    if not ok:
+                        alive = False
+                        fail_step[i], fail_code[i] = k, code
+                        fail_info[i] = info
+                    elif stop_component >= 0 and (stop_direction[i] * (moving[0][0, stop_component] - stop_target[i])
+                                                  >= 0.0):
+                        stopped, taking = True, False
+                        stop_step[i], stop_value[i] = k, moving[0][0, stop_component]
+                    else:
+                        s[:] = moving[0]
+                        st[:] = moving[1]
+                        C[:] = moving[2]
+                        for c in range(6):
+                            strain[c] += total[0][0, c]
+                        u[0] += total[1][0]
+                if taking:
+                    t += dt[k, i]
+                if not record[k]:
+                    continue
+                column += 1
+            h_time[i, column] = t
+            for c in range(6):
+                h_stress[i, column, c] = s[0, c] if alive else np.nan
+                h_strain[i, column, c] = strain[c] if alive else np.nan
+            h_u[i, column] = u[0] if alive else np.nan
+            h_e[i, column] = st[void_ratio_column] if alive else np.nan
+        final_stress[i] = s[0]
+        final_state[i] = st

@@ -21,12 +21,13 @@ caller says it will not use the tangent: a model whose tangent costs extra work 
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ParameterError", "IntegrationError", "MaterialModel", "ParameterRange", "as_points", "check_parameter",
-           "point_rows", "iterating_rows", "updated_rows"]
+__all__ = ["ParameterError", "IntegrationError", "MaterialModel", "CompiledSteps", "ParameterRange", "as_points",
+           "check_parameter", "point_rows", "iterating_rows", "updated_rows"]
 
 
 class ParameterError(ValueError):
@@ -140,6 +141,39 @@ def updated_rows(model, rows, points, stress, state, dstrain, dt, previous):
     return s_new, merged, C
 
 
+@dataclass(frozen=True)
+class CompiledSteps:
+    """A model's compiled step loop (``mixed_control`` with the tangent predictor, every step of a point in one
+    compiled call): ``drive(parameters, settings, stress0, state0, steps, stop, newton, history, ending)`` as
+    ``constitutive._mixed_control_kernel.drive_points`` with the model's point update; ``parameters`` (n, P) and
+    ``settings`` its arrays; ``state_columns`` ((name, width), ...) the state's keys in the order of its flat
+    (n, S) array; ``info_size`` the length of a failure's ``info``; ``failure(code, info, dstrain)`` the reason of a
+    failure code (the text of the model's IntegrationError).
+    """
+    drive: Callable
+    parameters: np.ndarray
+    settings: np.ndarray
+    state_columns: tuple
+    info_size: int
+    failure: Callable
+
+    def pack(self, state, n):
+        """The state dict as the flat (n, S) array of ``state_columns``."""
+        columns = []
+        for key, width in self.state_columns:
+            value = np.asarray(state[key], dtype=float)
+            columns.append(np.broadcast_to(value.reshape(-1, width) if value.ndim else value, (n, width)))
+        return np.ascontiguousarray(np.hstack(columns))
+
+    def unpack(self, flat):
+        """The flat (n, S) state as the model's dict ((n,) for a width of 1, (n, width) otherwise)."""
+        out, start = {}, 0
+        for key, width in self.state_columns:
+            out[key] = flat[:, start] if width == 1 else flat[:, start:start + width]
+            start += width
+        return out
+
+
 class MaterialModel:
     """Base class of material-point models. Subclasses set ``name`` and ``tangent_kind`` and implement
     ``initial_state`` and ``update``. Parameters are stored as attributes (float arrays broadcastable to (n,)).
@@ -186,6 +220,11 @@ class MaterialModel:
     #: results are their rows of the update of every point, bit for bit (the points are integrated independently);
     #: the laboratory drivers then integrate only the points still iterating
     point_subsets = False
+
+    def compiled_steps(self, n):
+        """The model's compiled step loop for ``mixed_control`` over n points (:class:`CompiledSteps`), or None
+        where the model has none (the driver then steps in Python, calling :meth:`update`)."""
+        return None
 
     def _checked(self, name, value):
         """``value`` of parameter ``name`` checked against ``parameter_ranges[name]`` (ParameterError)."""

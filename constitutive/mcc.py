@@ -33,7 +33,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
+from .base import (
+    CompiledSteps,
+    IntegrationError,
+    MaterialModel,
+    ParameterError,
+    ParameterRange,
+    as_points,
+    check_parameter,
+)
 from .invariants import deviatoric_stress, mean_stress
 
 
@@ -148,21 +156,37 @@ class ModifiedCamClay(MaterialModel):
             np.ascontiguousarray(dstrain), self.kernel_rows(n, points), self.G is not None, self.tolerance,
             self.max_iterations, self.max_substep_depth, new_stress, pc, deps_p, tangent, where)
         if failed >= 0:
-            p, q, pc_f, done, margin = where
-            at = (f"at p' = {p:.4g} kPa, q = {q:.4g} kPa, p'_c = {pc_f:.4g} kPa, {done:.3g} of the strain increment "
-                  f"{dstrain[failed]} done")
-            if margin < 0.0:
-                raise IntegrationError(failed, f"unstable material point {at}: plastic softening faster than the "
-                                       f"elastic stiffness (1 + H/(n:D:n) = {margin:.3g} < 0; dry side of critical, "
-                                       f"lambda - kappa small), no plastic state follows under a small strain "
-                                       f"increment")
-            raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
-                                   f"sub-stepping {at}")
+            raise IntegrationError(failed, self.integration_failure(_kernel().RETURN_MAPPING_FAILED, where,
+                                                                    dstrain[failed]))
         e_new = e - (1.0 + e) * (dstrain[:, 0] + dstrain[:, 1] + dstrain[:, 2])
         collapsed = e_new <= 0.0
         if collapsed.any():
             i = int(np.argmax(collapsed))
-            raise IntegrationError(i, f"void ratio {e_new[i]:.3g} <= 0 after the strain increment {dstrain[i]} "
-                                   f"(from e = {e[i]:.4g}): compressed beyond the solids")
+            raise IntegrationError(i, self.integration_failure(_kernel().VOID_RATIO_COLLAPSED, (e_new[i], e[i]),
+                                                               dstrain[i]))
         new_state = {"pc": pc, "void_ratio": e_new, "plastic_strain": state["plastic_strain"] + deps_p}
         return new_stress, new_state, tangent
+
+    def integration_failure(self, code, info, dstrain) -> str:
+        """The reason of a failed update of one point under the strain increment ``dstrain`` (6,): ``code`` and
+        ``info`` as ``_mcc_kernel.point_update`` gives them (the return mapping's (p', q, p'_c, fraction done,
+        stability margin), or the new and old void ratio)."""
+        if code == _kernel().VOID_RATIO_COLLAPSED:
+            e_new, e = info[0], info[1]
+            return (f"void ratio {e_new:.3g} <= 0 after the strain increment {dstrain} (from e = {e:.4g}): compressed "
+                    f"beyond the solids")
+        p, q, pc_f, done, margin = info[:5]
+        at = (f"at p' = {p:.4g} kPa, q = {q:.4g} kPa, p'_c = {pc_f:.4g} kPa, {done:.3g} of the strain increment "
+              f"{dstrain} done")
+        if margin < 0.0:
+            return (f"unstable material point {at}: plastic softening faster than the elastic stiffness "
+                    f"(1 + H/(n:D:n) = {margin:.3g} < 0; dry side of critical, lambda - kappa small), no plastic "
+                    f"state follows under a small strain increment")
+        return f"local Newton did not converge after {self.max_substep_depth} levels of sub-stepping {at}"
+
+    def compiled_steps(self, n):
+        """Every step of ``mixed_control`` in one compiled call (``_mcc_kernel.drive``)."""
+        kernel = _kernel()
+        settings = np.array([float(self.G is not None), self.tolerance, self.max_iterations, self.max_substep_depth])
+        return CompiledSteps(kernel.drive, self.kernel_parameters(n), settings, kernel.STATE_COLUMNS, 5,
+                             self.integration_failure)

@@ -8,7 +8,9 @@ independently, so a batched run equals the individual runs to round-off. :func:`
 controls along a prescribed path in time with step sizes chosen per point (the holds of a rate-dependent model).
 The named tests built on them are in :mod:`constitutive.labtests`; the per-point arithmetic of a step (its aim, the
 Newton's start, corrections and end, the adaptive step control) is compiled in
-:mod:`constitutive._mixed_control_kernel`.
+:mod:`constitutive._mixed_control_kernel`; for a model with a compiled update of one point
+(``MaterialModel.compiled_steps``: Modified Cam Clay) the whole of :func:`mixed_control` is, one call for every step
+of every point (the per-step Python glue otherwise costs several times the model's own arithmetic).
 """
 from __future__ import annotations
 
@@ -49,7 +51,7 @@ def _where_state(mask, a, b):
 
 def mixed_control(model, stress0, state0, strain_control, increments, dt, undrained=False, record=None,
                   on_failure="raise", tol=1e-10, max_iterations=25, max_cuts=8, active=None, stop=None,
-                  predictor="tangent"):
+                  predictor="tangent", compiled=True):
     """Drive ``model`` through n_steps mixed strain/stress-controlled increments.
 
     stress0 (n, 6) effective stress (kPa), state0 the model state at stress0.
@@ -78,6 +80,9 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     (``on_failure="raise"``) or is frozen with NaN curves from then on (``"nan"``). A step with every strain
     prescribed has no unknown: a failure there is the model's own (it sub-steps within its update) and is final at
     once, without cuts. A point outside a step is not integrated over it (its model update takes dt = 0).
+    compiled: with the tangent predictor, a model that has a compiled step loop (``MaterialModel.compiled_steps``)
+    takes every step of a point in one compiled call (the same arithmetic per point; a cut step's strain
+    increments summed in order); False: the steps in Python, calling the model's ``update``.
     Returns a dict of arrays over (n, n_records): ``stress`` (..., 6), ``strain`` (..., 6), ``pore_pressure``,
     ``void_ratio``, ``time``; plus ``state`` and ``final_stress`` (n, 6) at the end (a failed point's at its last
     converged step, the state's stress), ``failed`` (n,), ``reasons`` {failed point: why, the model's
@@ -101,11 +106,19 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     active = None if active is None else np.broadcast_to(np.asarray(active, dtype=bool), (n_steps, n))
     if not np.all(np.isfinite(stress)):
         raise ValueError("mixed_control: the initial stress must be finite at every point")
+    no_stress_row = und & ~np.any(~control & NORMAL, axis=1)
+    if no_stress_row.any():
+        raise ValueError(f"step {int(np.argmax(no_stress_row))}: an undrained step needs a stress-controlled normal "
+                         f"component")
     stopped = np.zeros(n, dtype=bool)
     stop_step, stop_value = np.full(n, -1), np.full(n, np.nan)
     if stop is not None:
         stop_component = int(stop[0])
         stop_target, stop_direction = (np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in stop[1:])
+    kernel = model.compiled_steps(n) if compiled and predictor == "tangent" else None
+    if kernel is not None:
+        return _compiled_history(kernel, stress, state0, control, inc, np.broadcast_to(dt.T, (n, n_steps)).T, und,
+                                 record, active, stop, on_failure, (tol, max_iterations, max_cuts))
 
     state = state0
     strain = np.zeros((n, 6))
@@ -133,8 +146,6 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     for k in range(n_steps):
         key = (control[k].tobytes(), bool(und[k]))
         if key not in steps:
-            if und[k] and not np.any(~control[k] & NORMAL):
-                raise ValueError(f"step {k}: an undrained step needs a stress-controlled normal component")
             steps[key] = _Step(model, control[k], bool(und[k]), tol, max_iterations)
         step = steps[key]
         # stress-controlled components aim at the accumulated prescribed total stress, so that the Newton
@@ -193,6 +204,49 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
 
 
 _NO_STRESS = np.zeros((0, 6))
+
+
+def _compiled_history(kernel, stress, state0, control, inc, dt, undrained, record, active, stop, on_failure, newton):
+    """``mixed_control``'s history through the model's compiled step loop (``kernel``, :class:`CompiledSteps`);
+    the arguments as normalized there, ``dt`` (K, n), ``newton`` (tol, max_iterations, max_cuts)."""
+    n, n_steps = stress.shape[0], dt.shape[0]
+    unknown = np.ascontiguousarray(np.argsort(control, axis=1, kind="stable"))  # the stress-controlled first
+    fresh = ~control & np.vstack([np.ones((1, 6), dtype=bool), control[:-1]])
+    steps = (np.ascontiguousarray(control), fresh, unknown, np.count_nonzero(~control, axis=1),
+             np.ascontiguousarray(inc), np.ascontiguousarray(dt), np.ascontiguousarray(undrained), record,
+             np.ones((n_steps, n), dtype=bool) if active is None else np.ascontiguousarray(active))
+    if stop is None:
+        stops = (-1, np.zeros(n), np.zeros(n))
+    else:
+        stops = (int(stop[0]), *(np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (n,)))
+                                 for v in stop[1:]))
+    columns = 1 + int(np.count_nonzero(record))
+    history = (np.empty((n, columns, 6)), np.empty((n, columns, 6)), np.empty((n, columns)), np.empty((n, columns)),
+               np.empty((n, columns)))
+    flat = kernel.pack(state0, n)
+    ending = (np.empty((n, 6)), np.empty_like(flat), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64),
+              np.empty((n, kernel.info_size)), np.empty((n, 6)), np.empty(n, dtype=np.int64), np.empty(n))
+    kernel.drive(kernel.parameters, kernel.settings, stress, flat, steps, stops,
+                 np.array([newton[0], newton[1], newton[2]], dtype=float), history, ending)
+    final_stress, final_state, fail_step, fail_code, fail_info, fail_deps, stop_step, stop_value = ending
+    start_failed = np.flatnonzero(fail_step == -2)
+    if start_failed.size:
+        i = int(start_failed[0])
+        raise IntegrationError(i, kernel.failure(fail_code[i], fail_info[i], fail_deps[i]))
+    failed = fail_step >= 0
+    reasons = {}
+    for i in np.flatnonzero(failed):
+        why = (kernel.failure(fail_code[i], fail_info[i], fail_deps[i]) if fail_code[i] else
+               f"mixed-control Newton did not converge after {newton[2]} step cuts")
+        reasons[int(i)] = f"step {fail_step[i]}: {why}"
+    if failed.any() and on_failure == "raise":
+        first = int(np.flatnonzero(failed)[np.argmin(fail_step[failed])])
+        raise IntegrationError(first, reasons[first])
+    hist = dict(zip(("stress", "strain", "pore_pressure", "void_ratio", "time"), history))
+    hist.update(state=kernel.unpack(final_state), final_stress=final_stress, failed=failed, reasons=reasons)
+    if stop is not None:
+        hist.update(stopped=stop_step >= 0, stop_step=stop_step, stop_value=stop_value)
+    return hist
 
 
 class _Step:

@@ -176,14 +176,15 @@ class _CountingMCC(ModifiedCamClay):
 def test_a_step_with_every_strain_prescribed_fails_at_once_with_the_models_reason():
     """Every strain prescribed: nothing for the driver's Newton to solve, so a model failure is final without step
     cuts (one update per step, the failing one included), and the error carries the model's reason: here MCC's
-    unstable point (M 0.8, lambda - kappa = 0.01, yield on the dry side of critical under oedometer loading)."""
+    unstable point (M 0.8, lambda - kappa = 0.01, yield on the dry side of critical under oedometer loading). The
+    Python driver, whose model updates can be counted (the compiled one: test_compiled_step_loop.py)."""
     m = _CountingMCC(M=0.8, lambda_=0.1, kappa=0.09, nu=0.25, pc0=400.0)
     stress = np.array([[20.0, 11.0, 11.0, 0.0, 0.0, 0.0]])
     inc = np.zeros((80, 6))
     inc[:, 0] = 0.0025
     _CountingMCC.calls = 0
     hist = lt.mixed_control(m, stress, m.initial_state(stress, 1.26), lt.ALL_STRAIN, inc, np.ones(80),
-                            on_failure="nan")
+                            on_failure="nan", compiled=False)
     assert hist["failed"][0]
     (k, reason), = hist["reasons"].items()
     assert k == 0 and "unstable material point" in reason
@@ -191,4 +192,4 @@ def test_a_step_with_every_strain_prescribed_fails_at_once_with_the_models_reaso
     assert _CountingMCC.calls == 1 + 80  # the start's tangent and one update per step
     assert np.all(np.isnan(hist["stress"][0, failed_at + 1:]))
     with pytest.raises(IntegrationError, match="unstable material point"):
-        lt.mixed_control(m, stress, m.initial_state(stress, 1.26), lt.ALL_STRAIN, inc, np.ones(80))
+        lt.mixed_control(m, stress, m.initial_state(stress, 1.26), lt.ALL_STRAIN, inc, np.ones(80), compiled=False)

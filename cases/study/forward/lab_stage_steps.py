@@ -80,14 +80,13 @@ NORMAL = labtests.NORMAL
 def _linear_knots(points, bound):
     """Knots (K, n) of a linear segment: ``points`` (P, n) the segment start, the records and the end (stage time,
     each row increasing along axis 0 for every particle), each interval split in the largest number of equal parts
-    that ``bound(a, b)`` (the parts needed per particle, (n,)) asks for over the particles. Returns the knots
-    without the start and the knot index of each point after the start."""
-    knots, index = [], []
-    for a, b in zip(points[:-1], points[1:]):
-        parts = max(1, int(np.max(bound(a, b))))
-        knots += [a + (b - a) * (j / parts) for j in range(1, parts + 1)]
-        index.append(len(knots) - 1)
-    return np.array(knots), np.array(index)
+    that ``bound(a, b)`` (the parts needed per particle for the intervals' starts and ends, (P - 1, n)) asks for
+    over the particles. Returns the knots without the start and the knot index of each point after the start."""
+    parts = np.maximum(1, np.max(bound(points[:-1], points[1:]), axis=1).astype(int))
+    last = np.cumsum(parts) - 1
+    part = np.arange(last[-1] + 1) - np.repeat(last - parts, parts)  # 1, ..., parts within each interval
+    a, b = np.repeat(points[:-1], parts, axis=0), np.repeat(points[1:], parts, axis=0)
+    return a + (b - a) * (part / np.repeat(parts, parts))[:, None], last
 
 
 def _hold_first(length):
@@ -112,12 +111,12 @@ def _hold_knots(start, end, records, timed=True):
 def _ln_parts(start, end):
     """Steps needed per particle for a stress ramp from ``start`` to ``end`` (n, 6) over the controlled normal
     components (ln-stress steps of at most STRESS_STEP)."""
-    def bound(fa, fb):
-        a = start + (end - start) * fa[:, None]
-        b = start + (end - start) * fb[:, None]
+    def bound(fa, fb):  # ramp fractions (..., n)
+        a = start + (end - start) * fa[..., None]
+        b = start + (end - start) * fb[..., None]
         with np.errstate(divide="ignore", invalid="ignore"):
-            r = np.abs(np.log(np.maximum(b, 1e-9) / np.maximum(a, 1e-9)))[:, :3]
-        return np.ceil(np.nanmax(r, axis=1) / STRESS_STEP - 1e-9)
+            r = np.abs(np.log(np.maximum(b, 1e-9) / np.maximum(a, 1e-9)))[..., :3]
+        return np.ceil(np.nanmax(r, axis=-1) / STRESS_STEP - 1e-9)
     return bound
 
 

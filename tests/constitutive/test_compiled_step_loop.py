@@ -1,0 +1,174 @@
+"""The compiled step loop of ``mixed_control`` (``MaterialModel.compiled_steps``, Modified Cam Clay) against the
+per-step Python driver that calls the model's ``update`` (``compiled=False``), itself checked against closed forms in
+test_labtests.py and test_mcc.py: the same histories, end states, failures, reasons and stops on batches that mix
+drained and undrained steps, stress- and strain-controlled components that change between steps, inactive steps,
+a stop target, step cuts and failing points.
+
+Tolerance: the two drivers run the same arithmetic per point, but a cut step's strain increments are summed in
+order by the compiled loop and as halves of halves by the Python one, and the tangent predictor's matrix product may
+be summed in another order by numpy; either changes the Newton's iterates by round-off, and the converged values
+then differ by at most the Newton tolerance, 1e-10 x (1 kPa + max |sigma'|) on the stresses. The comparison allows
+1e-8 of each quantity's scale.
+"""
+import numpy as np
+import pytest
+
+from constitutive import IntegrationError, ModifiedCamClay
+from constitutive import labtests as lt
+
+KEYS = ("stress", "strain", "pore_pressure", "void_ratio", "time")
+
+
+def both(model, *args, **kwargs):
+    """The compiled and the Python driver's results of the same call."""
+    assert model.compiled_steps(len(args[0])) is not None
+    return (lt.mixed_control(model, *args, **kwargs),
+            lt.mixed_control(model, *args, compiled=False, **kwargs))
+
+
+def assert_same_history(a, b):
+    """Histories, end states and failures equal within 1e-8 of each quantity's scale (NaN in the same places)."""
+    for key in KEYS:
+        scale = 1.0 + np.nanmax(np.abs(b[key]), initial=0.0)
+        np.testing.assert_allclose(a[key], b[key], rtol=0.0, atol=1e-8 * scale, err_msg=key)
+    np.testing.assert_allclose(a["final_stress"], b["final_stress"], rtol=0.0,
+                               atol=1e-8 * (1.0 + np.abs(b["final_stress"]).max()))
+    assert a["state"].keys() == b["state"].keys()
+    for key in a["state"]:
+        scale = 1.0 + np.abs(b["state"][key]).max()
+        np.testing.assert_allclose(a["state"][key], b["state"][key], rtol=0.0, atol=1e-8 * scale, err_msg=key)
+    np.testing.assert_array_equal(a["failed"], b["failed"])
+    assert a["reasons"].keys() == b["reasons"].keys()
+
+
+def batch(n=6, seed=0, **fixed):
+    """MCC over n points with parameters spread over their usual ranges, isotropic starts at 50-200 kPa."""
+    rng = np.random.default_rng(seed)
+    params = dict(M=rng.uniform(0.9, 1.5, n), lambda_=rng.uniform(0.1, 0.3, n), kappa=rng.uniform(0.01, 0.04, n),
+                  nu=rng.uniform(0.15, 0.35, n), ocr=rng.uniform(1.0, 6.0, n))
+    params.update(fixed)
+    model = ModifiedCamClay(**params)
+    p0 = rng.uniform(50.0, 200.0, n)
+    stress = np.zeros((n, 6))
+    stress[:, :3] = p0[:, None]
+    return model, stress, model.initial_state(stress, rng.uniform(0.8, 1.6, n))
+
+
+@pytest.mark.parametrize("undrained", [False, True])
+def test_triaxial_shear_drained_and_undrained(undrained):
+    model, stress, state = batch(seed=1)
+    inc = np.zeros((300, 6))
+    inc[:, 0] = 0.0005
+    a, b = both(model, stress, state, lt.AXIAL_STRAIN_CONTROL, inc, np.ones(300), undrained=undrained)
+    assert_same_history(a, b)
+    assert not a["failed"].any() and a["stress"].shape == (6, 301, 6)
+
+
+def test_changing_controls_drainage_and_records():
+    """Isotropic loading under stress control, undrained shear, a drained hold of the axial stress (the axial
+    component becomes stress-controlled: it starts from the actual total stress), then oedometer unloading; every
+    third step recorded."""
+    model, stress, state = batch(seed=2, G=np.linspace(2e3, 9e3, 6), nu=None)
+    control = np.vstack([np.repeat(lt.NORMAL_STRESS[None], 40, 0), np.repeat(lt.AXIAL_STRAIN_CONTROL[None], 80, 0),
+                         np.repeat(lt.NORMAL_STRESS[None], 20, 0), np.repeat(lt.ALL_STRAIN[None], 60, 0)])
+    inc = np.zeros((200, 6))
+    inc[:40, :3] = 5.0
+    inc[40:120, 0] = 0.001
+    inc[140:, 0] = -0.0004
+    undrained = np.zeros(200, dtype=bool)
+    undrained[40:120] = True
+    record = np.arange(200) % 3 == 0
+    a, b = both(model, stress, state, control, inc, np.linspace(1.0, 3.0, 200), undrained=undrained, record=record)
+    assert_same_history(a, b)
+    assert a["stress"].shape[1] == 1 + record.sum()
+
+
+def test_inactive_steps_and_a_stop_target():
+    """Points taking different numbers of oedometer steps (inactive steps padded), stopped before sigma'_v
+    passes a target; the stop's step and value are the same."""
+    model, stress, state = batch(seed=3)
+    n = stress.shape[0]
+    inc = np.zeros((120, n, 6))
+    inc[:, :, 0] = np.linspace(0.001, 0.003, n)
+    active = np.arange(120)[:, None] < np.linspace(40, 120, n).astype(int)[None]
+    stop = (0, stress[:, 0] * np.array([1.5, 3.0, 6.0, 1e6, 1e6, 1e6]), np.ones(n))
+    a, b = both(model, stress, state, lt.ALL_STRAIN, inc, np.ones((120, n)), active=active, stop=stop,
+                record=np.ones(120, dtype=bool))
+    assert_same_history(a, b)
+    np.testing.assert_array_equal(a["stopped"], b["stopped"])
+    np.testing.assert_array_equal(a["stop_step"], b["stop_step"])
+    np.testing.assert_allclose(a["stop_value"], b["stop_value"], rtol=1e-8)
+    assert a["stopped"].any() and not a["stopped"].all()
+
+
+def test_step_cuts():
+    """Drained, stress-controlled q up to 90 % of the critical state's in ten steps, with four Newton iterations
+    per step: no step converges uncut, two levels of cuts carry some points, six carry all; the failures, with
+    the driver's reason, are the same."""
+    model, stress, state = batch(seed=4, ocr=np.full(6, 1.0))
+    q_cs = 3.0 * model.M * stress[:, 0] / (3.0 - model.M)  # drained compression from p'0: q = M (p'0 + q/3)
+    inc = np.zeros((10, stress.shape[0], 6))
+    inc[:, :, 0] = 0.09 * q_cs
+    control = np.zeros(6, dtype=bool)
+    control[3:] = True
+    failed = []
+    for cuts in (0, 2, 6):
+        a, b = both(model, stress, state, control, inc, np.ones(10), on_failure="nan", max_cuts=cuts,
+                    max_iterations=4)
+        assert_same_history(a, b)
+        assert a["reasons"] == b["reasons"]
+        assert all(f"did not converge after {cuts} step cuts" in why for why in a["reasons"].values())
+        failed.append(a["failed"].sum())
+    assert failed[0] == 6 and 0 < failed[1] < 6 and failed[2] == 0
+
+
+def test_a_model_failure_gives_the_models_reason_and_raises_at_the_first_failing_step():
+    """MCC's unstable point under oedometer loading (every strain prescribed: no cuts): the same failing step and
+    the model's own reason; with on_failure="raise" the error of the point that fails first."""
+    m = ModifiedCamClay(M=np.array([0.8, 1.2, 0.8]), lambda_=np.array([0.1, 0.2, 0.1]),
+                        kappa=np.array([0.09, 0.04, 0.095]), nu=0.25, pc0=400.0)
+    stress = np.array([[20.0, 11.0, 11.0, 0.0, 0.0, 0.0]] * 3)
+    state = m.initial_state(stress, 1.26)
+    inc = np.zeros((80, 6))
+    inc[:, 0] = 0.0025
+    a, b = both(m, stress, state, lt.ALL_STRAIN, inc, np.ones(80), on_failure="nan")
+    assert_same_history(a, b)
+    assert list(a["failed"]) == [True, False, True]
+    assert a["reasons"] == b["reasons"] and "unstable material point" in a["reasons"][0]
+    with pytest.raises(IntegrationError) as compiled_error:
+        lt.mixed_control(m, stress, state, lt.ALL_STRAIN, inc, np.ones(80))
+    with pytest.raises(IntegrationError) as python_error:
+        lt.mixed_control(m, stress, state, lt.ALL_STRAIN, inc, np.ones(80), compiled=False)
+    assert str(compiled_error.value) == str(python_error.value)
+
+
+def test_a_void_ratio_compressed_beyond_the_solids():
+    """A strain step that would take the void ratio to zero or below fails with the model's reason."""
+    m = ModifiedCamClay(M=1.2, lambda_=0.2, kappa=0.04, nu=0.3, ocr=1.0)
+    stress = np.array([[100.0, 100.0, 100.0, 0.0, 0.0, 0.0]])
+    inc = np.zeros((3, 6))
+    inc[:, 0] = 0.3
+    a, b = both(m, stress, m.initial_state(stress, 0.4), lt.ALL_STRAIN, inc, np.ones(3), on_failure="nan")
+    assert_same_history(a, b)
+    assert a["reasons"] == b["reasons"] and "compressed beyond the solids" in a["reasons"][0]
+
+
+def test_the_previous_step_predictor_keeps_the_python_driver():
+    """The compiled loop is the tangent predictor's; with predictor="previous" the driver steps in Python (the
+    model's update is called)."""
+    calls = []
+
+    class Counting(ModifiedCamClay):
+        def update(self, *args, **kwargs):
+            calls.append(1)
+            return super().update(*args, **kwargs)
+
+    m = Counting(M=1.2, lambda_=0.2, kappa=0.04, nu=0.3)
+    stress = np.array([[100.0, 100.0, 100.0, 0.0, 0.0, 0.0]])
+    inc = np.zeros((5, 6))
+    inc[:, 0] = 0.001
+    lt.mixed_control(m, stress, m.initial_state(stress, 1.0), lt.AXIAL_STRAIN_CONTROL, inc, np.ones(5))
+    assert not calls
+    lt.mixed_control(m, stress, m.initial_state(stress, 1.0), lt.AXIAL_STRAIN_CONTROL, inc, np.ones(5),
+                     predictor="previous")
+    assert calls
