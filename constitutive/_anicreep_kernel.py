@@ -38,13 +38,14 @@ p' alpha_k):
 
 (the dalpha_k/dsigma'_k of R_alpha). ``reduce=False`` in ``update_points`` integrates all 6 (the tests' oracle).
 
-Compilation: every helper is inlined into ``update_points`` (``jit(inline="always")``), so the loop over points is
-one compiled body, without calls and without the reference counting (atomic increments and decrements) that numba
+Compilation: every helper is inlined into ``_update_point``, itself inlined into ``update_points`` and into
+``point_update`` (the step loop's form, ``drive``) (``jit(inline="always")``), so the loop over points is one
+compiled body, without calls and without the reference counting (atomic increments and decrements) that numba
 does for every array view it creates or passes to a function: about 210 such operations per point update when the
 helpers were separate functions. Inlining does not reorder floating-point operations: the same results to the bit;
 the cold compile takes about twice as long (once, then cached).
 
-Specialization: ``update_points`` inlines ``_local_solve`` twice, once with the literal nc = 4 (the axisymmetric
+Specialization: ``_update_point`` inlines ``_local_solve`` twice, once with the literal nc = 4 (the axisymmetric
 FE's points) and once for the other points (nc = 3 or 6 at run time). With a constant nc every
 loop over the components and over the 9 local unknowns, the 9 x 9 LU included, has constant bounds and is unrolled
 by the compiler: the same operations in the same order (results bit-identical to the generic copy), about a fifth
@@ -57,6 +58,7 @@ import math
 
 import numpy as np
 
+from ._mixed_control_kernel import drive_points
 from .jit import STRAIN_TO_TENSOR as _T
 from .jit import VOIGT_IDENTITY as _I
 from .jit import VOIGT_WEIGHTS as _W
@@ -491,72 +493,147 @@ def _tangent(gk, c, g, X, dlam, prm, pm_n, nc, J, LU, piv, rhs, tan_o):
     return _all_finite(tan_o)
 
 
+@jit(inline="always")
+def _update_point(sig, alp, pm, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth, reduce, want_tangent,
+                  stress_out, alpha_out, dvp_out, tan_out, work):
+    """Integrate one increment ``deps`` (6,) over ``dt`` of one point (stress ``sig``, fabric ``alp`` (6,), p'_m^r
+    ``pm``, bonding ``chi``; ``prm`` its PARAMETER_COLUMNS row). With ``reduce`` in the components in play
+    (``components_in_play``), otherwise in all 6; ``tan_out`` (6, 6) filled only with ``want_tangent`` (the
+    consistent tangent of the last sub-step). A sub-step that fails is split into halves (depth-first bisection,
+    ``max_depth`` levels). Fills stress_out, alpha_out and dvp_out (the viscoplastic strain increment); returns
+    (converged, p'_m^r, chi, p'_m^d/p'_m^r at the end, eps_d^vp = sqrt(2/3 e^vp:e^vp) of the increment).
+    ``work``: the scratch arrays (ws (38, MAX_NX), X, Xn, dX, R, rhs (MAX_NX,), J, LU (MAX_NX, MAX_NX), piv
+    (MAX_NX,) int, and four (6,))."""
+    ws, X, Xn, dX, R, rhs, J, LU, piv, sig_c, alp_c, dvp_c, sub_deps = work
+    nc = components_in_play(sig, alp, deps) if reduce else 6
+    for k in range(6):
+        sig_c[k] = sig[k]
+        alp_c[k] = alp[k]
+        dvp_out[k] = 0.0
+    pm_c = pm
+    chi_c = chi
+    ratio = 0.0
+    units = 1 << max_depth
+    pos = 0
+    level = 0
+    while pos < units:
+        frac = 1.0 / (1 << level)
+        for k in range(6):
+            sub_deps[k] = deps[k] * frac
+        if nc == 4:     # the axisymmetric FE's points: a copy compiled for the constant nc (docstring)
+            ok, pm_new, ratio_new, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm,
+                                                          viscous, tol, max_it, max_dz, 4, want_tangent, stress_out,
+                                                          alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv,
+                                                          rhs)
+        else:
+            ok, pm_new, ratio_new, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm,
+                                                          viscous, tol, max_it, max_dz, nc, want_tangent, stress_out,
+                                                          alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv,
+                                                          rhs)
+        if not ok:
+            if level >= max_depth:
+                return False, pm_c, chi_c, ratio, 0.0
+            level += 1
+            continue
+        for k in range(6):
+            sig_c[k] = stress_out[k]
+            alp_c[k] = alpha_out[k]
+        pm_c = pm_new
+        chi_c = chi_new
+        ratio = ratio_new
+        for k in range(6):
+            dvp_out[k] += dvp_c[k]
+        pos, level = next_substep(pos, level, units)
+    dv = (dvp_out[0] + dvp_out[1] + dvp_out[2]) / 3.0
+    e2 = 0.0
+    for k in range(6):  # eps_d^vp increment sqrt(2/3 e:e) of the whole increment (engineering shear: weight 1/2)
+        e = dvp_out[k] - dv * _I[k]
+        e2 += e * e / _W[k]
+    return True, pm_c, chi_c, ratio, math.sqrt(2.0 / 3.0 * e2)
+
+
+@jit(inline="always")
+def _scratch():
+    """The scratch arrays of :func:`_update_point`."""
+    return (np.zeros((38, MAX_NX)), np.zeros(MAX_NX), np.zeros(MAX_NX), np.zeros(MAX_NX), np.zeros(MAX_NX),
+            np.zeros(MAX_NX), np.zeros((MAX_NX, MAX_NX)), np.zeros((MAX_NX, MAX_NX)), np.zeros(MAX_NX, dtype=np.int64),
+            np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6))
+
+
 @jit
 def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth, reduce,
                   want_tangent, stress_out, alpha_out, pm_out, chi_out, dvp_out, vp_shear_out, ratio_out, tangent_out):
     """Integrate one increment at every point (arrays over n points: stress, alpha (n, 6), pm_ref (n,), chi (n,) the
-    bonding (0 without destructuration), deps (n, 6), dt (n,), prm (n, 10) in the order PARAMETER_COLUMNS). With
-    ``reduce`` each point is integrated in the components in play (``components_in_play``), otherwise in all 6;
-    tangent_out (n, 6, 6) is filled only with ``want_tangent`` (the consistent tangent of the last sub-step; without
-    it any (1, 6, 6) array, never written). A
-    point that fails is split into halves (depth-first bisection, ``max_depth`` levels). Fills the *_out arrays
-    (dvp_out the viscoplastic strain increment, vp_shear_out its eps_d^vp = sqrt(2/3 e^vp:e^vp)); returns the index
-    of the first point that failed at the deepest level, or -1."""
-    n = stress.shape[0]
-    ws = np.zeros((38, MAX_NX))  # scratch rows: 0-31 _evaluate, 7 and 32-37 _local_solve
-    X, Xn, dX, R, rhs = np.zeros(MAX_NX), np.zeros(MAX_NX), np.zeros(MAX_NX), np.zeros(MAX_NX), np.zeros(MAX_NX)
-    J, LU = np.zeros((MAX_NX, MAX_NX)), np.zeros((MAX_NX, MAX_NX))
-    piv = np.zeros(MAX_NX, dtype=np.int64)
-    sig_c, alp_c, dvp_c, sub_deps = np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6)
-    units = 1 << max_depth
-    for i in range(n):
-        nc = components_in_play(stress[i], alpha[i], deps[i]) if reduce else 6
-        for k in range(6):
-            sig_c[k] = stress[i, k]
-            alp_c[k] = alpha[i, k]
-            dvp_out[i, k] = 0.0
-        pm_c = pm_ref[i]
-        chi_c = chi[i]
-        pos = 0
-        level = 0
-        while pos < units:
-            frac = 1.0 / (1 << level)
-            for k in range(6):
-                sub_deps[k] = deps[i, k] * frac
-            tan_i = tangent_out[i if want_tangent else 0]
-            if nc == 4:     # the axisymmetric FE's points: a copy compiled for the constant nc (docstring)
-                ok, pm_new, ratio, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt[i] * frac, prm[i],
-                                                          viscous, tol, max_it, max_dz, 4, want_tangent,
-                                                          stress_out[i], alpha_out[i], dvp_c, tan_i, ws, X, Xn, dX, R,
-                                                          J, LU, piv, rhs)
-            else:
-                ok, pm_new, ratio, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt[i] * frac, prm[i],
-                                                          viscous, tol, max_it, max_dz, nc, want_tangent,
-                                                          stress_out[i], alpha_out[i], dvp_c, tan_i, ws, X, Xn, dX, R,
-                                                          J, LU, piv, rhs)
-            if not ok:
-                if level >= max_depth:
-                    return i
-                level += 1
-                continue
-            for k in range(6):
-                sig_c[k] = stress_out[i, k]
-                alp_c[k] = alpha_out[i, k]
-            pm_c = pm_new
-            chi_c = chi_new
-            ratio_out[i] = ratio
-            for k in range(6):
-                dvp_out[i, k] += dvp_c[k]
-            pos, level = next_substep(pos, level, units)
-        pm_out[i] = pm_c
-        chi_out[i] = chi_c
-        dv = (dvp_out[i, 0] + dvp_out[i, 1] + dvp_out[i, 2]) / 3.0
-        e2 = 0.0
-        for k in range(6):  # eps_d^vp increment sqrt(2/3 e:e) of the whole increment (engineering shear: weight 1/2)
-            e = dvp_out[i, k] - dv * _I[k]
-            e2 += e * e / _W[k]
-        vp_shear_out[i] = math.sqrt(2.0 / 3.0 * e2)
+    bonding (0 without destructuration), deps (n, 6), dt (n,), prm (n, 10) in the order PARAMETER_COLUMNS), each by
+    :func:`_update_point`; tangent_out (n, 6, 6) is filled only with ``want_tangent`` (without it any (1, 6, 6)
+    array, never written). Fills the *_out arrays (dvp_out the viscoplastic strain increment, vp_shear_out its
+    eps_d^vp = sqrt(2/3 e^vp:e^vp)); returns the index of the first point that failed at the deepest level, or -1."""
+    work = _scratch()
+    for i in range(stress.shape[0]):
+        ok, pm_new, chi_new, ratio, vp_shear = _update_point(
+            stress[i], alpha[i], pm_ref[i], chi[i], deps[i], dt[i], prm[i], viscous, tol, max_it, max_dz, max_depth,
+            reduce, want_tangent, stress_out[i], alpha_out[i], dvp_out[i], tangent_out[i if want_tangent else 0],
+            work)
+        if not ok:
+            return i
+        pm_out[i], chi_out[i], ratio_out[i], vp_shear_out[i] = pm_new, chi_new, ratio, vp_shear
     return -1
+
+
+#: the columns of the state of :func:`point_update`
+STATE_COLUMNS = (("alpha", 6), ("pm_ref", 1), ("void_ratio", 1), ("vp_strain", 6), ("vp_shear", 1),
+                 ("overstress", 1), ("chi", 1))
+#: the columns of PARAMETER_COLUMNS proportional to the specific volume v (c_e, c_p, omega) and to 1/v (mu)
+VOLUME_COLUMNS, INVERSE_VOLUME_COLUMN = (1, 2, 4), 7
+#: the code of :func:`point_update`'s failure (info: dt, then the stress at the increment's start)
+LOCAL_NEWTON_FAILED = 1
+
+
+@jit
+def point_update(stress, state, deps, dt, prm, settings, stress_out, state_out, tangent_out, info, work):
+    """The model's update of one point in the form of the compiled step loop
+    (``_mixed_control_kernel.drive_points``), as ``ANICREEP.update``: ``state`` (17,) in STATE_COLUMNS; ``prm``
+    PARAMETER_COLUMNS then v0 = 1 + e0, where ``settings[0]`` (the current specific volume) with the VOLUME_COLUMNS
+    (and, viscous, the INVERSE_VOLUME_COLUMN) at v = 1, multiplied (divided) by v = 1 + e_n here; settings: (current
+    specific volume, viscous, tol, max_it, max_dz, max_depth, reduce) as numbers. The void ratio moves by
+    -v d eps_v. Returns 0, or LOCAL_NEWTON_FAILED with ``info`` (dt, stress (6))."""
+    row = work[13]
+    viscous = settings[1] != 0.0
+    e = state[7]
+    for k in range(row.size):
+        row[k] = prm[k]
+    if settings[0] != 0.0:
+        v = 1.0 + e
+        for k in VOLUME_COLUMNS:
+            row[k] = prm[k] * v
+        if viscous:
+            row[INVERSE_VOLUME_COLUMN] = prm[INVERSE_VOLUME_COLUMN] / v
+    else:
+        v = prm[row.size]
+    ok, pm, chi, ratio, vp_shear = _update_point(
+        stress, state[0:6], state[6], state[16], deps, dt, row, viscous, settings[2], int(settings[3]), settings[4],
+        int(settings[5]), settings[6] != 0.0, True, stress_out, state_out[0:6], state_out[8:14], tangent_out,
+        work[:13])
+    if not ok:
+        info[0] = dt
+        for k in range(6):
+            info[1 + k] = stress[k]
+        return LOCAL_NEWTON_FAILED
+    state_out[6] = pm
+    state_out[7] = e - v * (deps[0] + deps[1] + deps[2])
+    for k in range(6):
+        state_out[8 + k] += state[8 + k]
+    state_out[14] = state[14] + vp_shear
+    state_out[15] = ratio
+    state_out[16] = chi
+    return 0
+
+
+@jit
+def drive(prm, settings, stress0, state0, steps, stop, newton, history, ending):
+    """``_mixed_control_kernel.drive_points`` with :func:`point_update` (the arguments are its)."""
+    return drive_points(point_update, prm, settings, (*_scratch(), np.zeros(len(PARAMETER_COLUMNS))), 7, stress0,
+                        state0, steps, stop, newton, history, ending)
 
 
 @jit

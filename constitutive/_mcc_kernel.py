@@ -97,7 +97,7 @@ def stability_margin(sig, pc, v, prm, constant_G):
     return 1.0 + M2 * p * v / (lam - kap) * pc * f_p / ndn if ndn > 0.0 else 1.0
 
 
-@jit(inline="always")  # one call site (_update_point): compiled once, inside it
+@jit(inline="always")
 def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o, tan_o, s_n, Pde, s_tr, n_tr,
                  q_eps):
     """Backward-Euler return mapping of one point over one (sub-)increment. Fills sig_o, dep_o (plastic strain
@@ -170,7 +170,7 @@ def _local_solve(sig_n, pcn, v, deps, prm, constant_G, tol, max_it, sig_o, dep_o
     return _all_finite(tan_o), pc
 
 
-@jit
+@jit(inline="always")
 def _update_point(sig, pc, e, deps, prm, constant_G, tol, max_it, max_depth, stress_out, dep_out, tangent_out,
                   failure_out, work):
     """One increment ``deps`` (6,) of one point from stress ``sig`` (6,), p'_c ``pc`` and void ratio ``e``; fills

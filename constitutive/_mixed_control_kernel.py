@@ -291,12 +291,13 @@ def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments)
 # the point update ``update`` is then a compile-time constant there, not a run-time argument, which numba cannot
 # cache.
 @jit(inline="always")
-def _solve_point(update, prm, settings, work, start, inc, dt, control, unknown, undrained, newton, trial, scratch,
-                 info, failed_deps):
+def _solve_point(update, prm, settings, work, start, inc, dt, control, unknown, undrained, newton, guess, trial,
+                 scratch, info, failed_deps):
     """The Newton of one point over one (sub-)step, as ``mixed_control``'s ``_Step.solve`` for a point: from the
     ``start`` (stress (1, 6), state, tangent (1, 6, 6)) under the step increments ``inc`` (1, 6) over ``dt``, the
-    unknown components ``unknown`` (and du when ``undrained``) from the tangent predictor, then Newton corrections
-    after each model ``update`` (into ``trial``) until converged. ``scratch``: (deps (1, 6), du (1,), target
+    unknown components ``unknown`` (and du when ``undrained``) from the tangent predictor or, where ``guess`` =
+    (strain increments (1, 6), du (1,), use) is used, from its values, then Newton corrections after each model
+    ``update`` (into ``trial``) until converged. ``scratch``: (deps (1, 6), du (1,), target
     (1, 6), dsig (1, 6), done (1,), ok (1,), a sub-step's increments (1, 6), no stress (0, 6)). Returns 0
     (converged: ``trial`` and deps, du hold the step), -1 (no convergence within max_iterations) or the model's
     failure code (``info`` filled, ``failed_deps`` the strain increment it failed on)."""
@@ -305,13 +306,14 @@ def _solve_point(update, prm, settings, work, start, inc, dt, control, unknown, 
     deps, du, target, dsig, done, ok, _, no_stress = scratch
     tol, max_iterations = newton[0], int(newton[1])
     n_u = unknown.size + (1 if undrained else 0)
+    guessed = guess[2] and n_u > 0
     for c in range(6):
-        deps[0, c] = inc[0, c] if control[c] else 0.0
+        deps[0, c] = inc[0, c] if control[c] else (guess[0][0, c] if guessed else 0.0)
     for a in range(unknown.size):
         target[0, a] = inc[0, unknown[a]]
-    du[0] = 0.0
+    du[0] = guess[1][0] if guessed else 0.0
     done[0] = False
-    if n_u:  # the predictor with the start-of-step tangent
+    if n_u and not guessed:  # the predictor with the start-of-step tangent
         for r in range(6):
             v = 0.0
             for c in range(6):
@@ -335,10 +337,11 @@ def _solve_point(update, prm, settings, work, start, inc, dt, control, unknown, 
 
 @jit(inline="always")
 def _advance_point(update, prm, settings, work, committed, inc, dt, control, unknown, undrained, newton, cuts,
-                   moving, trial, scratch, total, info, failed_deps):
+                   guess, moving, trial, scratch, total, info, failed_deps):
     """One step of one point from its ``committed`` (stress, state, tangent) under ``inc`` (1, 6) over ``dt``, as
-    ``mixed_control``'s ``_Step.advance``: where the Newton fails the step is taken as two halves, recursively up to
-    ``cuts`` levels (depth-first bisection); the end in ``moving`` (stress, state, tangent), the strain and pore
+    ``mixed_control``'s ``_Step.advance``: the Newton starts from ``guess`` (:func:`_solve_point`) where it is
+    used; where it fails the step is taken as two halves (from the tangent predictor), recursively up to ``cuts``
+    levels (depth-first bisection); the end in ``moving`` (stress, state, tangent), the strain and pore
     pressure increments summed in ``total`` ((1, 6), (1,)). Returns (converged, the code of the last model failure
     met on the way, 0 if none)."""
     m_s, m_st, m_C = moving
@@ -359,7 +362,8 @@ def _advance_point(update, prm, settings, work, committed, inc, dt, control, unk
         for c in range(6):
             step_in[0, c] = inc[0, c] * frac
         code = _solve_point(update, prm, settings, work, moving, step_in, dt * frac, control, unknown, undrained,
-                            newton, trial, scratch, info, failed_deps)
+                            newton, (guess[0], guess[1], guess[2] and pos == 0 and level == 0), trial, scratch, info,
+                            failed_deps)
         if code != 0:
             if code > 0:
                 last = code
@@ -386,19 +390,21 @@ def drive_points(update, prm, settings, work, void_ratio_column, stress0, state0
 
     stress0 (n, 6), state0 (n, S) (``void_ratio_column`` its void ratio). steps: (control (K, 6) bool, fresh (K, 6)
     bool (a component that becomes stress-controlled at the step), unknown (K, 6) int (the stress-controlled
-    components first), n_unknown (K,), inc (K, n, 6), dt (K, n), undrained (K,), record (K,), active (K, n)). stop:
-    (component (-1: none), target (n,), direction (n,)). newton: (tol, max_iterations, max_cuts). history: (stress
+    components first), n_unknown (K,), inc (K, n, 6), dt (K, n), undrained (K,), record (K,), active (K, n),
+    same_as_previous (K,) (the step's controls and drainage are those of the step before)). stop: (component (-1:
+    none), target (n,), direction (n,)). newton: (tol, max_iterations, max_cuts, the previous step's predictor
+    (``mixed_control(predictor="previous")``) as 0 or 1). history: (stress
     (n, R, 6), strain (n, R, 6), pore pressure, void ratio, time (n, R)), column 0 the start, then the recorded
     steps (NaN but the time where a point has failed). ending: (final stress (n, 6), final state (n, S), fail_step
     (n,) (-1: none; -2: the start's zero increment failed), fail_code (n,) (the last model failure code met in the
     failing step, 0 none), fail_info (n, I), fail_deps (n, 6) (its strain increment), stop_step (n,), stop_value
-    (n,)). The arithmetic per point is that of ``mixed_control`` with ``predictor="tangent"``, except that a cut
-    step's strain increments are summed in order (the driver sums the halves' sums)."""
-    control, fresh, unknown, n_unknown, inc, dt, undrained, record, active = steps
+    (n,)). The arithmetic per point is that of ``mixed_control``, except that a cut step's strain increments are
+    summed in order (the driver sums the halves' sums)."""
+    control, fresh, unknown, n_unknown, inc, dt, undrained, record, active, same_as_previous = steps
     stop_component, stop_target, stop_direction = stop
     h_stress, h_strain, h_u, h_e, h_time = history
     final_stress, final_state, fail_step, fail_code, fail_info, fail_deps, stop_step, stop_value = ending
-    max_cuts = int(newton[2])
+    max_cuts, previous = int(newton[2]), newton[3] != 0.0
     n, n_steps, n_state = stress0.shape[0], dt.shape[0], state0.shape[1]
     committed = (np.empty((1, 6)), np.empty(n_state), np.empty((1, 6, 6)))
     moving = (np.empty((1, 6)), np.empty(n_state), np.empty((1, 6, 6)))
@@ -409,6 +415,7 @@ def drive_points(update, prm, settings, work, void_ratio_column, stress0, state0
     s, st, C = committed
     u, taking_row, prescribed, step_inc = np.empty(1), np.empty(1, dtype=np.bool_), np.empty((1, 6)), np.empty((1, 6))
     strain = np.empty(6)
+    last_deps, last_du, guess_deps, guess_du = np.empty(6), 0.0, np.empty((1, 6)), np.empty(1)
     zero = np.zeros(6)
     info = np.empty(fail_info.shape[1])
     for i in range(n):
@@ -419,6 +426,7 @@ def drive_points(update, prm, settings, work, void_ratio_column, stress0, state0
         t = 0.0
         prescribed[:] = 0.0
         alive, stopped = True, False
+        last_dt = 0.0  # the time step of the point's previous step where it took it, else 0
         fail_step[i], fail_code[i], stop_step[i], stop_value[i] = -1, 0, -1, np.nan
         code = update(s[0], st, zero, 0.0, prm[i], settings, trial[0][0], trial[1], C[0], info, work)
         if code != 0:
@@ -432,12 +440,20 @@ def drive_points(update, prm, settings, work, void_ratio_column, stress0, state0
                 taking = active[k, i] and not stopped
                 taking_row[0] = taking
                 aim_step(s, u, inc[k, i:i + 1], control[k], fresh[k], taking_row, prescribed, step_inc)
+                kept = False
                 if alive and taking:
                     unknowns = unknown[k, :n_unknown[k]]
                     cuts = max_cuts if n_unknown[k] or undrained[k] else 0
+                    guessed = previous and same_as_previous[k] and last_dt > 0.0
+                    if guessed:  # the previous step's increments scaled by the ratio of the time steps
+                        ratio = dt[k, i] / last_dt
+                        for c in range(6):
+                            guess_deps[0, c] = last_deps[c] * ratio
+                        guess_du[0] = last_du * ratio
                     ok, code = _advance_point(update, prm[i], settings, work, committed, step_inc, dt[k, i],
-                                              control[k], unknowns, undrained[k], newton, cuts, moving, trial,
-                                              scratch, total, info, fail_deps[i])
+                                              control[k], unknowns, undrained[k], newton, cuts,
+                                              (guess_deps, guess_du, guessed), moving, trial, scratch, total, info,
+                                              fail_deps[i])
                     if not ok:
                         alive = False
                         fail_step[i], fail_code[i] = k, code
@@ -447,12 +463,16 @@ def drive_points(update, prm, settings, work, void_ratio_column, stress0, state0
                         stopped, taking = True, False
                         stop_step[i], stop_value[i] = k, moving[0][0, stop_component]
                     else:
+                        kept = True
                         s[:] = moving[0]
                         st[:] = moving[1]
                         C[:] = moving[2]
                         for c in range(6):
                             strain[c] += total[0][0, c]
+                            last_deps[c] = total[0][0, c]
                         u[0] += total[1][0]
+                        last_du = total[1][0]
+                last_dt = dt[k, i] if kept else 0.0
                 if taking:
                     t += dt[k, i]
                 if not record[k]:

@@ -86,6 +86,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import (
+    CompiledSteps,
     IntegrationError,
     MaterialModel,
     ParameterError,
@@ -419,13 +420,33 @@ class ANICREEP(MaterialModel):
             self.max_iterations, self.max_dz, self.max_substep_depth, self.reduce_components, bool(tangent),
             new_stress, alpha, pm_ref, chi, dvp, vp_shear, ratio, stiffness)
         if failed >= 0:
-            raise IntegrationError(failed, f"local Newton did not converge after {self.max_substep_depth} levels of "
-                                   f"sub-stepping (strain increment {dstrain[failed]}, dt {dt[failed]:g} s, "
-                                   f"stress {stress[failed]})")
+            raise IntegrationError(failed, self.integration_failure(_kernel().LOCAL_NEWTON_FAILED,
+                                                                    np.r_[dt[failed], stress[failed]], dstrain[failed]))
         new_state = {"alpha": alpha, "pm_ref": pm_ref,
                      "void_ratio": e - v * (dstrain[:, 0] + dstrain[:, 1] + dstrain[:, 2]),
                      "vp_strain": state["vp_strain"] + dvp,
                      "vp_shear": state["vp_shear"] + vp_shear,
                      "overstress": ratio, "chi": chi}
         return new_stress, new_state, stiffness if tangent else None
+
+    def integration_failure(self, code, info, dstrain) -> str:
+        """The reason of a failed update of one point under the strain increment ``dstrain`` (6,), ``info`` (dt,
+        stress (6,) at the increment's start) as ``_anicreep_kernel.point_update`` gives them."""
+        return (f"local Newton did not converge after {self.max_substep_depth} levels of sub-stepping (strain "
+                f"increment {dstrain}, dt {info[0]:g} s, stress {info[1:7]})")
+
+    def compiled_steps(self, n):
+        """Every step of ``mixed_control`` in one compiled call (``_anicreep_kernel.drive``)."""
+        kernel = _kernel()
+        table = np.empty((n, len(kernel.PARAMETER_COLUMNS) + 1))
+        table[:, :-1] = self.kernel_parameters(n)
+        table[:, -1] = 1.0 + self.e0
+        current = self.specific_volume == "current"
+        if current:  # the columns that carry v at v = 1 (``_current_volume_parameters``)
+            for key, value in self._volume_columns(1.0).items():
+                if key != "mu" or self.viscous:
+                    table[:, kernel.PARAMETER_COLUMNS.index(key)] = value
+        settings = np.array([current, self.viscous, self.tolerance, self.max_iterations, self.max_dz,
+                             self.max_substep_depth, self.reduce_components], dtype=float)
+        return CompiledSteps(kernel.drive, table, settings, kernel.STATE_COLUMNS, 7, self.integration_failure)
 

@@ -9,8 +9,8 @@ controls along a prescribed path in time with step sizes chosen per point (the h
 The named tests built on them are in :mod:`constitutive.labtests`; the per-point arithmetic of a step (its aim, the
 Newton's start, corrections and end, the adaptive step control) is compiled in
 :mod:`constitutive._mixed_control_kernel`; for a model with a compiled update of one point
-(``MaterialModel.compiled_steps``: Modified Cam Clay) the whole of :func:`mixed_control` is, one call for every step
-of every point (the per-step Python glue otherwise costs several times the model's own arithmetic).
+(``MaterialModel.compiled_steps``: Modified Cam Clay, ANICREEP) the whole of :func:`mixed_control` is, one call for
+every step of every point (the per-step Python glue otherwise costs several times the model's own arithmetic).
 """
 from __future__ import annotations
 
@@ -80,9 +80,9 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     (``on_failure="raise"``) or is frozen with NaN curves from then on (``"nan"``). A step with every strain
     prescribed has no unknown: a failure there is the model's own (it sub-steps within its update) and is final at
     once, without cuts. A point outside a step is not integrated over it (its model update takes dt = 0).
-    compiled: with the tangent predictor, a model that has a compiled step loop (``MaterialModel.compiled_steps``)
-    takes every step of a point in one compiled call (the same arithmetic per point; a cut step's strain
-    increments summed in order); False: the steps in Python, calling the model's ``update``.
+    compiled: a model that has a compiled step loop (``MaterialModel.compiled_steps``) takes every step of a point
+    in one compiled call (the same arithmetic per point; a cut step's strain increments summed in order); False:
+    the steps in Python, calling the model's ``update``.
     Returns a dict of arrays over (n, n_records): ``stress`` (..., 6), ``strain`` (..., 6), ``pore_pressure``,
     ``void_ratio``, ``time``; plus ``state`` and ``final_stress`` (n, 6) at the end (a failed point's at its last
     converged step, the state's stress), ``failed`` (n,), ``reasons`` {failed point: why, the model's
@@ -115,10 +115,11 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
     if stop is not None:
         stop_component = int(stop[0])
         stop_target, stop_direction = (np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in stop[1:])
-    kernel = model.compiled_steps(n) if compiled and predictor == "tangent" else None
+    kernel = model.compiled_steps(n) if compiled else None
     if kernel is not None:
         return _compiled_history(kernel, stress, state0, control, inc, np.broadcast_to(dt.T, (n, n_steps)).T, und,
-                                 record, active, stop, on_failure, (tol, max_iterations, max_cuts))
+                                 record, active, stop, on_failure,
+                                 (tol, max_iterations, max_cuts, float(predictor == "previous")))
 
     state = state0
     strain = np.zeros((n, 6))
@@ -208,13 +209,15 @@ _NO_STRESS = np.zeros((0, 6))
 
 def _compiled_history(kernel, stress, state0, control, inc, dt, undrained, record, active, stop, on_failure, newton):
     """``mixed_control``'s history through the model's compiled step loop (``kernel``, :class:`CompiledSteps`);
-    the arguments as normalized there, ``dt`` (K, n), ``newton`` (tol, max_iterations, max_cuts)."""
+    the arguments as normalized there, ``dt`` (K, n), ``newton`` (tol, max_iterations, max_cuts, previous-step
+    predictor as 0 or 1)."""
     n, n_steps = stress.shape[0], dt.shape[0]
     unknown = np.ascontiguousarray(np.argsort(control, axis=1, kind="stable"))  # the stress-controlled first
     fresh = ~control & np.vstack([np.ones((1, 6), dtype=bool), control[:-1]])
     steps = (np.ascontiguousarray(control), fresh, unknown, np.count_nonzero(~control, axis=1),
              np.ascontiguousarray(inc), np.ascontiguousarray(dt), np.ascontiguousarray(undrained), record,
-             np.ones((n_steps, n), dtype=bool) if active is None else np.ascontiguousarray(active))
+             np.ones((n_steps, n), dtype=bool) if active is None else np.ascontiguousarray(active),
+             np.r_[False, np.all(control[1:] == control[:-1], axis=1) & (undrained[1:] == undrained[:-1])])
     if stop is None:
         stops = (-1, np.zeros(n), np.zeros(n))
     else:
@@ -226,8 +229,8 @@ def _compiled_history(kernel, stress, state0, control, inc, dt, undrained, recor
     flat = kernel.pack(state0, n)
     ending = (np.empty((n, 6)), np.empty_like(flat), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64),
               np.empty((n, kernel.info_size)), np.empty((n, 6)), np.empty(n, dtype=np.int64), np.empty(n))
-    kernel.drive(kernel.parameters, kernel.settings, stress, flat, steps, stops,
-                 np.array([newton[0], newton[1], newton[2]], dtype=float), history, ending)
+    kernel.drive(kernel.parameters, kernel.settings, stress, flat, steps, stops, np.array(newton, dtype=float),
+                 history, ending)
     final_stress, final_state, fail_step, fail_code, fail_info, fail_deps, stop_step, stop_value = ending
     start_failed = np.flatnonzero(fail_step == -2)
     if start_failed.size:

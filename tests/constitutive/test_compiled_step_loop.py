@@ -1,8 +1,9 @@
-"""The compiled step loop of ``mixed_control`` (``MaterialModel.compiled_steps``, Modified Cam Clay) against the
-per-step Python driver that calls the model's ``update`` (``compiled=False``), itself checked against closed forms in
-test_labtests.py and test_mcc.py: the same histories, end states, failures, reasons and stops on batches that mix
-drained and undrained steps, stress- and strain-controlled components that change between steps, inactive steps,
-a stop target, step cuts and failing points.
+"""The compiled step loop of ``mixed_control`` (``MaterialModel.compiled_steps``: Modified Cam Clay, ANICREEP)
+against the per-step Python driver that calls the model's ``update`` (``compiled=False``), itself checked against
+closed forms in test_labtests.py, test_mcc.py and test_anicreep.py: the same histories, end states, failures,
+reasons and stops on batches that mix drained and undrained steps, stress- and strain-controlled components that
+change between steps, inactive steps, a stop target, step cuts, failing points, creep holds and the previous step's
+predictor.
 
 Tolerance: the two drivers run the same arithmetic per point, but a cut step's strain increments are summed in
 order by the compiled loop and as halves of halves by the Python one, and the tangent predictor's matrix product may
@@ -13,7 +14,7 @@ then differ by at most the Newton tolerance, 1e-10 x (1 kPa + max |sigma'|) on t
 import numpy as np
 import pytest
 
-from constitutive import IntegrationError, ModifiedCamClay
+from constitutive import ANICREEP, IntegrationError, ModifiedCamClay
 from constitutive import labtests as lt
 
 KEYS = ("stress", "strain", "pore_pressure", "void_ratio", "time")
@@ -153,22 +154,55 @@ def test_a_void_ratio_compressed_beyond_the_solids():
     assert a["reasons"] == b["reasons"] and "compressed beyond the solids" in a["reasons"][0]
 
 
-def test_the_previous_step_predictor_keeps_the_python_driver():
-    """The compiled loop is the tangent predictor's; with predictor="previous" the driver steps in Python (the
-    model's update is called)."""
-    calls = []
+def anicreep_batch(n=4, **switches):
+    """ANICREEP over n points (preconsolidation 120-300 kPa), isotropic starts at 100 kPa."""
+    params = dict(M=1.2, lambda_=0.2, kappa=0.03, nu=0.25, e0=1.2, sigma_p0=np.linspace(120.0, 300.0, n),
+                  anisotropy=False, viscous=False)
+    params.update(switches)
+    model = ANICREEP(**params)
+    stress = np.tile([100.0, 100.0, 100.0, 0.0, 0.0, 0.0], (n, 1))
+    return model, stress, model.initial_state(stress)
 
-    class Counting(ModifiedCamClay):
-        def update(self, *args, **kwargs):
-            calls.append(1)
-            return super().update(*args, **kwargs)
 
-    m = Counting(M=1.2, lambda_=0.2, kappa=0.04, nu=0.3)
-    stress = np.array([[100.0, 100.0, 100.0, 0.0, 0.0, 0.0]])
-    inc = np.zeros((5, 6))
-    inc[:, 0] = 0.001
-    lt.mixed_control(m, stress, m.initial_state(stress, 1.0), lt.AXIAL_STRAIN_CONTROL, inc, np.ones(5))
-    assert not calls
-    lt.mixed_control(m, stress, m.initial_state(stress, 1.0), lt.AXIAL_STRAIN_CONTROL, inc, np.ones(5),
-                     predictor="previous")
-    assert calls
+VISCOUS = dict(viscous=True, C_alpha_e=0.004)
+ANICREEP_CLASSES = {
+    "rate independent": {},
+    "viscous, current specific volume": dict(VISCOUS, specific_volume="current"),
+    "viscous, anisotropic, destructured": dict(VISCOUS, anisotropy=True, destructuration=True, chi0=2.0, xi=9.0,
+                                               xi_d=0.3),
+}
+
+
+@pytest.mark.parametrize("predictor", ["tangent", "previous"])
+@pytest.mark.parametrize("switches", ANICREEP_CLASSES.values(), ids=ANICREEP_CLASSES.keys())
+def test_anicreep_loading_creep_and_shear(switches, predictor):
+    """Isotropic loading from 100 to 200 kPa in 40 minutes, a creep hold of 28 hours in time steps growing from
+    1 s (the previous step's predictor scales the last increments by the ratio of the time steps), then undrained
+    shear at 0.05 % per minute."""
+    model, stress, state = anicreep_batch(**switches)
+    control = np.vstack([np.repeat(lt.NORMAL_STRESS[None], 80, 0), np.repeat(lt.AXIAL_STRAIN_CONTROL[None], 80, 0)])
+    inc = np.zeros((160, 6))
+    inc[:40, :3] = 2.5
+    inc[80:, 0] = 0.0005
+    dt = np.r_[np.full(40, 60.0), np.geomspace(1.0, 1e4, 40), np.full(80, 60.0)]
+    a, b = both(model, stress, state, control, inc, dt, undrained=np.arange(160) >= 80, predictor=predictor)
+    assert_same_history(a, b)
+    assert not a["failed"].any()
+
+
+def test_anicreep_failure_reason():
+    """A local Newton allowed one iteration and no sub-steps fails on the first plastic step, with the model's
+    reason (the step's strain increment, time step and start stress), the same from both drivers."""
+    class Brittle(ANICREEP):
+        max_iterations = 1
+        max_substep_depth = 0
+
+    model = Brittle(M=1.2, lambda_=0.2, kappa=0.03, nu=0.25, e0=1.2, sigma_p0=np.array([120.0, 300.0]),
+                    anisotropy=False, viscous=False)
+    stress = np.tile([100.0, 100.0, 100.0, 0.0, 0.0, 0.0], (2, 1))
+    inc = np.zeros((40, 6))
+    inc[:, 0] = 0.002
+    a, b = both(model, stress, model.initial_state(stress), lt.AXIAL_STRAIN_CONTROL, inc, np.ones(40),
+                on_failure="nan", max_cuts=1)
+    assert_same_history(a, b)
+    assert a["failed"].any() and a["reasons"] == b["reasons"]
