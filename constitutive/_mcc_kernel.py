@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ._mixed_control_kernel import drive_points
+from ._mixed_control_kernel import adapt_points, drive_points
 from .jit import STRAIN_TO_TENSOR as _T
 from .jit import VOIGT_IDENTITY as _I
 from .jit import VOIGT_WEIGHTS as _W
@@ -267,3 +267,11 @@ def drive(prm, settings, stress0, state0, steps, stop, newton, history, ending):
     """``_mixed_control_kernel.drive_points`` with :func:`point_update` (the arguments are its)."""
     return drive_points(point_update, prm, settings, np.empty((WORK_ROWS, 6)), 1, stress0, state0, steps, stop,
                         newton, history, ending)
+
+
+@jit
+def adapt(prm, settings, stress0, state0, control, undrained, path, segments, records, going, step_control, newton,
+          history, ending):
+    """``_mixed_control_kernel.adapt_points`` with :func:`point_update` (the arguments are its)."""
+    return adapt_points(point_update, prm, settings, np.empty((WORK_ROWS, 6)), 1, stress0, state0, control, undrained,
+                        path, segments, records, going, step_control, newton, history, ending)

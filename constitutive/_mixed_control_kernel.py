@@ -486,3 +486,136 @@ def drive_points(update, prm, settings, work, void_ratio_column, stress0, state0
             h_e[i, column] = st[void_ratio_column] if alive else np.nan
         final_stress[i] = s[0]
         final_state[i] = st
+
+
+@jit(inline="always")
+def _path_at(path, i, tau, goal):
+    """``mixed_control.LinearPath`` (offset, slope, duration, capped (n, 6)) of point i at stage time ``tau``, in
+    ``goal`` (1, 6): offset + slope x f, f = tau/duration (at most 1 where capped)."""
+    offset, slope, duration, capped = path
+    for c in range(6):
+        f = tau / duration[i, c]
+        if capped[i, c]:
+            f = min(f, 1.0)
+        goal[0, c] = offset[i, c] + slope[i, c] * f
+
+
+@jit(inline="always")
+def _store_column(history, i, column, stress, strain, u, e, tau):
+    """Column ``column`` of point i of the (stress, strain, pore pressure, void ratio, time) history."""
+    h_stress, h_strain, h_u, h_e, h_time = history
+    for c in range(6):
+        h_stress[i, column, c] = stress[c]
+        h_strain[i, column, c] = strain[c]
+    h_u[i, column], h_e[i, column], h_time[i, column] = u, e, tau
+
+
+@jit(inline="always")
+def adapt_points(update, prm, settings, work, void_ratio_column, stress0, state0, control, undrained, path, segments,
+                 records, going0, step_control, newton, history, ending):
+    """``adaptive_control`` compiled for a model whose update of one point is the compiled function ``update`` (as
+    in :func:`drive_points`): the steps of one point to the end of its path, then the next point.
+
+    control (6,) bool; path: ``LinearPath``'s (offset, slope, duration, capped), each (n, 6); segments (ends,
+    firsts, largest, rtols), each (S, n); records (R, n); going0 (n,) the points that move; step_control (atol,
+    floor, strain_scale, strain_step, growth, max_rejections, max_cuts) (:func:`judge_steps`); newton (tol,
+    max_iterations). history: (stress (n, R + 2, 6), strain (n, R + 2, 6), pore pressure, void ratio, time
+    (n, R + 2)), NaN where not reached. ending: (final stress (n, 6), final state (n, S), failed (n,), fail_tau (n,)
+    (the stage time of the failure; -1: the start's zero increment failed), fail_code (n,) (the model's failure
+    code in the last Newton, 0 none), fail_info (n, I), fail_deps (n, 6), steps (n,) the accepted steps). The
+    arithmetic per point is that of ``adaptive_control``."""
+    ends, firsts, largest, rtols = segments
+    final_stress, final_state, failed, fail_tau, fail_code, fail_info, fail_deps, steps_taken = ending
+    tol = newton[0]
+    n, n_state, n_records = stress0.shape[0], state0.shape[1], records.shape[0]
+    unknown = np.empty(6, dtype=np.int64)
+    count = 0
+    for c in range(6):
+        if not control[c]:
+            unknown[count] = c
+            count += 1
+    unknown = unknown[:count]
+    committed = (np.empty((1, 6)), np.empty(n_state), np.empty((1, 6, 6)))
+    trial = (np.empty((1, 6)), np.empty(n_state), np.empty((1, 6, 6)))
+    scratch = (np.empty((1, 6)), np.empty(1), np.empty((1, 6)), np.empty((1, 6)), np.empty(1, dtype=np.bool_),
+               np.empty(1, dtype=np.bool_), np.empty((1, 6)), np.empty((0, 6)))
+    s, st, C = committed
+    t_s, t_st, t_C = trial
+    deps, du = scratch[0], scratch[1]
+    walk = (np.empty(1), np.empty(1), np.empty(1), np.empty((1, 6)), np.empty((1, 6)), np.empty(1), np.empty((1, 6)),
+            np.empty(1), np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64),
+            np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64), np.empty(1, dtype=np.bool_),
+            np.empty(1, dtype=np.bool_), np.empty(1, dtype=np.bool_), np.empty(1, dtype=np.bool_), np.empty(1),
+            np.empty((1, 6)), np.empty(1), np.empty((1, 6)), np.empty((1, 6)), np.empty(1))
+    (tau, h, h_previous, d_stress, d_strain, d_u, strain, u, known, rejections, cuts, accepted, segment, going, take,
+     dead, skip, h_before, d_strain_before, d_u_before, stress_origin, strain_origin, u_origin) = walk
+    sizes = (np.empty(1), np.empty(1), np.empty(1, dtype=np.bool_))
+    size, after, landing = sizes
+    inc, guess_strain, guess_u, scale = np.empty((1, 6)), np.empty((1, 6)), np.empty(1), np.empty(1)
+    goal, ds, ok = np.empty((1, 6)), np.empty((1, 6)), np.empty(1, dtype=np.bool_)
+    zero = np.zeros(6)
+    info = np.empty(fail_info.shape[1])
+    for i in range(n):
+        s[0] = stress0[i]
+        st[:] = state0[i]
+        failed[i], fail_tau[i], fail_code[i], steps_taken[i] = False, np.nan, 0, 0
+        code = update(s[0], st, zero, 0.0, prm[i], settings, t_s[0], t_st, C[0], info, work)
+        if code != 0:
+            failed[i], fail_tau[i], fail_code[i] = True, -1.0, code
+            fail_info[i] = info
+            fail_deps[i] = 0.0
+            continue
+        tau[0], h_previous[0], d_u[0], u[0], h_before[0], d_u_before[0], u_origin[0] = 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0
+        d_stress[:], d_strain[:], strain[:], d_strain_before[:], strain_origin[:] = 0.0, 0.0, 0.0, 0.0, 0.0
+        known[0], rejections[0], cuts[0], accepted[0], segment[0] = 0, 0, 0, 0, 0
+        going[0], take[0], dead[0] = going0[i], False, False
+        stress_origin[0] = s[0]
+        _store_column(history, i, 0, s[0], strain[0], 0.0, st[void_ratio_column], 0.0)
+        for r in range(n_records):
+            if records[r, i] == 0.0 or not going[0]:
+                _store_column(history, i, r + 1, s[0], strain[0], 0.0, st[void_ratio_column], 0.0)
+        top = 0.0
+        for c in range(6):
+            top = max(top, abs(s[0, c]))
+        _path_at(path, i, 0.0, goal)
+        jumped = False
+        for c in range(6):
+            jumped = jumped or (not control[c] and abs(goal[0, c] - s[0, c]) > tol * (1.0 + top))
+        skip[0] = jumped
+        h[0] = min(firsts[0, i], largest[0, i])
+        own_segments = (ends[:, i:i + 1], firsts[:, i:i + 1], largest[:, i:i + 1], rtols[:, i:i + 1])
+        own_records = records[:, i:i + 1]
+        alive = True
+        while going[0]:
+            next_steps(tau, h, segment, own_segments[0], own_records, going, size, after, landing)
+            _path_at(path, i, after[0], goal)
+            guessed = adaptive_inputs(control, goal, strain, s, u, known, size, h_previous, d_strain, d_u, h_before,
+                                      d_strain_before, d_u_before, inc, guess_strain, guess_u, scale)
+            code = _solve_point(update, prm[i], settings, work, committed, inc, size[0], control, unknown, undrained,
+                                newton, (guess_strain, guess_u, guessed and known[0] > 0), trial, scratch, info,
+                                fail_deps[i])
+            ok[0] = code == 0
+            for c in range(6):  # a step that failed keeps its start (no increments)
+                ds[0, c] = t_s[0, c] - s[0, c] if ok[0] else 0.0
+                if not ok[0]:
+                    deps[0, c] = 0.0
+            if not ok[0]:
+                du[0] = 0.0
+            judge_steps(ok, s, ds, deps, du, scale, sizes, step_control, walk, own_segments)
+            if dead[0]:
+                alive = False
+                failed[i], fail_tau[i], fail_code[i] = True, tau[0], max(code, 0)
+                fail_info[i] = info
+            if take[0]:
+                s[:] = t_s
+                st[:] = t_st
+                C[:] = t_C
+                if landing[0]:
+                    for r in range(n_records):
+                        if records[r, i] == tau[0]:
+                            _store_column(history, i, r + 1, s[0], strain[0], u[0], st[void_ratio_column], tau[0])
+        if alive:
+            _store_column(history, i, n_records + 1, s[0], strain[0], u[0], st[void_ratio_column], tau[0])
+        final_stress[i] = s[0]
+        final_state[i] = st
+        steps_taken[i] = accepted[0]

@@ -448,5 +448,6 @@ class ANICREEP(MaterialModel):
                     table[:, kernel.PARAMETER_COLUMNS.index(key)] = value
         settings = np.array([current, self.viscous, self.tolerance, self.max_iterations, self.max_dz,
                              self.max_substep_depth, self.reduce_components], dtype=float)
-        return CompiledSteps(kernel.drive, table, settings, kernel.STATE_COLUMNS, 7, self.integration_failure)
+        return CompiledSteps(kernel.drive, kernel.adapt, table, settings, kernel.STATE_COLUMNS, 7,
+                             self.integration_failure)
 

@@ -38,9 +38,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mixed_control import NORMAL, adaptive_control, batch_size, mixed_control
+from .mixed_control import NORMAL, LinearPath, adaptive_control, batch_size, mixed_control
 
-__all__ = ["mixed_control", "adaptive_control", "NORMAL", "drained_triaxial", "undrained_triaxial",
+__all__ = ["mixed_control", "adaptive_control", "LinearPath", "NORMAL", "drained_triaxial", "undrained_triaxial",
            "isotropic_compression", "oedometer_crs", "oedometer_loading", "triaxial_stages", "batch_size"]
 
 #: control rows: True = strain increment prescribed

@@ -188,5 +188,5 @@ class ModifiedCamClay(MaterialModel):
         """Every step of ``mixed_control`` in one compiled call (``_mcc_kernel.drive``)."""
         kernel = _kernel()
         settings = np.array([float(self.G is not None), self.tolerance, self.max_iterations, self.max_substep_depth])
-        return CompiledSteps(kernel.drive, self.kernel_parameters(n), settings, kernel.STATE_COLUMNS, 5,
-                             self.integration_failure)
+        return CompiledSteps(kernel.drive, kernel.adapt, self.kernel_parameters(n), settings, kernel.STATE_COLUMNS,
+                             5, self.integration_failure)

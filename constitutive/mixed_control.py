@@ -14,6 +14,8 @@ every step of every point (the per-step Python glue otherwise costs several time
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ._mixed_control_kernel import (
@@ -28,7 +30,7 @@ from ._mixed_control_kernel import (
 )
 from .base import IntegrationError, iterating_rows, updated_rows
 
-__all__ = ["mixed_control", "adaptive_control", "batch_size", "newton_correction", "NORMAL"]
+__all__ = ["mixed_control", "adaptive_control", "LinearPath", "batch_size", "newton_correction", "NORMAL"]
 
 #: the normal Voigt components (11, 22, 33)
 NORMAL = np.array([True, True, True, False, False, False])
@@ -342,6 +344,47 @@ class _Step:
         return res
 
 
+@dataclass(frozen=True)
+class LinearPath:
+    """A path of stage time tau (s), per point and Voigt component ((n, 6) arrays): offset + slope x f with
+    f = tau/duration (duration > 0), capped at 1 where ``capped`` (a ramp that then holds its end). Calling it at
+    stage times tau (n,) gives the (n, 6) values (``adaptive_control``'s ``target``)."""
+    offset: np.ndarray
+    slope: np.ndarray
+    duration: np.ndarray
+    capped: np.ndarray
+
+    @classmethod
+    def ramp(cls, start, end, duration, capped=False):
+        """From ``start`` (n, 6) to ``end`` over ``duration`` (n,) s."""
+        return cls(start, end - start, np.broadcast_to(np.asarray(duration, dtype=float)[..., None], start.shape),
+                   np.broadcast_to(capped, start.shape))
+
+    @classmethod
+    def constant(cls, value):
+        """``value`` (n, 6) at every time."""
+        return cls.ramp(value, value, 1.0)
+
+    def values(self, tau):
+        """The path at stage times ``tau`` (..., n): (..., n, 6)."""
+        f = np.asarray(tau, dtype=float)[..., None] / self.duration
+        return self.offset + self.slope * np.where(self.capped, np.minimum(f, 1.0), f)
+
+    __call__ = values
+
+    @classmethod
+    def stacked(cls, paths):
+        """The paths of consecutive groups of points as one path over all of them."""
+        return cls(*(np.concatenate([getattr(p, f) for p in paths]) for f in ("offset", "slope", "duration",
+                                                                              "capped")))
+
+    def where(self, mask, other):
+        """This path on the components (and points) ``mask`` (broadcast to (n, 6)), ``other`` elsewhere."""
+        return LinearPath(*(np.where(mask, a, b) for a, b in zip(
+            (self.offset, self.slope, self.duration, self.capped),
+            (other.offset, other.slope, other.duration, other.capped))))
+
+
 def _per_point(a, n):
     """(K,) or (K, n) values as a contiguous (K, n) array."""
     a = np.asarray(a, dtype=float)
@@ -350,7 +393,7 @@ def _per_point(a, n):
 
 def adaptive_control(model, stress0, state0, strain_control, target, segments, records, undrained=False,
                      active=None, atol=1e-6, floor=1e-2, strain_scale=1e-2, strain_step=np.inf, growth=4.0, tol=1e-10,
-                     max_iterations=25, max_cuts=8, max_rejections=12):
+                     max_iterations=25, max_cuts=8, max_rejections=12, compiled=True):
     """Drive ``model`` along a path of stage time tau (s) with step sizes chosen per point from how its response
     changes (the holds of the laboratory programmes, where a fixed geometric grid wastes its early steps).
 
@@ -383,6 +426,10 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
     start from the rates of the previous step (extrapolated linearly from the two before where the segment has
     them; the tangent predictor for a first step).
 
+    compiled: where ``target`` is a :class:`LinearPath` and the model has a compiled step loop
+    (``MaterialModel.compiled_steps``), every step of a point in one compiled call (the same arithmetic); False:
+    the steps in Python.
+
     Returns the history of :func:`mixed_control` over (n, R + 2) columns: the start, the records (in the given
     order; NaN where a point failed before it) and the end (NaN for a failed point), with ``state``,
     ``final_stress`` (a failed point's last converged ones), ``failed``, ``reasons`` and ``steps`` (n,) the
@@ -395,6 +442,13 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
         raise ValueError("segments: (ends, firsts, largest, rtols)")
     segments = tuple(_per_point(a, n) for a in segments)
     rec = _per_point(records, n)
+    going = np.ones(n, dtype=bool) if active is None else np.array(active, dtype=bool)
+    settings = (float(atol), float(floor), float(strain_scale), float(strain_step), float(growth),
+                int(max_rejections), int(max_cuts))
+    kernel = model.compiled_steps(n) if compiled and isinstance(target, LinearPath) else None
+    if kernel is not None:
+        return _compiled_adaptive(kernel, stress, state0, control, bool(undrained), target, segments, rec, going,
+                                  settings, (tol, max_iterations))
     step = _Step(model, control, bool(undrained), tol, max_iterations)
     state = state0
     _, _, tangent = model.update(stress, state, np.zeros((n, 6)), 0.0)
@@ -403,7 +457,6 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
            "pore_pressure": np.full((n, columns), np.nan), "void_ratio": np.full((n, columns), np.nan),
            "time": np.full((n, columns), np.nan)}
     tau, strain, u = np.zeros(n), np.zeros((n, 6)), np.zeros(n)
-    going = np.ones(n, dtype=bool) if active is None else np.array(active, dtype=bool)
 
     def store(rows, cols):
         for key, value in (("stress", stress), ("strain", strain), ("pore_pressure", u),
@@ -424,8 +477,6 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
     (_, _, h_previous, _, d_strain, d_u, _, _, known, _, _, accepted, segment, _, take, dead, _, h_before,
      d_strain_before, d_u_before, _, _, _) = walk                   # the names of judge_steps (its docstring)
     sizes = (np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
-    settings = (float(atol), float(floor), float(strain_scale), float(strain_step), float(growth),
-                int(max_rejections), int(max_cuts))
     alive = np.ones(n, dtype=bool)
     reasons = {}
     while going.any():
@@ -455,3 +506,32 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
     store(np.flatnonzero(alive), columns - 1)
     out.update(state=state, final_stress=stress, failed=~alive, reasons=reasons, steps=accepted)
     return out
+
+
+def _compiled_adaptive(kernel, stress, state0, control, undrained, path, segments, rec, going, step_control, newton):
+    """``adaptive_control``'s history through the model's compiled step loop (``kernel``, :class:`CompiledSteps`);
+    the arguments as normalized there, ``newton`` (tol, max_iterations)."""
+    n, columns = stress.shape[0], rec.shape[0] + 2
+    history = (np.full((n, columns, 6), np.nan), np.full((n, columns, 6), np.nan), np.full((n, columns), np.nan),
+               np.full((n, columns), np.nan), np.full((n, columns), np.nan))
+    flat = kernel.pack(state0, n)
+    ending = (np.empty((n, 6)), np.empty_like(flat), np.empty(n, dtype=bool), np.empty(n), np.empty(n, dtype=np.int64),
+              np.empty((n, kernel.info_size)), np.empty((n, 6)), np.empty(n, dtype=np.int64))
+    shaped = tuple(np.ascontiguousarray(np.broadcast_to(a, (n, 6)), dtype=t) for a, t in zip(
+        (path.offset, path.slope, path.duration, path.capped), (float, float, float, bool)))
+    kernel.adapt(kernel.parameters, kernel.settings, stress, flat, np.ascontiguousarray(control), undrained, shaped,
+                 segments, rec, going, step_control, np.array(newton, dtype=float), history, ending)
+    final_stress, final_state, failed, fail_tau, fail_code, fail_info, fail_deps, steps = ending
+    start_failed = np.flatnonzero(failed & (fail_tau == -1.0))
+    if start_failed.size:
+        i = int(start_failed[0])
+        raise IntegrationError(i, kernel.failure(fail_code[i], fail_info[i], fail_deps[i]))
+    reasons = {}
+    for i in np.flatnonzero(failed):
+        why = (kernel.failure(fail_code[i], fail_info[i], fail_deps[i]) if fail_code[i] else
+               f"mixed-control Newton did not converge after {step_control[-1]} step cuts")
+        reasons[int(i)] = f"at stage time {fail_tau[i]:g} s: {why}"
+    hist = dict(zip(("stress", "strain", "pore_pressure", "void_ratio", "time"), history))
+    hist.update(state=kernel.unpack(final_state), final_stress=final_stress, failed=failed, reasons=reasons,
+                steps=steps)
+    return hist

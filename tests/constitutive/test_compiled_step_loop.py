@@ -206,3 +206,64 @@ def test_anicreep_failure_reason():
                 on_failure="nan", max_cuts=1)
     assert_same_history(a, b)
     assert a["failed"].any() and a["reasons"] == b["reasons"]
+
+
+def adaptive_both(model, *args, **kwargs):
+    """The compiled and the Python adaptive driver's results of the same call."""
+    assert model.compiled_steps(len(args[0])) is not None
+    return (lt.adaptive_control(model, *args, **kwargs),
+            lt.adaptive_control(model, *args, compiled=False, **kwargs))
+
+
+@pytest.mark.parametrize("switches", ANICREEP_CLASSES.values(), ids=ANICREEP_CLASSES.keys())
+def test_adaptive_load_ramp_and_hold(switches):
+    """An oedometer load stage as the staged programmes step it: sigma'_v ramped from 100 kPa to 150-400 kPa over
+    60 s (a capped ramp), then held to one day in adaptive steps; records within both; one point inactive."""
+    model, stress, state = anicreep_batch(**switches)
+    n = stress.shape[0]
+    end = stress.copy()
+    end[:, 0] = np.linspace(150.0, 400.0, n)
+    path = lt.LinearPath.ramp(np.where(lt.OEDOMETER_STRESS, 0.0, stress), np.where(lt.OEDOMETER_STRESS, 0.0, end),
+                              np.full(n, 60.0), capped=True)
+    segments = ([60.0, 86400.0], [6.0, 0.1], [6.0, np.inf], [np.inf, 0.1])
+    records = np.broadcast_to(np.array([30.0, 60.0, 600.0, 3600.0, 86400.0])[:, None], (5, n))
+    a, b = adaptive_both(model, stress, state, lt.OEDOMETER_STRESS, path, segments, records, strain_step=0.0025,
+                         active=np.arange(n) != 2)
+    assert_same_history(a, b)
+    np.testing.assert_array_equal(a["steps"], b["steps"])
+    assert not a["failed"].any() and a["steps"][2] == 0 and np.all(a["steps"][[0, 1, 3]] > 10)
+
+
+def test_adaptive_undrained_relaxation():
+    """Undrained shear held (every strain held) after a jump of the lateral total stress: the stress relaxes."""
+    model, stress, state = anicreep_batch(**ANICREEP_CLASSES["viscous, current specific volume"])
+    n = stress.shape[0]
+    held = stress.copy()
+    held[:, 1:3] = 90.0  # the lateral total stress, reached at once
+    path = lt.LinearPath.constant(np.where(lt.AXIAL_STRAIN_CONTROL, 0.0, held))
+    segments = ([1e5], [0.1], [np.inf], [0.1])
+    records = np.broadcast_to(np.geomspace(1.0, 1e5, 11)[:, None], (11, n))
+    a, b = adaptive_both(model, stress, state, lt.AXIAL_STRAIN_CONTROL, path, segments, records, undrained=True)
+    assert_same_history(a, b)
+    np.testing.assert_array_equal(a["steps"], b["steps"])
+
+
+def test_adaptive_failure_reason():
+    """A local Newton allowed one iteration and no sub-steps: the points fail at the same stage time with the
+    same reason from both drivers, NaN records after it."""
+    class Brittle(ANICREEP):
+        max_iterations = 1
+        max_substep_depth = 0
+
+    model = Brittle(M=1.2, lambda_=0.2, kappa=0.03, nu=0.25, e0=1.2, sigma_p0=np.array([120.0, 300.0]),
+                    anisotropy=False, viscous=True, C_alpha_e=0.004)
+    stress = np.tile([100.0, 100.0, 100.0, 0.0, 0.0, 0.0], (2, 1))
+    end = stress.copy()
+    end[:, 0] = 400.0
+    path = lt.LinearPath.ramp(np.where(lt.OEDOMETER_STRESS, 0.0, stress), np.where(lt.OEDOMETER_STRESS, 0.0, end),
+                              np.full(2, 60.0), capped=True)
+    a, b = adaptive_both(model, stress, model.initial_state(stress), lt.OEDOMETER_STRESS, path,
+                         ([60.0, 1e4], [6.0, 0.1], [6.0, np.inf], [np.inf, 0.1]),
+                         np.broadcast_to(np.array([30.0, 60.0, 1e4])[:, None], (3, 2)), max_cuts=2)
+    assert_same_history(a, b)
+    assert a["failed"].any() and a["reasons"] == b["reasons"]

@@ -180,7 +180,7 @@ def _creep_hold(rates, p_over, t_records):
     errors, steps = [], []
     for rate in rates:
         segments = ([t_records[-1]], [0.1], [np.inf], [rate])
-        hist = labtests.adaptive_control(m, s0, state0, TRIAXIAL_STRESS, lambda t: np.broadcast_to(s0, (1, 6)),
+        hist = labtests.adaptive_control(m, s0, state0, TRIAXIAL_STRESS, labtests.LinearPath.constant(s0),
                                          segments, t_records[:, None])
         y = CLAY["e0"] - hist["void_ratio"][0, 1:-1]
         errors.append(np.max(np.abs(y - exact)) / exact[-1])
@@ -219,7 +219,8 @@ def test_adaptive_batch_equals_single_points():
     def run(rows):
         m = _viscous(C_alpha_e=ca[rows])
         return labtests.adaptive_control(m, s0[rows], m.initial_state(s0[rows]), OEDOMETER_STRESS,
-                                         lambda tau: np.where(OEDOMETER_STRESS, 0.0, s0[rows]), segments,
+                                         labtests.LinearPath.constant(np.where(OEDOMETER_STRESS, 0.0, s0[rows])),
+                                         segments,
                                          np.broadcast_to(t[:, None], (9, len(rows))), strain_step=0.0025)
     batch = run([0, 1, 2])
     for i in range(3):

@@ -52,6 +52,7 @@ import numpy as np
 
 from cases.study.stages import KINDS
 from constitutive import labtests
+from constitutive.labtests import LinearPath
 
 __all__ = ["StageSteps", "STRESS_STEP", "HOLD_FIRST", "HOLD_STEPS_PER_DECADE", "ADAPTIVE_HOLDS",
            "HOLD_RATE_CHANGE", "FALLBACK_STRAIN_STEP", "DEFAULT_DURATION", "DEFAULT_SHEAR_RATE", "DEFAULT_SHEAR_STRAIN",
@@ -120,11 +121,6 @@ def _ln_parts(start, end):
     return bound
 
 
-def _ramp_target(start, end, fraction):
-    """Stress (K, n, 6) at ramp fractions (K, n)."""
-    return start[None] + (end - start)[None] * fraction[..., None]
-
-
 class StageSteps:
     """The steps of one stage (module docstring) from the specimen at the stage start ``carried`` ({"stress" (n, 6),
     "strain" (n, 6), "u" (n,), ...}), the stage's recorded abscissae ``record_x`` (sorted, unique) and the largest
@@ -159,9 +155,9 @@ class StageSteps:
         kind.plan(self)
         self.adaptive = ADAPTIVE_HOLDS and timed and kind.adaptive_hold
 
-    # each builder (called by the kind's ``plan``) sets knots (K, n), record_index (len(x),), strain_target (knots ->
-    # the controlled strains since the stage start, (K, n, 6)) and stress_target (knots -> the controlled effective
-    # stresses, (K, n, 6))
+    # each builder (called by the kind's ``plan``) sets knots (K, n), record_index (len(x),), strain_path (the
+    # controlled strains since the stage start) and stress_path (the controlled effective stresses), LinearPath of
+    # the stage time
     def _tau_records(self, tau, end):
         """Record stage times (R, n) checked against [0, end] (n,): particles with a record outside are marked."""
         tol = 1e-9 * np.maximum(1.0, np.abs(end))
@@ -187,8 +183,11 @@ class StageSteps:
         self.segments = tuple(np.array([np.broadcast_to(np.asarray(v, dtype=float), (self.n,)) for v in x])
                               for x in (ends, firsts, largest, rtols))
 
-    def _zero_stress(self):
-        return lambda knots: np.broadcast_to(self.start, knots.shape + (6,))
+    def _held_stress(self):
+        return LinearPath.constant(self.start)
+
+    def _no_strain(self):
+        return LinearPath.constant(np.zeros((self.n, 6)))
 
     def hold(self, duration):
         """A hold of ``duration`` s (default one day): every controlled variable held, records against time."""
@@ -200,8 +199,8 @@ class StageSteps:
         self.knots = np.broadcast_to(grid[:, None], (grid.size, self.n))
         self.record_index = np.searchsorted(grid, tau[:, 0])
         self._segments([duration], [_hold_first(duration)], [np.inf], [HOLD_RATE_CHANGE])
-        self.stress_target = self._zero_stress()
-        self.strain_target = lambda knots: np.zeros(knots.shape + (6,))
+        self.stress_path = self._held_stress()
+        self.strain_path = self._no_strain()
 
     def consolidation_ramp(self):
         """The effective stresses ramped linearly in time to the consolidation's target."""
@@ -236,8 +235,8 @@ class StageSteps:
         knots, index = _linear_knots(pts, _ln_parts(start, end))
         self.record_index = self._place_records(index, order)
         self.knots = knots * duration
-        self.stress_target = lambda k: _ramp_target(start, end, k / duration)
-        self.strain_target = lambda k: np.zeros(k.shape + (6,))
+        self.stress_path = LinearPath.ramp(start, end, np.full(self.n, duration))
+        self.strain_path = self._no_strain()
 
     def _strain_ramp(self, rate, end_tau, tau_rec):
         """Axial strain = rate x stage time, records at stage times tau_rec (R, n), end (n,)."""
@@ -246,13 +245,10 @@ class StageSteps:
         step = self.strain_step
         knots, index = _linear_knots(pts, lambda a, b: np.ceil(np.abs(rate) * (b - a) / step - 1e-9))
         self.knots, self.record_index = knots, self._place_records(index, order)
-        self.stress_target = self._zero_stress()
-
-        def strain(k):
-            out = np.zeros(k.shape + (6,))
-            out[..., 0] = rate * k
-            return out
-        self.strain_target = strain
+        self.stress_path = self._held_stress()
+        end_strain = np.zeros((self.n, 6))
+        end_strain[:, 0] = rate  # after a stage time of 1 s
+        self.strain_path = LinearPath.ramp(np.zeros((self.n, 6)), end_strain, np.ones(self.n))
 
     def shear_ramp(self):
         """The axial strain at the shear's rate, signed by its direction, to its end."""
@@ -324,22 +320,21 @@ class StageSteps:
         grid = np.unique(np.concatenate([ramp_knots, t[in_ramp], hold]))
         self.knots = np.broadcast_to(grid[:, None], (grid.size, self.n))
         self.record_index = np.searchsorted(grid, t)
-        self.stress_target = (lambda k: _ramp_target(start, end, np.minimum(k / ramp, 1.0))) if ramp > 0 else \
-            (lambda k: np.broadcast_to(end, k.shape + (6,)))
-        self.strain_target = lambda k: np.zeros(k.shape + (6,))
+        self.stress_path = (LinearPath.ramp(start, end, np.full(self.n, ramp), capped=True) if ramp > 0 else
+                            LinearPath.constant(end))
+        self.strain_path = self._no_strain()
 
     # ------------------------------------------------------------------ the adaptive path (``adaptive``)
     def records(self):
         """Stage times (R, n) of the records (in the order of ``record_x``)."""
         return self.knots[self.record_index]
 
-    def target(self, tau):
-        """The path of ``constitutive.labtests.adaptive_control`` at stage times tau (n,): the controlled strains
-        since the stage start and the controlled total stresses (n, 6) (effective when drained; undrained the
-        stress at the stage start, held)."""
-        strain = self.strain_target(tau[None])[0]
-        stress = self.carried["stress"] if self.undrained else self.stress_target(tau[None])[0]
-        return np.where(self.control, strain, stress)
+    def target(self):
+        """The path of ``constitutive.labtests.adaptive_control`` (LinearPath): the controlled strains since the
+        stage start and the controlled total stresses (effective when drained; undrained the stress at the stage
+        start, held)."""
+        stress = LinearPath.constant(self.carried["stress"]) if self.undrained else self.stress_path
+        return self.strain_path.where(self.control, stress)
 
     # ------------------------------------------------------------------ the step table
     def steps(self):
@@ -347,9 +342,9 @@ class StageSteps:
         knots = self.knots
         prev = np.concatenate([np.zeros((1, self.n)), knots[:-1]], axis=0)
         dt = knots - prev
-        strain = self.strain_target(knots)
+        strain = self.strain_path.values(knots)
         strain_prev = np.concatenate([np.zeros((1, self.n, 6)), strain[:-1]], axis=0)
-        stress = self.stress_target(knots)
+        stress = self.stress_path.values(knots)
         stress_prev = np.concatenate([self.carried["stress"][None], stress[:-1]], axis=0)
         inc = np.where(self.control, strain - strain_prev, stress - stress_prev)
         if self.undrained:  # total stresses held: increments of zero on the stress-controlled components

@@ -454,13 +454,7 @@ def _adaptive(model, part, plans, rows, strain_step):
         records[:len(tau), rows_j] = tau
         for whole, piece in zip(segments, plan.segments):
             whole[:, rows_j] = piece
-
-    def target(tau):
-        out = np.empty((size, 6))
-        for plan, rows_j in zip(plans, rows):
-            out[rows_j] = plan.target(tau[rows_j])
-        return out
-
+    target = labtests.LinearPath.stacked([plan.target() for plan in plans])  # the rows are consecutive slices
     hist = labtests.adaptive_control(model, part["stress"], part["state"], plans[0].control, target, segments,
                                      records, undrained=plans[0].undrained, active=~part["failed"],
                                      strain_step=strain_step)
