@@ -209,6 +209,21 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
 _NO_STRESS = np.zeros((0, 6))
 
 
+def _failure_reasons(kernel, at_start, failed, failures, cuts, where):
+    """{failed point: "<where>: <reason>"} of a compiled loop: the model's reason where a model update failed
+    (``failures``: code, info, strain increment per point), else the Newton's after ``cuts`` step cuts; ``where(i)``
+    the failure's step or time. A point whose start (the tangent at a zero increment) failed (``at_start``) raises
+    the model's IntegrationError, as the Python driver does."""
+    code, info, deps = failures
+    first = np.flatnonzero(at_start)
+    if first.size:
+        i = int(first[0])
+        raise IntegrationError(i, kernel.failure(code[i], info[i], deps[i]))
+    return {int(i): f"{where(i)}: " + (kernel.failure(code[i], info[i], deps[i]) if code[i] else
+                                       f"mixed-control Newton did not converge after {cuts} step cuts")
+            for i in np.flatnonzero(failed)}
+
+
 def _compiled_history(kernel, stress, state0, control, inc, dt, undrained, record, active, stop, on_failure, newton):
     """``mixed_control``'s history through the model's compiled step loop (``kernel``, :class:`CompiledSteps`);
     the arguments as normalized there, ``dt`` (K, n), ``newton`` (tol, max_iterations, max_cuts, previous-step
@@ -234,16 +249,9 @@ def _compiled_history(kernel, stress, state0, control, inc, dt, undrained, recor
     kernel.drive(kernel.parameters, kernel.settings, stress, flat, steps, stops, np.array(newton, dtype=float),
                  history, ending)
     final_stress, final_state, fail_step, fail_code, fail_info, fail_deps, stop_step, stop_value = ending
-    start_failed = np.flatnonzero(fail_step == -2)
-    if start_failed.size:
-        i = int(start_failed[0])
-        raise IntegrationError(i, kernel.failure(fail_code[i], fail_info[i], fail_deps[i]))
     failed = fail_step >= 0
-    reasons = {}
-    for i in np.flatnonzero(failed):
-        why = (kernel.failure(fail_code[i], fail_info[i], fail_deps[i]) if fail_code[i] else
-               f"mixed-control Newton did not converge after {newton[2]} step cuts")
-        reasons[int(i)] = f"step {fail_step[i]}: {why}"
+    reasons = _failure_reasons(kernel, fail_step == -2, failed, ending[3:6], newton[2],
+                               lambda i: f"step {fail_step[i]}")
     if failed.any() and on_failure == "raise":
         first = int(np.flatnonzero(failed)[np.argmin(fail_step[failed])])
         raise IntegrationError(first, reasons[first])
@@ -521,16 +529,9 @@ def _compiled_adaptive(kernel, stress, state0, control, undrained, path, segment
         (path.offset, path.slope, path.duration, path.capped), (float, float, float, bool)))
     kernel.adapt(kernel.parameters, kernel.settings, stress, flat, np.ascontiguousarray(control), undrained, shaped,
                  segments, rec, going, step_control, np.array(newton, dtype=float), history, ending)
-    final_stress, final_state, failed, fail_tau, fail_code, fail_info, fail_deps, steps = ending
-    start_failed = np.flatnonzero(failed & (fail_tau == -1.0))
-    if start_failed.size:
-        i = int(start_failed[0])
-        raise IntegrationError(i, kernel.failure(fail_code[i], fail_info[i], fail_deps[i]))
-    reasons = {}
-    for i in np.flatnonzero(failed):
-        why = (kernel.failure(fail_code[i], fail_info[i], fail_deps[i]) if fail_code[i] else
-               f"mixed-control Newton did not converge after {step_control[-1]} step cuts")
-        reasons[int(i)] = f"at stage time {fail_tau[i]:g} s: {why}"
+    final_stress, final_state, failed, fail_tau, _, _, _, steps = ending
+    reasons = _failure_reasons(kernel, failed & (fail_tau == -1.0), failed, ending[4:7], step_control[-1],
+                               lambda i: f"at stage time {fail_tau[i]:g} s")
     hist = dict(zip(("stress", "strain", "pore_pressure", "void_ratio", "time"), history))
     hist.update(state=kernel.unpack(final_state), final_stress=final_stress, failed=failed, reasons=reasons,
                 steps=steps)
