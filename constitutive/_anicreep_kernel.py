@@ -39,7 +39,7 @@ p' alpha_k):
 (the dalpha_k/dsigma'_k of R_alpha). ``reduce=False`` in ``update_points`` integrates all 6 (the tests' oracle).
 
 Compilation: every helper is inlined into ``_update_point``, itself inlined into ``update_points`` and into
-``point_update`` (the step loop's form, ``drive``) (``jit(inline="always")``), so the loop over points is one
+``_anicreep_steps.point_update`` (the step loops' form) (``jit(inline="always")``), so the loop over points is one
 compiled body, without calls and without the reference counting (atomic increments and decrements) that numba
 does for every array view it creates or passes to a function: about 210 such operations per point update when the
 helpers were separate functions. Inlining does not reorder floating-point operations: the same results to the bit;
@@ -58,7 +58,6 @@ import math
 
 import numpy as np
 
-from ._mixed_control_kernel import adapt_points, drive_points
 from .jit import STRAIN_TO_TENSOR as _T
 from .jit import VOIGT_IDENTITY as _I
 from .jit import VOIGT_WEIGHTS as _W
@@ -69,6 +68,9 @@ from .jit import jit, next_substep
 MAX_NX = 13                                     # unknowns per point with all 6 components (2 nc + 1)
 #: columns of the per-point parameter array ``prm``
 PARAMETER_COLUMNS = ("M2", "c_e", "c_p", "r_G", "omega", "omega_d", "inv_beta", "mu", "xi", "xi_d")
+#: the failure code of a point's update (``_anicreep_steps.point_update``; info: dt, then the stress at the
+#: increment's start)
+LOCAL_NEWTON_FAILED = 1
 
 
 @jit(inline="always")
@@ -578,71 +580,6 @@ def update_points(stress, alpha, pm_ref, chi, deps, dt, prm, viscous, tol, max_i
             return i
         pm_out[i], chi_out[i], ratio_out[i], vp_shear_out[i] = pm_new, chi_new, ratio, vp_shear
     return -1
-
-
-#: the columns of the state of :func:`point_update`
-STATE_COLUMNS = (("alpha", 6), ("pm_ref", 1), ("void_ratio", 1), ("vp_strain", 6), ("vp_shear", 1),
-                 ("overstress", 1), ("chi", 1))
-#: the columns of PARAMETER_COLUMNS proportional to the specific volume v (c_e, c_p, omega) and to 1/v (mu)
-VOLUME_COLUMNS, INVERSE_VOLUME_COLUMN = (1, 2, 4), 7
-#: the code of :func:`point_update`'s failure (info: dt, then the stress at the increment's start)
-LOCAL_NEWTON_FAILED = 1
-
-
-@jit
-def point_update(stress, state, deps, dt, prm, settings, stress_out, state_out, tangent_out, info, work):
-    """The model's update of one point in the form of the compiled step loop
-    (``_mixed_control_kernel.drive_points``), as ``ANICREEP.update``: ``state`` (17,) in STATE_COLUMNS; ``prm``
-    PARAMETER_COLUMNS then v0 = 1 + e0, where ``settings[0]`` (the current specific volume) with the VOLUME_COLUMNS
-    (and, viscous, the INVERSE_VOLUME_COLUMN) at v = 1, multiplied (divided) by v = 1 + e_n here; settings: (current
-    specific volume, viscous, tol, max_it, max_dz, max_depth, reduce) as numbers. The void ratio moves by
-    -v d eps_v. Returns 0, or LOCAL_NEWTON_FAILED with ``info`` (dt, stress (6))."""
-    row = work[13]
-    viscous = settings[1] != 0.0
-    e = state[7]
-    for k in range(row.size):
-        row[k] = prm[k]
-    if settings[0] != 0.0:
-        v = 1.0 + e
-        for k in VOLUME_COLUMNS:
-            row[k] = prm[k] * v
-        if viscous:
-            row[INVERSE_VOLUME_COLUMN] = prm[INVERSE_VOLUME_COLUMN] / v
-    else:
-        v = prm[row.size]
-    ok, pm, chi, ratio, vp_shear = _update_point(
-        stress, state[0:6], state[6], state[16], deps, dt, row, viscous, settings[2], int(settings[3]), settings[4],
-        int(settings[5]), settings[6] != 0.0, True, stress_out, state_out[0:6], state_out[8:14], tangent_out,
-        work[:13])
-    if not ok:
-        info[0] = dt
-        for k in range(6):
-            info[1 + k] = stress[k]
-        return LOCAL_NEWTON_FAILED
-    state_out[6] = pm
-    state_out[7] = e - v * (deps[0] + deps[1] + deps[2])
-    for k in range(6):
-        state_out[8 + k] += state[8 + k]
-    state_out[14] = state[14] + vp_shear
-    state_out[15] = ratio
-    state_out[16] = chi
-    return 0
-
-
-@jit
-def drive(prm, settings, stress0, state0, steps, stop, newton, history, ending):
-    """``_mixed_control_kernel.drive_points`` with :func:`point_update` (the arguments are its)."""
-    return drive_points(point_update, prm, settings, (*_scratch(), np.zeros(len(PARAMETER_COLUMNS))), 7, stress0,
-                        state0, steps, stop, newton, history, ending)
-
-
-@jit
-def adapt(prm, settings, stress0, state0, control, undrained, path, segments, records, going, step_control, newton,
-          history, ending):
-    """``_mixed_control_kernel.adapt_points`` with :func:`point_update` (the arguments are its)."""
-    return adapt_points(point_update, prm, settings, (*_scratch(), np.zeros(len(PARAMETER_COLUMNS))), 7, stress0,
-                        state0, control, undrained, path, segments, records, going, step_control, newton, history,
-                        ending)
 
 
 @jit

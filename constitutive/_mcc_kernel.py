@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ._mixed_control_kernel import adapt_points, drive_points
+from ._step_loops import adapt_points, drive_points
 from .jit import STRAIN_TO_TENSOR as _T
 from .jit import VOIGT_IDENTITY as _I
 from .jit import VOIGT_WEIGHTS as _W
@@ -243,7 +243,7 @@ RETURN_MAPPING_FAILED, VOID_RATIO_COLLAPSED = 1, 2
 @jit
 def point_update(stress, state, deps, dt, prm, settings, stress_out, state_out, tangent_out, info, work):
     """The model's update of one point in the form of the compiled step loop
-    (``_mixed_control_kernel.drive_points``): ``state`` (8,) in STATE_COLUMNS, ``settings`` (constant_G as 0/1,
+    (``_step_loops.drive_points``): ``state`` (8,) in STATE_COLUMNS, ``settings`` (constant_G as 0/1,
     tol, max_it, max_depth); ``dt`` unused (rate independent). As ``ModifiedCamClay.update``: the return mapping,
     then e <- e - (1 + e) d eps_v over the whole increment and the plastic strain accumulated. Returns 0, or a
     failure code (``RETURN_MAPPING_FAILED``, ``VOID_RATIO_COLLAPSED``) with ``info`` filled."""
@@ -264,7 +264,7 @@ def point_update(stress, state, deps, dt, prm, settings, stress_out, state_out, 
 
 @jit
 def drive(prm, settings, stress0, state0, steps, stop, newton, history, ending):
-    """``_mixed_control_kernel.drive_points`` with :func:`point_update` (the arguments are its)."""
+    """``_step_loops.drive_points`` with :func:`point_update` (the arguments are its)."""
     return drive_points(point_update, prm, settings, np.empty((WORK_ROWS, 6)), 1, stress0, state0, steps, stop,
                         newton, history, ending)
 
@@ -272,6 +272,6 @@ def drive(prm, settings, stress0, state0, steps, stop, newton, history, ending):
 @jit
 def adapt(prm, settings, stress0, state0, control, undrained, path, segments, records, going, step_control, newton,
           history, ending):
-    """``_mixed_control_kernel.adapt_points`` with :func:`point_update` (the arguments are its)."""
+    """``_step_loops.adapt_points`` with :func:`point_update` (the arguments are its)."""
     return adapt_points(point_update, prm, settings, np.empty((WORK_ROWS, 6)), 1, stress0, state0, control, undrained,
                         path, segments, records, going, step_control, newton, history, ending)

@@ -431,12 +431,14 @@ class ANICREEP(MaterialModel):
 
     def integration_failure(self, code, info, dstrain) -> str:
         """The reason of a failed update of one point under the strain increment ``dstrain`` (6,), ``info`` (dt,
-        stress (6,) at the increment's start) as ``_anicreep_kernel.point_update`` gives them."""
+        stress (6,) at the increment's start) as ``_anicreep_steps.point_update`` gives them."""
         return (f"local Newton did not converge after {self.max_substep_depth} levels of sub-stepping (strain "
                 f"increment {dstrain}, dt {info[0]:g} s, stress {info[1:7]})")
 
     def compiled_steps(self, n):
-        """Every step of ``mixed_control`` in one compiled call (``_anicreep_kernel.drive``)."""
+        """Every step of ``mixed_control`` and ``adaptive_control`` in one compiled call
+        (``_anicreep_steps.drive``, ``adapt``)."""
+        from . import _anicreep_steps as steps
         kernel = _kernel()
         table = np.empty((n, len(kernel.PARAMETER_COLUMNS) + 1))
         table[:, :-1] = self.kernel_parameters(n)
@@ -448,6 +450,6 @@ class ANICREEP(MaterialModel):
                     table[:, kernel.PARAMETER_COLUMNS.index(key)] = value
         settings = np.array([current, self.viscous, self.tolerance, self.max_iterations, self.max_dz,
                              self.max_substep_depth, self.reduce_components], dtype=float)
-        return CompiledSteps(kernel.drive, kernel.adapt, table, settings, kernel.STATE_COLUMNS, 7,
+        return CompiledSteps(steps.drive, steps.adapt, table, settings, steps.STATE_COLUMNS, 7,
                              self.integration_failure)
 

@@ -145,7 +145,7 @@ def updated_rows(model, rows, points, stress, state, dstrain, dt, previous):
 class CompiledSteps:
     """A model's compiled step loops (every step of a point in one compiled call): ``drive(parameters, settings,
     stress0, state0, steps, stop, newton, history, ending)`` (``mixed_control``) as
-    ``constitutive._mixed_control_kernel.drive_points`` and ``adapt(...)`` (``adaptive_control``) as its
+    ``constitutive._step_loops.drive_points`` and ``adapt(...)`` (``adaptive_control``) as its
     ``adapt_points``, with the model's update of one point; ``parameters`` (n, P) and ``settings`` its arrays;
     ``state_columns`` ((name, width), ...) the state's keys in the order of its flat (n, S) array; ``info_size``
     the length of a failure's ``info``; ``failure(code, info, dstrain)`` the reason of a failure code (the text of

@@ -174,14 +174,15 @@ _announced = False
 
 
 def kernel_files(model_class, fe=False) -> list:
-    """The compiled-kernel source files a solve of ``model_class`` needs (``_<module>_kernel.py`` beside the model's
-    module) and, with ``fe``, the FE's (``fem/_residual_kernel.py``)."""
+    """The compiled-kernel source files a solve of ``model_class`` needs (``_<module>_kernel.py`` and, where there
+    is one, ``_<module>_steps.py`` beside the model's module) and, with ``fe``, the FE's
+    (``fem/_residual_kernel.py``)."""
     import inspect
 
     import fem
 
     source = Path(inspect.getfile(model_class))
-    files = [source.with_name(f"_{source.stem}_kernel.py")]
+    files = [source.with_name(f"_{source.stem}_kernel.py"), source.with_name(f"_{source.stem}_steps.py")]
     if fe:
         files.append(Path(fem.__file__).with_name("_residual_kernel.py"))
     return [f for f in files if f.is_file()]

@@ -392,7 +392,8 @@ def test_the_compile_message_is_said_once_when_a_kernel_cache_is_cold(tmp_path, 
     from constitutive import ANICREEP, ModifiedCamClay
 
     assert [f.name for f in runner.kernel_files(ModifiedCamClay)] == ["_mcc_kernel.py"]
-    assert [f.name for f in runner.kernel_files(ANICREEP, fe=True)] == ["_anicreep_kernel.py", "_residual_kernel.py"]
+    assert [f.name for f in runner.kernel_files(ANICREEP, fe=True)] == ["_anicreep_kernel.py", "_anicreep_steps.py",
+                                                                        "_residual_kernel.py"]
     cold = tmp_path / "_cold_kernel.py"
     cold.write_text("")
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
