@@ -9,8 +9,9 @@ controls along a prescribed path in time with step sizes chosen per point (the h
 The named tests built on them are in :mod:`constitutive.labtests`; the per-point arithmetic of a step (its aim, the
 Newton's start, corrections and end, the adaptive step control) is compiled in
 :mod:`constitutive._mixed_control_kernel`; for a model with a compiled update of one point
-(``MaterialModel.compiled_steps``: Modified Cam Clay, ANICREEP) the whole of :func:`mixed_control` is, one call for
-every step of every point (the per-step Python glue otherwise costs several times the model's own arithmetic).
+(``MaterialModel.compiled_steps``: Modified Cam Clay, ANICREEP, delayed swelling on either) the whole of
+:func:`mixed_control` is, one call for every step of every point (the per-step Python glue otherwise costs several
+times the model's own arithmetic).
 """
 from __future__ import annotations
 

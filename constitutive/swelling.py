@@ -41,6 +41,9 @@ IntegrationError; so does p' <= 0 where (S2) is active. On first loading
 (eps_s,n = 0, p' >= p'_max,n) x = 0 at once: the base model receives d eps bit for bit, and the result is the base
 model's. The elementwise arithmetic of each iteration is compiled (:mod:`constitutive._swelling_kernel`); the base
 update, the logarithm of (S2) and the sums over the tangent stay numpy's.
+Where the base model has compiled step loops of its own (Modified Cam Clay, ANICREEP), the laboratory drivers
+(``mixed_control``, ``adaptive_control``) run the same iteration per point inside theirs
+(:mod:`constitutive._swelling_steps`, :meth:`DelayedSwelling.compiled_steps`).
 
 Tangent: differentiating R = 0 with the base tangent D^b = d sigma'/d eps^b,
     C = D^b - c/(9 (1 + c K_t)) (D^b m) (m^T D^b),
@@ -51,6 +54,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import (
+    CompiledSteps,
     IntegrationError,
     MaterialModel,
     ParameterError,
@@ -134,6 +138,39 @@ class DelayedSwelling(MaterialModel):
     def point_subsets(self):
         """``update`` takes ``points=`` where the base model does (``MaterialModel.point_subsets``)."""
         return self.base.point_subsets
+
+    def compiled_steps(self, n):
+        """Every step of ``mixed_control`` and ``adaptive_control`` in one compiled call
+        (``_swelling_steps``) where the base model has compiled loops of its own (Modified Cam Clay, ANICREEP);
+        else None (the Python driver)."""
+        base = self.base.compiled_steps(n)
+        from . import _swelling_steps as steps
+        loops = None if base is None else steps.LOOPS.get(base.drive)
+        if loops is None:
+            return None
+        names = [key for key, _ in base.state_columns]
+        widths = [width for _, width in base.state_columns]
+        void_column = sum(widths[:names.index("void_ratio")])
+        table = np.column_stack([base.parameters, np.broadcast_to(self.kappa_s, (n,)),
+                                 np.broadcast_to(self.tau_s, (n,))])
+        settings = np.r_[base.settings, self.tolerance, self.max_iterations, sum(widths), base.parameters.shape[1],
+                         void_column]
+        return CompiledSteps(*loops, np.ascontiguousarray(table, dtype=float), settings,
+                             tuple(base.state_columns) + steps.OWN_STATE_COLUMNS,
+                             max(base.info_size, steps.INFO_SIZE), self.integration_failure)
+
+    def integration_failure(self, code, info, dstrain) -> str:
+        """The reason of a failed update of one point under the strain increment ``dstrain`` (6,): ``code`` and
+        ``info`` as ``_swelling_steps`` gives them, or the base model's (its ``integration_failure``)."""
+        from . import _swelling_steps as steps
+        if code == steps.NEGATIVE_MEAN_STRESS:
+            return (f"delayed swelling: p' = {info[0]:.4g} kPa <= 0 where the swelling law (S2) applies "
+                    f"(p'_max = {info[1]:.4g} kPa)")
+        if code == steps.NOT_CONVERGED:
+            return (f"delayed swelling: the swelling strain did not converge in {self.max_iterations} base updates "
+                    f"(|R| = {info[0]:.3g}, bracket [{info[1]:.6g}, {info[2]:.6g}], strain increment {dstrain}, "
+                    f"dt {info[3]:.3g} tau_s)")
+        return self.base.integration_failure(code, info, dstrain)
 
     def update(self, stress, state, dstrain, dt, tangent=True, points=None):
         """One increment of total strain ``dstrain`` (n, 6) over ``dt`` (s, scalar or (n,), >= 0), backward Euler

@@ -1,9 +1,9 @@
-"""The compiled step loop of ``mixed_control`` (``MaterialModel.compiled_steps``: Modified Cam Clay, ANICREEP)
-against the per-step Python driver that calls the model's ``update`` (``compiled=False``), itself checked against
-closed forms in test_labtests.py, test_mcc.py and test_anicreep.py: the same histories, end states, failures,
-reasons and stops on batches that mix drained and undrained steps, stress- and strain-controlled components that
-change between steps, inactive steps, a stop target, step cuts, failing points, creep holds and the previous step's
-predictor.
+"""The compiled step loop of ``mixed_control`` (``MaterialModel.compiled_steps``: Modified Cam Clay, ANICREEP, and
+delayed swelling on either) against the per-step Python driver that calls the model's ``update``
+(``compiled=False``), itself checked against closed forms in test_labtests.py, test_mcc.py, test_anicreep.py and
+test_swelling.py: the same histories, end states, failures, reasons and stops on batches that mix drained and
+undrained steps, stress- and strain-controlled components that change between steps, inactive steps, a stop target,
+step cuts, failing points, creep holds, swelling after unloading and the previous step's predictor.
 
 Tolerance: the two drivers run the same arithmetic per point, but a cut step's strain increments are summed in
 order by the compiled loop and as halves of halves by the Python one, and the tangent predictor's matrix product may
@@ -16,6 +16,7 @@ import pytest
 
 from constitutive import ANICREEP, IntegrationError, ModifiedCamClay
 from constitutive import labtests as lt
+from constitutive.swelling import DelayedSwelling
 
 KEYS = ("stress", "strain", "pore_pressure", "void_ratio", "time")
 
@@ -267,3 +268,72 @@ def test_adaptive_failure_reason():
                          np.broadcast_to(np.array([30.0, 60.0, 1e4])[:, None], (3, 2)), max_cuts=2)
     assert_same_history(a, b)
     assert a["failed"].any() and a["reasons"] == b["reasons"]
+
+
+SWELLING_BASES = {
+    "Modified Cam Clay": lambda n: ModifiedCamClay(M=1.2, lambda_=0.2, kappa=0.03, nu=0.25, ocr=1.0),
+    "viscous ANICREEP, current specific volume": lambda n: anicreep_batch(n, **ANICREEP_CLASSES[
+        "viscous, current specific volume"])[0],
+    "viscous ANICREEP, initial specific volume": lambda n: anicreep_batch(n, **VISCOUS)[0],
+}
+
+
+def swollen(base, n=4, cls=DelayedSwelling):
+    """Delayed swelling on ``base`` over n points (kappa_s 0.005-0.03, tau_s 1e3-1e5 s), isotropic starts at
+    100 kPa, e0 1.2."""
+    model = cls(base, kappa_s=np.linspace(0.005, 0.03, n), tau_s=np.geomspace(1e3, 1e5, n))
+    stress = np.tile([100.0, 100.0, 100.0, 0.0, 0.0, 0.0], (n, 1))
+    return model, stress, model.initial_state(stress, 1.2)
+
+
+def load_unload_hold(n_hold=40):
+    """Oedometer loading to 300 kPa in 40 minutes, a creep hold, unloading to 140 kPa, a swelling hold, then a
+    relaxation hold with every strain held: (control, inc, dt)."""
+    control = np.vstack([np.repeat(lt.OEDOMETER_STRESS[None], 120 + n_hold, 0), np.repeat(lt.ALL_STRAIN[None], 40, 0)])
+    inc = np.zeros((160 + n_hold, 6))
+    inc[:40, 0] = 5.0
+    inc[80:120, 0] = -4.0
+    dt = np.r_[np.full(40, 60.0), np.geomspace(1.0, 1e4, 40), np.full(40, 60.0), np.geomspace(10.0, 1e4, n_hold),
+               np.geomspace(10.0, 1e5, 40)]
+    return control, inc, dt
+
+
+@pytest.mark.parametrize("base", SWELLING_BASES.values(), ids=SWELLING_BASES.keys())
+def test_swelling_loading_unloading_and_holds(base):
+    """The swelling hold after unloading swells every point, and in the relaxation that follows the vertical
+    effective stress rises where the swelling is slowest; both drivers agree."""
+    model, stress, state = swollen(base(4))
+    a, b = both(model, stress, state, *load_unload_hold())
+    assert_same_history(a, b)
+    assert not a["failed"].any() and np.all(a["state"]["swelling_strain"] < -5e-4)
+    rise = a["stress"][:, -1, 0] - a["stress"][:, -41, 0]
+    assert rise[-1] > 10.0                   # the slowest swelling is the least complete at the hold's end
+
+
+@pytest.mark.parametrize("base", SWELLING_BASES.values(), ids=SWELLING_BASES.keys())
+def test_swelling_adaptive_hold_after_unloading(base):
+    """After loading and unloading, the unloaded vertical stress held for a day in adaptive steps."""
+    model, stress, state = swollen(base(4))
+    control, inc, dt = load_unload_hold(n_hold=0)
+    start = lt.mixed_control(model, stress, state, control[:120], inc[:120], dt[:120])
+    s0 = start["final_stress"]
+    path = lt.LinearPath.constant(np.where(lt.OEDOMETER_STRESS, 0.0, s0))
+    records = np.broadcast_to(np.geomspace(10.0, 86400.0, 9)[:, None], (9, 4))
+    a, b = adaptive_both(model, s0, start["state"], lt.OEDOMETER_STRESS, path, ([86400.0], [6.0], [np.inf], [0.1]),
+                         records, strain_step=0.0025)
+    assert_same_history(a, b)
+    np.testing.assert_array_equal(a["steps"], b["steps"])
+    assert not a["failed"].any() and np.all(a["state"]["swelling_strain"] < start["state"]["swelling_strain"])
+
+
+def test_swelling_failure_reason():
+    """The swelling strain allowed one base update cannot converge once the point swells: the same reason from
+    both drivers."""
+    class Hasty(DelayedSwelling):
+        max_iterations = 1
+
+    model, stress, state = swollen(SWELLING_BASES["Modified Cam Clay"](2), n=2, cls=Hasty)
+    a, b = both(model, stress, state, *load_unload_hold(), on_failure="nan", max_cuts=1)
+    assert_same_history(a, b)
+    assert a["failed"].all() and a["reasons"] == b["reasons"]
+    assert "did not converge in 1 base updates" in a["reasons"][0]
