@@ -2,15 +2,13 @@
 amplitude from held-out residuals, and the scores of a band (docs/reference.md section 10, Eqs. (P1)-(P4)).
 
 The predictive of a recorded value U of a test without data in the calibration (P1) is the equal-weight mixture over
-posterior draws s of N(U_s, (sigma_s U_s)^2 + (a_k S_s)^2): U_s the simulated value of draw s (parameter
+posterior draws s of N(U_s, (sigma_s U_s)^2 + (a_k (U_s - U_ref))^2): U_s the simulated value of draw s (parameter
 uncertainty), sigma_s its error parameter of Eq. (1) (noise; its error group's with Eq. (6g)), and a_k the
 model-form discrepancy of the curve's quantity k, the Gaussian process of (D1) at a curve that has no data (its
-prior, variance a_k^2), scaled by S_s: |U_s| for a stress or a pore pressure (the discrepancy relative to U, as the
-noise), and for a quantity that starts from a known state U_ref (the void ratio from e0) the distance it has
-travelled from it along the test, S = |U(x_1) - U_ref| + sum over the records up to x of |U(x_j) - U(x_j-1)| (the
-discrepancy then grows with the volume change the test has made, including one that reverses, and is nil at the
-start, where e = e0 is known).
-Relative quantities (sigma, a_k) are dimensionless; U, U_ref, S, band widths and scores are in the curve's unit.
+prior, variance a_k^2), acting on the change of U from the curve's reference U_ref: 0 for a stress or a pore pressure
+(the discrepancy is then relative to U, as the noise), the test's initial value where the quantity starts from a
+known state (the void ratio from e0: the discrepancy then grows with the volume change, not with e itself).
+Relative quantities (sigma, a_k) are dimensionless; U, U_ref, band widths and scores are in the curve's unit.
 """
 from __future__ import annotations
 
@@ -21,29 +19,29 @@ from scipy import special
 
 from .diagnosis.bands import predictive_bands
 
-__all__ = ["heldout_excess", "model_error_amplitude", "model_error_scale", "model_error_sd", "prediction_bands",
-           "interval_score", "crps_normal_mixture", "band_scores"]
+__all__ = ["heldout_excess", "model_error_amplitude", "model_error_sd", "prediction_bands", "interval_score",
+           "crps_normal_mixture", "band_scores"]
 
 #: columns of the CRPS double sum evaluated at once (memory: draws^2 x columns floats)
 _CRPS_COLUMNS = 64
 
 
-def heldout_excess(residuals, noise_variance, spread, simulated=None, reference=None) -> float:
+def heldout_excess(residuals, noise_variance, spread, simulated=None, reference=0.0) -> float:
     """(P2) one held-out curve's squared misfit beyond the variance its calibration predicts, per unit of the
     model-error term's relative variance: sum_i (r_i^2 - sigma^2 - v_i) / sum_i w_i over its points, with r_i the
     relative residuals (U_obs - U_num)/U_obs at the MAP of the calibration that did not see the curve (NaN: a point
     below the floor of Eq. (5), left out), sigma^2 ``noise_variance`` of its error group, v_i ``spread`` the variance
     of the relative prediction U_s/mean_s(U_s) over that calibration's posterior draws (per point or one value), and
-    w_i = (S_i/U_num,i)^2 the model-error term's relative variance at a unit amplitude (:func:`model_error_scale` of
-    ``simulated`` U_num and ``reference``; None: w = 1, the term relative to U). E[r_i^2] = sigma^2 + v_i + a^2 w_i,
-    so this is the moment estimate of a^2 from one curve; relative to U it is the mean of r_i^2 - sigma^2 - v_i."""
+    w_i = ((U_num - U_ref)/U_num)^2 the model-error term's relative variance at a unit amplitude (``simulated`` U_num
+    and ``reference`` U_ref; None or U_ref = 0: 1 at every point, the term relative to U). E[r_i^2] = sigma^2 + v_i
+    + a^2 w_i, so this is the moment estimate of a^2 from one curve; with U_ref = 0 it is the mean of
+    r_i^2 - sigma^2 - v_i."""
     r = np.asarray(residuals, dtype=float)
-    if reference is None:
+    if simulated is None or reference == 0.0:
         w = np.ones(r.size)
     else:
-        u = np.asarray(simulated, dtype=float)
         with np.errstate(divide="ignore", invalid="ignore"):
-            w = (model_error_scale(u, reference) / u) ** 2
+            w = (1.0 - reference / np.asarray(simulated, dtype=float)) ** 2
     keep = np.isfinite(r) & np.isfinite(w)
     if not keep.any() or not np.any(w[keep] > 0.0):
         raise ValueError("heldout_excess: the curve has no point where the model-error term acts")
@@ -60,20 +58,9 @@ def model_error_amplitude(excess) -> float:
     return math.sqrt(max(0.0, float(np.mean(excess))))
 
 
-def model_error_scale(simulated, reference=None):
-    """S of (P1) per draw and point (the curve's unit; ``simulated`` (..., n_points) in the records' order): |U|,
-    or with a ``reference`` U_ref the distance travelled from it, |U_1 - U_ref| + the cumulative sum of |U_j -
-    U_j-1|."""
-    u = np.asarray(simulated, dtype=float)
-    if reference is None:
-        return np.abs(u)
-    steps = np.abs(np.diff(u, axis=-1, prepend=reference))
-    return np.cumsum(steps, axis=-1)
-
-
-def model_error_sd(simulated, amplitude, reference=None):
-    """The model-error term's standard deviation of (P1) per draw and point, a_k S (the curve's unit)."""
-    return amplitude * model_error_scale(simulated, reference)
+def model_error_sd(simulated, amplitude, reference=0.0):
+    """The model-error term's standard deviation of (P1) per draw and point, a_k |U_s - U_ref| (the curve's unit)."""
+    return amplitude * np.abs(np.asarray(simulated, dtype=float) - reference)
 
 
 def prediction_bands(likelihood, sample_simulated: dict, sample_sigma, amplitude: dict, reference=None,
@@ -81,9 +68,9 @@ def prediction_bands(likelihood, sample_simulated: dict, sample_sigma, amplitude
     """(P1) bands {(test, curve): PredictiveBand} of the likelihood's curves (:func:`inference.diagnosis.bands.
     predictive_bands`): ``sample_sigma`` as there ((n_s,) or (n_s, n_curves) in the likelihood's curve order),
     ``amplitude`` {curve name: a_k} (a quantity not named: no model error), ``reference`` {(test, curve): U_ref}
-    (a curve not named: the term relative to U)."""
+    (not named: 0)."""
     reference = reference or {}
-    model_sd = {(t.name, c): model_error_sd(sample_simulated[t.name, c], amplitude[c], reference.get((t.name, c)))
+    model_sd = {(t.name, c): model_error_sd(sample_simulated[t.name, c], amplitude[c], reference.get((t.name, c), 0.0))
                 for t in likelihood.observations for c in t.curves if c in amplitude}
     return predictive_bands(likelihood, sample_simulated, sample_sigma, level=level, model_sd=model_sd)
 

@@ -42,12 +42,11 @@ def draws_at_records(like, post, n_draws=200, seed=0):
 
 def score_predictions(like, post, tests, amplitude: dict, reference=None, level=0.95, n_draws=200, seed=0) -> list:
     """The predictions of ``tests`` (names in ``like``, whose calibration produced ``post``) with the model-error
-    amplitudes ``amplitude`` {curve name: a_k}, scaled from ``reference`` {(test, curve): U_ref} (a curve not
-    named: relative to U; :func:`inference.prediction.prediction_bands`): one row per (test, curve) with its
-    recorded points (x, observed), the MAP-free predictive mean, the bands without ("noise": parameters and noise)
-    and with ("model": + model error) the model-error term, and their scores
-    (:func:`inference.prediction.band_scores`) plus ``point_error`` (RMS of the predictive mean's relative error, the
-    same in both)."""
+    amplitudes ``amplitude`` {curve name: a_k} acting on the change from ``reference`` {(test, curve): U_ref} (not
+    named: 0; :func:`inference.prediction.prediction_bands`): one row per (test, curve) with its recorded points
+    (x, observed), the MAP-free predictive mean, the bands without ("noise": parameters and noise) and with
+    ("model": + model error) the model-error term, and their scores (:func:`inference.prediction.band_scores`) plus
+    ``point_error`` (RMS of the predictive mean's relative error, the same in both)."""
     sims, sigma = draws_at_records(like, post, n_draws, seed)
     column = {key: k for k, key in enumerate(like.curve_keys)}
     rows = []
@@ -59,7 +58,7 @@ def score_predictions(like, post, tests, amplitude: dict, reference=None, level=
                 mean = sims[key]
                 used = like.masks[key]
                 sd = np.hypot(np.abs(mean) * sigma[:, column[key], None],
-                              model_error_sd(mean, amp.get(curve, 0.0), (reference or {}).get(key)))
+                              model_error_sd(mean, amp.get(curve, 0.0), (reference or {}).get(key, 0.0)))
                 scores = band_scores(bands[key], mean, sd, used)
                 if label == "noise":
                     c = like.observations[name].curves[curve]
@@ -85,8 +84,8 @@ def prediction_lines(rows, amplitude: dict, check: list, level=0.95, from_initia
     """The report's Predictions section: the model-error amplitudes and their check (``check``: rows of the
     leave-one-test-out calibrations, :func:`cases.study.routes.sand.leave_one_out`), one table row per predicted
     curve and the pooled coverage per quantity, without and with the model-error term. ``from_initial`` {curve:
-    condition}: the quantities whose amplitude is of the distance travelled from the test's initial value (the
-    others: of the value)."""
+    condition}: the quantities whose amplitude is of the change from the test's initial value (the others: of the
+    value)."""
     pct = f"{100 * level:g} %"
     lines = ["## Predictions", "",
              f"Tests not calibrated on (role = \"predict\"), predicted from the posterior and compared with their "
@@ -99,9 +98,8 @@ def prediction_lines(rows, amplitude: dict, check: list, level=0.95, from_initia
     if amplitude:
         lines += ["Model-error amplitude a_k per quantity (P2), from the leave-one-test-out predictions of the "
                   "calibration tests: " + ", ".join(
-                      f"{k} {100 * v:.2f} %" + (f" of the distance travelled from {from_initial[k]}"
-                                                if k in (from_initial or {}) else "")
-                      for k, v in amplitude.items()) + ".", ""]
+                      f"{k} {100 * v:.2f} %" + (f" of its change from {from_initial[k]}" if k in (from_initial or {})
+                                                else "") for k, v in amplitude.items()) + ".", ""]
     else:
         lines += ["No model-error amplitude: it is estimated by leaving out each calibration test in turn, which "
                   "needs at least two calibration tests; the bands carry parameters and noise only.", ""]

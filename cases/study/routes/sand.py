@@ -192,13 +192,13 @@ def _grid(segments, observations):
 #: the default error groups of a sand study (Eq. 6g): one error parameter for the stresses (q, and the excess pore
 #: pressure u of undrained recordings), one for the void ratio e, whose relative scatter is far smaller
 QUANTITY_GROUPS = {"stress": ("q", "u"), "volume": ("e",)}
-#: the recorded quantities whose model-error term (P1) grows with the distance travelled from the test's initial
-#: state, and the condition that gives it: the void ratio from e0 (its misfit grows with the volume change, not with e)
+#: the recorded quantities whose model-error term (P1) acts on their change from the test's initial state, and the
+#: condition that gives it: the void ratio from e0 (its misfit grows with the volume change, not with e)
 FROM_INITIAL = {"e": "e0"}
 
 
 def model_error_references(observations) -> dict:
-    """{(test, curve): U_ref} of (P1) for the curves of :data:`FROM_INITIAL` (the others' term is relative to U)."""
+    """{(test, curve): U_ref} of (P1) for the curves of :data:`FROM_INITIAL` (the others: 0)."""
     return {(t.name, c): float(t.conditions[key]) for t in observations for c, key in FROM_INITIAL.items()
             if c in t.curves}
 
@@ -215,7 +215,7 @@ def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler)
     """The model-error amplitudes (P2) of docs/reference.md section 10 by leaving out each calibration test in turn:
     calibrate on the others (the same settings, in ``out``/leave_one_out/<test>), the left-out test's relative
     residuals at that calibration's MAP beyond the variance it predicts (its noise and its parameters' spread), for
-    a term scaled as (P1) scales it (:func:`model_error_references`).
+    a term acting on the change from the curve's reference (:func:`model_error_references`).
     Returns ({curve name: a_k} pooled over the left-out tests, check rows: each left-out curve's coverage without
     the model-error term and with the amplitude of the other left-out tests only). ({}, []) with fewer than two
     calibration tests; a left-out test whose calibration or prediction fails is said on stderr and skipped."""
@@ -240,7 +240,7 @@ def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler)
             sims, sigma = draws_at_records(like_left, post)
             excess = {key: heldout_excess(residuals[key], float(np.mean(sigma[:, k] ** 2)),
                                           np.var(sims[key] / sims[key].mean(axis=0), axis=0), at_map[key][0],
-                                          references.get(key))
+                                          references.get(key, 0.0))
                       for k, key in enumerate(like_left.curve_keys)}
         except Exception as exc:  # noqa: BLE001 - a fold that cannot be run leaves the others their say
             print(f"note: leave-one-out without {name}: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)

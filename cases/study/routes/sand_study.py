@@ -175,7 +175,7 @@ def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None, ampl
         for k, (grid, v) in table[t.name].items():
             grids[t.name] = grid
             sd = np.hypot(np.abs(v[:-1]) * sigma_of(k)[:, None],
-                          model_error_sd(v[:-1], amplitude.get(k, 0.0), references.get((t.name, k))))
+                          model_error_sd(v[:-1], amplitude.get(k, 0.0), references.get((t.name, k), 0.0)))
             sims = v[:-1] + sd * rng.standard_normal(v[:-1].shape)
             ok = ~failed[t.name][:-1]
             band[t.name][k] = np.nanquantile(sims[ok], [0.025, 0.5, 0.975], axis=0) if ok.any() else None
