@@ -2,13 +2,10 @@
 amplitude from held-out residuals, and the scores of a band (docs/reference.md section 10, Eqs. (P1)-(P4)).
 
 The predictive of a recorded value U of a test without data in the calibration (P1) is the equal-weight mixture over
-posterior draws s of N(U_s, (sigma_s U_s)^2 + (a_k (U_s - U_ref))^2): U_s the simulated value of draw s (parameter
-uncertainty), sigma_s its error parameter of Eq. (1) (noise; its error group's with Eq. (6g)), and a_k the
-model-form discrepancy of the curve's quantity k, the Gaussian process of (D1) at a curve that has no data (its
-prior, variance a_k^2), acting on the change of U from the curve's reference U_ref: 0 for a stress or a pore pressure
-(the discrepancy is then relative to U, as the noise), the test's initial value where the quantity starts from a
-known state (the void ratio from e0: the discrepancy then grows with the volume change, not with e itself).
-Relative quantities (sigma, a_k) are dimensionless; U, U_ref, band widths and scores are in the curve's unit.
+posterior draws s of N(U_s, U_s^2 (sigma_s^2 + a_k^2)): U_s the simulated value of draw s (parameter uncertainty),
+sigma_s its error parameter of Eq. (1) (noise; its error group's with Eq. (6g)) and a_k the model-form discrepancy
+of the curve's quantity k, the Gaussian process of (D1) at a curve that has no data (its prior, variance a_k^2).
+Relative quantities (sigma, a_k, residuals) are dimensionless; U, band widths and scores are in the curve's unit.
 """
 from __future__ import annotations
 
@@ -19,60 +16,36 @@ from scipy import special
 
 from .diagnosis.bands import predictive_bands
 
-__all__ = ["heldout_excess", "model_error_amplitude", "model_error_sd", "prediction_bands", "interval_score",
-           "crps_normal_mixture", "band_scores"]
+__all__ = ["model_error_amplitude", "prediction_bands", "interval_score", "crps_normal_mixture", "band_scores"]
 
 #: columns of the CRPS double sum evaluated at once (memory: draws^2 x columns floats)
 _CRPS_COLUMNS = 64
 
 
-def heldout_excess(residuals, noise_variance, spread, simulated=None, reference=0.0) -> float:
-    """(P2) one held-out curve's squared misfit beyond the variance its calibration predicts, per unit of the
-    model-error term's relative variance: sum_i (r_i^2 - sigma^2 - v_i) / sum_i w_i over its points, with r_i the
-    relative residuals (U_obs - U_num)/U_obs at the MAP of the calibration that did not see the curve (NaN: a point
-    below the floor of Eq. (5), left out), sigma^2 ``noise_variance`` of its error group, v_i ``spread`` the variance
-    of the relative prediction U_s/mean_s(U_s) over that calibration's posterior draws (per point or one value), and
-    w_i = ((U_num - U_ref)/U_num)^2 the model-error term's relative variance at a unit amplitude (``simulated`` U_num
-    and ``reference`` U_ref; None or U_ref = 0: 1 at every point, the term relative to U). E[r_i^2] = sigma^2 + v_i
-    + a^2 w_i, so this is the moment estimate of a^2 from one curve; with U_ref = 0 it is the mean of
-    r_i^2 - sigma^2 - v_i."""
-    r = np.asarray(residuals, dtype=float)
-    if simulated is None or reference == 0.0:
-        w = np.ones(r.size)
-    else:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            w = (1.0 - reference / np.asarray(simulated, dtype=float)) ** 2
-    keep = np.isfinite(r) & np.isfinite(w)
-    if not keep.any() or not np.any(w[keep] > 0.0):
-        raise ValueError("heldout_excess: the curve has no point where the model-error term acts")
-    excess = r**2 - noise_variance - np.broadcast_to(np.asarray(spread, dtype=float), r.shape)
-    return float(excess[keep].sum() / w[keep].sum())
-
-
-def model_error_amplitude(excess) -> float:
-    """(P2): the model-error amplitude a_k of one quantity, the square root of the mean over its held-out curves of
-    their :func:`heldout_excess`, 0 when the calibrations' own noise and spread explain the misfits."""
-    excess = [float(e) for e in excess]
+def model_error_amplitude(residuals, explained_variance) -> float:
+    """(P2): the model-error amplitude a_k of one quantity from its held-out curves: the square root of the mean over
+    the curves of [mean square relative residual - the relative variance the curve's calibration already predicts],
+    0 when that explains the residuals. ``residuals``: one array of relative residuals (U_obs - U_num)/U_obs per
+    curve (NaN points, below the floor of Eq. (5), left out); ``explained_variance``: per curve, the noise variance
+    sigma^2 of its error group plus the variance of the relative prediction over the posterior draws, both of the
+    calibration that did not see the curve."""
+    excess = [np.nanmean(np.asarray(r, dtype=float) ** 2) - float(v) for r, v in zip(residuals, explained_variance)]
     if not excess:
         raise ValueError("model_error_amplitude needs at least one held-out curve")
     return math.sqrt(max(0.0, float(np.mean(excess))))
 
 
-def model_error_sd(simulated, amplitude, reference=0.0):
-    """The model-error term's standard deviation of (P1) per draw and point, a_k |U_s - U_ref| (the curve's unit)."""
-    return amplitude * np.abs(np.asarray(simulated, dtype=float) - reference)
-
-
-def prediction_bands(likelihood, sample_simulated: dict, sample_sigma, amplitude: dict, reference=None,
-                     level=0.95) -> dict:
+def prediction_bands(likelihood, sample_simulated: dict, sample_sigma, amplitude: dict, level=0.95) -> dict:
     """(P1) bands {(test, curve): PredictiveBand} of the likelihood's curves (:func:`inference.diagnosis.bands.
-    predictive_bands`): ``sample_sigma`` as there ((n_s,) or (n_s, n_curves) in the likelihood's curve order),
-    ``amplitude`` {curve name: a_k} (a quantity not named: no model error), ``reference`` {(test, curve): U_ref}
-    (not named: 0)."""
-    reference = reference or {}
-    model_sd = {(t.name, c): model_error_sd(sample_simulated[t.name, c], amplitude[c], reference.get((t.name, c), 0.0))
-                for t in likelihood.observations for c in t.curves if c in amplitude}
-    return predictive_bands(likelihood, sample_simulated, sample_sigma, level=level, model_sd=model_sd)
+    predictive_bands`) with each curve's relative standard deviation sqrt(sigma_s^2 + a_k^2): ``sample_sigma`` as
+    there ((n_s,) or (n_s, n_curves) in the likelihood's curve order), ``amplitude`` {curve name: a_k} (a quantity not
+    named: no model error)."""
+    keys = [(t.name, c) for t in likelihood.observations for c in t.curves]
+    n_s = np.atleast_2d(np.asarray(sample_simulated[keys[0]])).shape[0]
+    sigma = np.asarray(sample_sigma, dtype=float)
+    sigma = sigma if sigma.ndim == 2 else np.repeat(np.broadcast_to(sigma.ravel(), (n_s,))[:, None], len(keys), 1)
+    a = np.array([amplitude.get(c, 0.0) for _, c in keys])
+    return predictive_bands(likelihood, sample_simulated, np.sqrt(sigma**2 + a**2), level=level)
 
 
 def interval_score(lower, upper, observed, level=0.95) -> np.ndarray:

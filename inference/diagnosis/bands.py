@@ -72,16 +72,14 @@ def _mixture_quantile(q, mean, sd, tol=1e-9, max_iter=50):
     return u
 
 
-def predictive_bands(likelihood, sample_simulated: dict, sample_sigma, level=0.95, model_sd=None) -> dict:
+def predictive_bands(likelihood, sample_simulated: dict, sample_sigma, level=0.95) -> dict:
     """Posterior predictive bands {(test, curve): PredictiveBand} from precomputed sample curves.
 
     likelihood: the calibration's Likelihood (recorded curves and near-zero masks); sample_simulated:
     {(test, curve): (n_samples, n_points)} simulated values at the recorded abscissae (e.g. from
     ``simulate_samples``, or reused from the case's own solves); sample_sigma: sigma_eps of each sample (n_samples,)
     or one float, or with error groups each curve's sigma (n_samples, n_curves) in the likelihood's curve order;
-    level: central probability of the band; model_sd: {(test, curve): (n_samples, n_points)} a further standard
-    deviation of each sample's component (in the curve's unit, e.g. a model-error term, docs/reference.md (P1)),
-    added in quadrature to the noise's sigma |U_sim|; a curve not named has none.
+    level: central probability of the band.
     """
     if not 0.0 < level < 1.0:
         raise ValueError(f"level = {level} must be in (0, 1)")
@@ -106,11 +104,7 @@ def predictive_bands(likelihood, sample_simulated: dict, sample_sigma, level=0.9
         if s.shape != (n_s, c.y.size):
             raise ValueError(f"sample_simulated[{k}] has shape {s.shape}, expected ({n_s}, {c.y.size})")
     mean = np.concatenate(sims, axis=1)
-    sd = np.abs(mean) * (sigma if per_curve else sigma[:, None])
-    if model_sd:
-        extra = np.concatenate([np.broadcast_to(model_sd.get(k, 0.0), s.shape) for k, s in zip(keys, sims)], axis=1)
-        sd = np.hypot(sd, extra)
-    sd = np.maximum(sd, 1e-300)
+    sd = np.maximum(np.abs(mean) * (sigma if per_curve else sigma[:, None]), 1e-300)
     obs = np.concatenate([likelihood.observations[t].curves[c].y for t, c in keys])
     lower_all, upper_all = (_mixture_quantile(q, mean, sd) for q in ((1 - level) / 2, (1 + level) / 2))
     mean_all = mean.mean(axis=0)

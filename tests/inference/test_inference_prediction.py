@@ -11,7 +11,6 @@ import inference
 from inference.prediction import (
     band_scores,
     crps_normal_mixture,
-    heldout_excess,
     interval_score,
     model_error_amplitude,
     prediction_bands,
@@ -58,36 +57,14 @@ def test_model_error_amplitude_on_residuals_of_known_variance():
     # s^2 from the mean square: E[estimate^2] = a^2; its standard error from the chi-square of the offsets
     rng = np.random.default_rng(5)
     a, s, curves, points = 0.06, 0.02, 400, 50
-    excess = [heldout_excess(rng.normal(0.0, a) + rng.normal(0.0, s, points), s * s, 0.0) for _ in range(curves)]
-    got = model_error_amplitude(excess)
+    residuals = [rng.normal(0.0, a) + rng.normal(0.0, s, points) for _ in range(curves)]
+    got = model_error_amplitude(residuals, [s * s] * curves)
     se = math.sqrt(2.0 / curves) * (a * a + s * s / points)
     assert abs(got**2 - a * a) < 4 * se
-    # residuals the noise and the parameters' spread explain: no model error
-    assert model_error_amplitude([heldout_excess(rng.normal(0.0, s, 10000), s * s, 0.5 * s * s)]) == 0.0
+    # residuals the noise explains: no model error
+    assert model_error_amplitude([rng.normal(0.0, s, 10000)], [s * s * 1.5]) == 0.0
     with pytest.raises(ValueError):
-        model_error_amplitude([])
-
-
-def test_model_error_amplitude_of_a_change_from_the_initial_state():
-    # a void ratio from e0 = 0.9 falling to 0.8: records e_num + delta (e_num - e0) + eps e_num with delta one
-    # N(0, a^2) per curve and 0.1 % noise; the relative residuals' scatter grows with the change. The change form
-    # recovers a (standard error from the chi-square of the offsets); the value form, relative to e, finds an
-    # amplitude near a times the mean change over e, far below a, and NaN points (below the floor) are left out
-    rng = np.random.default_rng(7)
-    a, s, e0, curves = 0.1, 0.001, 0.9, 400
-    e_num = np.linspace(e0, 0.8, 60)
-    change, value = [], []
-    for _ in range(curves):
-        e_obs = e_num + rng.normal(0.0, a) * (e_num - e0) + rng.normal(0.0, s, e_num.size) * e_num
-        r = (e_obs - e_num) / e_obs
-        r[0] = np.nan
-        change.append(heldout_excess(r, s * s, 0.0, e_num, e0))
-        value.append(heldout_excess(r, s * s, 0.0))
-    got = model_error_amplitude(change)
-    assert abs(got**2 - a * a) < 4 * math.sqrt(2.0 / curves) * a * a
-    assert model_error_amplitude(value) < 0.6 * a
-    with pytest.raises(ValueError):
-        heldout_excess(np.full(3, 0.01), s * s, 0.0, np.full(3, e0), e0)
+        model_error_amplitude([], [])
 
 
 def _one_curve_likelihood(x, y):
@@ -121,25 +98,3 @@ def test_band_with_model_error_covers_data_drawn_from_it():
     assert scores["mean_width"] == pytest.approx(np.mean(with_error.upper - with_error.lower))
     # the width of a normal's 95 % band is 2 x 1.96 sd; the mixture's is close to it for 1 % parameter spread
     assert scores["relative_width"] == pytest.approx(2 * 1.96 * math.sqrt(0.01**2 + 0.02**2 + a**2), rel=0.05)
-
-
-def test_band_of_a_change_covers_data_drawn_from_it_and_narrows_at_the_start():
-    # a void-ratio curve from e0 = 0.9: records e_s + a (e_s - e0) delta + 0.1 % e_s eps; the band of the change form
-    # holds about 95 % of them and is as narrow as the noise's where e is still at e0, the band relative to e
-    # (the same amplitude) as wide there as anywhere
-    rng = np.random.default_rng(13)
-    n_s, n, e0, a = 200, 4000, 0.9, 0.1
-    x = np.linspace(0.0, 20.0, n)
-    draws = e0 - 0.1 * (1.0 - np.exp(-x / 5.0)) * (1.0 + 0.02 * rng.standard_normal((n_s, 1)))
-    sigma = np.full(n_s, 0.001)
-    pick = draws[rng.integers(0, n_s, n), np.arange(n)]
-    y = pick + a * (pick - e0) * rng.standard_normal(n) + 0.001 * pick * rng.standard_normal(n)
-    obs = inference.Observations([inference.Test("held_out", {"e": inference.Curve(x, y, "eps_a", "e", "pct", "-")})])
-    like = inference.Likelihood(obs, lambda params: {"held_out": {"e": y}}, sigma="sigma_eps", floor=0.0)
-    sims = {("held_out", "e"): draws}
-    change = prediction_bands(like, sims, sigma, {"e": a}, {("held_out", "e"): e0})[("held_out", "e")]
-    value = prediction_bands(like, sims, sigma, {"e": a})[("held_out", "e")]
-    assert abs(change.coverage - 0.95) < 4 * math.sqrt(0.95 * 0.05 / n)
-    start = x < 0.05
-    assert np.all(change.upper[start] - change.lower[start] < 2 * 1.96 * 0.0012 * e0)
-    assert np.all(value.upper[start] - value.lower[start] > 2 * 1.96 * 0.09 * e0)

@@ -10,7 +10,7 @@ import numpy as np
 
 from cases.study.outputs.figures.canvas import pyplot
 from inference.diagnosis import simulate_samples
-from inference.prediction import band_scores, model_error_sd, prediction_bands
+from inference.prediction import band_scores, prediction_bands
 
 __all__ = ["draws_at_records", "score_predictions", "prediction_lines", "plot_predictions"]
 
@@ -40,26 +40,24 @@ def draws_at_records(like, post, n_draws=200, seed=0):
     return sims, sigma if sigma.ndim == 2 else np.repeat(sigma[:, None], len(like.curve_keys), axis=1)
 
 
-def score_predictions(like, post, tests, amplitude: dict, reference=None, level=0.95, n_draws=200, seed=0) -> list:
+def score_predictions(like, post, tests, amplitude: dict, level=0.95, n_draws=200, seed=0) -> list:
     """The predictions of ``tests`` (names in ``like``, whose calibration produced ``post``) with the model-error
-    amplitudes ``amplitude`` {curve name: a_k} acting on the change from ``reference`` {(test, curve): U_ref} (not
-    named: 0; :func:`inference.prediction.prediction_bands`): one row per (test, curve) with its recorded points
-    (x, observed), the MAP-free predictive mean, the bands without ("noise": parameters and noise) and with
-    ("model": + model error) the model-error term, and their scores (:func:`inference.prediction.band_scores`) plus
-    ``point_error`` (RMS of the predictive mean's relative error, the same in both)."""
+    amplitudes ``amplitude`` {curve name: a_k}: one row per (test, curve) with its recorded points (x, observed), the
+    MAP-free predictive mean, the bands without ("noise": parameters and noise) and with ("model": + model error) the
+    model-error term, and their scores (:func:`inference.prediction.band_scores`) plus ``point_error`` (RMS of the
+    predictive mean's relative error, the same in both)."""
     sims, sigma = draws_at_records(like, post, n_draws, seed)
     column = {key: k for k, key in enumerate(like.curve_keys)}
     rows = []
     for label, amp in (("noise", {}), ("model", amplitude)):
-        bands = prediction_bands(like, sims, sigma, amp, reference, level=level)
+        bands = prediction_bands(like, sims, sigma, amp, level=level)
         for name in tests:
             for curve in like.observations[name].curves:
                 key = (name, curve)
+                relative = np.sqrt(sigma[:, column[key]] ** 2 + amp.get(curve, 0.0) ** 2)
                 mean = sims[key]
                 used = like.masks[key]
-                sd = np.hypot(np.abs(mean) * sigma[:, column[key], None],
-                              model_error_sd(mean, amp.get(curve, 0.0), (reference or {}).get(key, 0.0)))
-                scores = band_scores(bands[key], mean, sd, used)
+                scores = band_scores(bands[key], mean, np.abs(mean) * relative[:, None], used)
                 if label == "noise":
                     c = like.observations[name].curves[curve]
                     error = (bands[key].mean[used] - c.y[used]) / c.y[used]
@@ -80,12 +78,10 @@ def _pooled(rows, label, curve):
                  for k in ("coverage", "relative_width", "point_error"))
 
 
-def prediction_lines(rows, amplitude: dict, check: list, level=0.95, from_initial=None) -> list:
+def prediction_lines(rows, amplitude: dict, check: list, level=0.95) -> list:
     """The report's Predictions section: the model-error amplitudes and their check (``check``: rows of the
     leave-one-test-out calibrations, :func:`cases.study.routes.sand.leave_one_out`), one table row per predicted
-    curve and the pooled coverage per quantity, without and with the model-error term. ``from_initial`` {curve:
-    condition}: the quantities whose amplitude is of the change from the test's initial value (the others: of the
-    value)."""
+    curve and the pooled coverage per quantity, without and with the model-error term."""
     pct = f"{100 * level:g} %"
     lines = ["## Predictions", "",
              f"Tests not calibrated on (role = \"predict\"), predicted from the posterior and compared with their "
@@ -97,9 +93,7 @@ def prediction_lines(rows, amplitude: dict, check: list, level=0.95, from_initia
              "error of the predictive mean.", ""]
     if amplitude:
         lines += ["Model-error amplitude a_k per quantity (P2), from the leave-one-test-out predictions of the "
-                  "calibration tests: " + ", ".join(
-                      f"{k} {100 * v:.2f} %" + (f" of its change from {from_initial[k]}" if k in (from_initial or {})
-                                                else "") for k, v in amplitude.items()) + ".", ""]
+                  "calibration tests: " + ", ".join(f"{k} {100 * v:.2f} %" for k, v in amplitude.items()) + ".", ""]
     else:
         lines += ["No model-error amplitude: it is estimated by leaving out each calibration test in turn, which "
                   "needs at least two calibration tests; the bands carry parameters and noise only.", ""]

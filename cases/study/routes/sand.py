@@ -47,7 +47,7 @@ from cases.study.routes.sand_study import (
 from cases.study.runner import calibrate, is_root, method_name, run_all, write_summary
 from inference.executors import mpi_world
 from inference.observations import read_csv_table
-from inference.prediction import heldout_excess, model_error_amplitude
+from inference.prediction import model_error_amplitude
 from inference.priors import Bound
 
 __all__ = ["SandStudy", "build", "QUANTITY_GROUPS", "default_error_model", "leave_one_out", "load_stress_ratio",
@@ -192,15 +192,6 @@ def _grid(segments, observations):
 #: the default error groups of a sand study (Eq. 6g): one error parameter for the stresses (q, and the excess pore
 #: pressure u of undrained recordings), one for the void ratio e, whose relative scatter is far smaller
 QUANTITY_GROUPS = {"stress": ("q", "u"), "volume": ("e",)}
-#: the recorded quantities whose model-error term (P1) acts on their change from the test's initial state, and the
-#: condition that gives it: the void ratio from e0 (its misfit grows with the volume change, not with e)
-FROM_INITIAL = {"e": "e0"}
-
-
-def model_error_references(observations) -> dict:
-    """{(test, curve): U_ref} of (P1) for the curves of :data:`FROM_INITIAL` (the others: 0)."""
-    return {(t.name, c): float(t.conditions[key]) for t in observations for c, key in FROM_INITIAL.items()
-            if c in t.curves}
 
 
 def default_error_model(study) -> ErrorModel:
@@ -214,15 +205,13 @@ def default_error_model(study) -> ErrorModel:
 def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler) -> tuple:
     """The model-error amplitudes (P2) of docs/reference.md section 10 by leaving out each calibration test in turn:
     calibrate on the others (the same settings, in ``out``/leave_one_out/<test>), the left-out test's relative
-    residuals at that calibration's MAP beyond the variance it predicts (its noise and its parameters' spread), for
-    a term acting on the change from the curve's reference (:func:`model_error_references`).
+    residuals at that calibration's MAP beyond the variance it predicts (its noise and its parameters' spread).
     Returns ({curve name: a_k} pooled over the left-out tests, check rows: each left-out curve's coverage without
     the model-error term and with the amplitude of the other left-out tests only). ({}, []) with fewer than two
     calibration tests; a left-out test whose calibration or prediction fails is said on stderr and skipped."""
     names = list(s.cal_obs.tests)
     if len(names) < 2:
         return {}, []
-    references = model_error_references(s.cal_obs)
     folds = []
     for name in names:
         kept = inference.Observations([s.cal_obs[t] for t in names if t != name])
@@ -236,28 +225,27 @@ def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler)
                              **sampler)
             like_left.bind(post.names)
             residuals = like_left.residuals(post.map_theta)
-            at_map = like_left.simulated_many(post.map_theta[None, :])
             sims, sigma = draws_at_records(like_left, post)
-            excess = {key: heldout_excess(residuals[key], float(np.mean(sigma[:, k] ** 2)),
-                                          np.var(sims[key] / sims[key].mean(axis=0), axis=0), at_map[key][0],
-                                          references.get(key, 0.0))
-                      for k, key in enumerate(like_left.curve_keys)}
         except Exception as exc:  # noqa: BLE001 - a fold that cannot be run leaves the others their say
             print(f"note: leave-one-out without {name}: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
             continue
-        folds.append((name, like_left, post, excess))
+        explained = {}
+        for k, key in enumerate(like_left.curve_keys):
+            drawn = sims[key][:, like_left.masks[key]]
+            explained[key] = float(np.mean(sigma[:, k] ** 2) + np.mean(np.var(drawn / drawn.mean(axis=0), axis=0)))
+        folds.append((name, like_left, post, {key: (residuals[key], explained[key]) for key in like_left.curve_keys}))
 
     def amplitudes(chosen):
         curves = {}
         for _, _, _, terms in chosen:
             for (_, curve), term in terms.items():
                 curves.setdefault(curve, []).append(term)
-        return {c: model_error_amplitude(terms) for c, terms in curves.items()}
+        return {c: model_error_amplitude(*zip(*terms)) for c, terms in curves.items()}
 
     check = []
     for k, (name, like_left, post, _) in enumerate(folds):
         others = amplitudes(folds[:k] + folds[k + 1:])
-        for r in score_predictions(like_left, post, [name], others, references):
+        for r in score_predictions(like_left, post, [name], others):
             check.append({"test": name, "curve": r["curve"], "coverage_noise": r["noise"]["coverage"],
                           "coverage_model": r["model"]["coverage"] if r["curve"] in others else None,
                           "amplitude": others.get(r["curve"])})
@@ -466,14 +454,14 @@ def run(study, run_settings, args) -> int:
         predictions, volume_rows, amplitude = [], [], {}
         if s.predicted:
             amplitude, check = leave_one_out(s, error_model, one, out, seed, settings.n_samples, sampler)
-            rows = score_predictions(s.like_all, post, s.predicted, amplitude, model_error_references(s.all_obs))
-            predictions = prediction_lines(rows, amplitude, check, from_initial=FROM_INITIAL)
+            rows = score_predictions(s.like_all, post, s.predicted, amplitude)
+            predictions = prediction_lines(rows, amplitude, check)
             plot_predictions(Path(out) / "predictions.png", rows, f"{study.name}: {method_name(one.method)}, "
                              f"predictions (95 % bands)", QUANTITY_LABELS)
         if runner["volume_at_pct"] and drained_predicted:
             volume_rows = volume_change_table(s.forward_all, post, s.all_obs, drained_predicted,
                                               tuple(runner["volume_at_pct"]), sigmas=curve_sigmas(s.like),
-                                              amplitude=amplitude, references=model_error_references(s.all_obs))
+                                              amplitude=amplitude)
             if is_root():
                 print("\n".join([f"volumetric strain of the predicted tests, seed {seed}:",
                                  *volume_lines(volume_rows)]))

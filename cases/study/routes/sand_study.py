@@ -32,7 +32,6 @@ from cases.study.reading.reference import is_error_parameter
 from constitutive import SIMSAND
 from constitutive.registry import model_spec
 from inference import DataError
-from inference.prediction import model_error_sd
 
 __all__ = ["MAX_FAILURE_FRACTION", "conditions_of", "sand_forward", "parameters", "free_subset", "add_options",
            "is_error_parameter", "predictive", "volume_change_table", "plot_curves", "plot_stress_paths", "plot_csl",
@@ -146,16 +145,14 @@ def write_figures(out, observations, forward, post, title, marks, csl_lines, csl
     plot_csl(out / "csl.png", {"MAP": parameters(forward, post.map), **csl_lines}, end, title=csl_title)
 
 
-def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None, amplitude=None, references=None):
+def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None, amplitude=None):
     """Posterior predictive of Eq. (1): U = c U_num(b), c ~ N(1, sigma^2), over ``n_draws`` final-stage samples
     (one batched forward call). ``sigmas``: {curve: error parameter} with error groups (Eq. 6g), e.g.
     {"q": "sigma_eps_stress", "e": "sigma_eps_volume"}; a curve not named takes sigma_eps, or no noise when the
     posterior has no sigma_eps. ``amplitude``: {curve: a_k}, the model-error term of (P1) (docs/reference.md section
-    10), a further N(0, (a_k (U_num - U_ref))^2) with ``references`` {(test, curve): U_ref} (not named: 0), for
-    tests without data (predictions). Returns ({test: {curve: (q2.5, q50, q97.5) arrays}}, {test: grid}, MAP
-    curves)."""
+    10) added to the relative variance, c ~ N(1, sigma^2 + a_k^2), for tests without data (predictions). Returns
+    ({test: {curve: (q2.5, q50, q97.5) arrays}}, {test: grid}, MAP curves)."""
     rng = np.random.default_rng(seed)
-    amplitude, references = amplitude or {}, references or {}
     names = list(post.names)
     idx = rng.choice(len(post.samples), size=min(n_draws, len(post.samples)), replace=False)
     draws = post.samples[idx]
@@ -174,9 +171,8 @@ def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None, ampl
         band[t.name], at_map[t.name] = {}, {}
         for k, (grid, v) in table[t.name].items():
             grids[t.name] = grid
-            sd = np.hypot(np.abs(v[:-1]) * sigma_of(k)[:, None],
-                          model_error_sd(v[:-1], amplitude.get(k, 0.0), references.get((t.name, k), 0.0)))
-            sims = v[:-1] + sd * rng.standard_normal(v[:-1].shape)
+            relative = np.sqrt(sigma_of(k) ** 2 + (amplitude or {}).get(k, 0.0) ** 2)
+            sims = v[:-1] * (1.0 + relative[:, None] * rng.standard_normal(v[:-1].shape))
             ok = ~failed[t.name][:-1]
             band[t.name][k] = np.nanquantile(sims[ok], [0.025, 0.5, 0.975], axis=0) if ok.any() else None
             at_map[t.name][k] = v[-1]
@@ -184,15 +180,14 @@ def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None, ampl
 
 
 def volume_change_table(forward: LabForward, post, observations, tests, at_pct=(3.0, 5.0, 10.0), sigmas=None,
-                        n_draws=200, seed=0, amplitude=None, references=None) -> list:
+                        n_draws=200, seed=0, amplitude=None) -> list:
     """Volumetric strain eps_v (%, compression positive, dilation negative) of drained ``tests`` at the axial
     strains ``at_pct`` (%): measured (the record, linearly interpolated), MAP and the 95 % posterior predictive
-    band (:func:`predictive`, noise and the model-error term ``amplitude`` from ``references``).
+    band (:func:`predictive`, noise and the model-error term ``amplitude`` on the void-ratio curve).
     eps_v = 100 (e0 - e) / (1 + e0), a decreasing function of e, so the band of eps_v is the band of e mapped (its
     ends swapped). Rows of dicts: test, e0, p0 (kPa), eps_a (%), measured, map, lo, hi (eps_v, %); None where the
     record or the simulation stops short."""
-    band, grids, at_map = predictive(forward, post, n_draws=n_draws, seed=seed, sigmas=sigmas, amplitude=amplitude,
-                                     references=references)
+    band, grids, at_map = predictive(forward, post, n_draws=n_draws, seed=seed, sigmas=sigmas, amplitude=amplitude)
     specs = {t.name: t for t in forward.tests}
     rows = []
     for name in tests:
