@@ -133,7 +133,7 @@ def test_adapted_batches_recover_a_curved_posterior_the_first_batch_misses():
 
 
 def test_the_lower_bound_holds_with_the_stated_probability_whatever_the_fit():
-    """Markov's inequality on the first batch's unbiased estimate: ln Z >= log_lower with probability >= 0.95. On the
+    """Markov's inequality on the batches' unbiased estimates: ln Z >= log_lower with probability >= 0.95. On the
     twisted Gaussian (exact ln Z known) with small batches that fit it poorly, over 200 seeds the bound is exceeded
     in at most 5 % + 3 binomial standard errors of them (measured: 0 of 200; the first batch's estimate itself, without
     the bound's ln 0.05, exceeds ln Z on 57 of 200, so the test fails without it); without adaptation the bound is
@@ -144,3 +144,18 @@ def test_the_lower_bound_holds_with_the_stated_probability_whatever_the_fit():
     assert np.mean(over) <= 0.05 + 3 * math.sqrt(0.05 * 0.95 / 200)
     e = mode_evidence(log_like, prior, sample, seed=0, adapt_rounds=0)
     assert e.log_lower == pytest.approx(e.log_is + math.log(0.05), abs=1e-12)
+
+
+def test_the_lower_bound_of_every_adapted_batch_is_tighter_and_still_holds():
+    """With every adapted batch drawn (the ESS goal out of reach), the bound is also the least of the four batches'
+    own estimates - ln(40)/4 (module docstring, step 6), the larger of it and the first batch's estimate - ln 40
+    reported. On the twisted Gaussian with batches of 64 draws: over 200 seeds it exceeds ln Z on at most 5 % + 3
+    binomial standard errors of them (measured: none), and it lies a median 1.4 nats below ln Z, where the first
+    batch's bound alone (no adaptation) lies 3.2 below (measured)."""
+    prior, log_like, exact, sample = _twisted_gaussian()
+    runs = [mode_evidence(log_like, prior, sample, n_draws=64, seed=s, iterations=3, min_ess=2.0) for s in range(200)]
+    assert all(e.n_draws == 4 * 64 for e in runs)
+    assert np.mean([e.log_lower > exact for e in runs]) <= 0.05 + 3 * math.sqrt(0.05 * 0.95 / 200)
+    first = [mode_evidence(log_like, prior, sample, n_draws=64, seed=s, iterations=3, adapt_rounds=0).log_lower
+             for s in range(20)]
+    assert np.median([exact - e.log_lower for e in runs[:20]]) < 2.0 < np.median([exact - b for b in first])
