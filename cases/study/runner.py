@@ -170,7 +170,8 @@ def out_lock(out):
                     out.rmdir()  # only when empty
 
 
-_announced = False
+#: the kernel source files whose compilation this process has announced (or found cached)
+_announced = set()
 
 
 def kernel_files(model_class, fe=False) -> list:
@@ -189,25 +190,30 @@ def kernel_files(model_class, fe=False) -> list:
 
 
 def announce_compilation(kernels, warm_up):
-    """Once per process, on rank 0, when one of the kernel source files ``kernels`` (:func:`kernel_files`) has no
-    cache index yet (numba's ``<module>.*.nbi`` in its ``__pycache__`` or under NUMBA_CACHE_DIR): say that the
+    """On rank 0, when one of the kernel source files ``kernels`` (:func:`kernel_files`) not yet seen by this process
+    has no cache index (numba's ``<module>.*.nbi`` in its ``__pycache__`` or under NUMBA_CACHE_DIR): say that the
     kernels are being compiled, run ``warm_up()`` (one forward evaluation, :func:`evaluate_once`, which compiles
-    them and writes the cache) and say how long it took (s, the evaluation included)."""
-    global _announced
-    if _announced or not is_root():
+    them and writes the cache) and say how long it took (s, the evaluation included). Each file is looked at once
+    per process: the diagnosis loop's enriched classes announce the kernels of their own model (ANICREEP, delayed
+    swelling) when they are first needed."""
+    if not is_root():
         return
     cache_dir = os.environ.get("NUMBA_CACHE_DIR")
-    for module in map(Path, kernels):
+    fresh = [Path(m) for m in kernels if Path(m) not in _announced]
+    _announced.update(fresh)
+
+    def cached(module):
         places = [module.parent / "__pycache__"] + ([Path(cache_dir)] if cache_dir else [])
-        if not any(any(p.rglob(f"{module.stem}.*.nbi")) for p in places if p.is_dir()):
-            _announced = True
-            print("compiling the constitutive kernels (first run only, cached afterwards)...", file=sys.stderr,
-                  flush=True)
-            t0 = time.perf_counter()
-            warm_up()
-            print(f"compiled: the first forward evaluation took {time.perf_counter() - t0:.1f} s, compilation "
-                  "included", file=sys.stderr, flush=True)
-            return
+        return any(any(p.rglob(f"{module.stem}.*.nbi")) for p in places if p.is_dir())
+
+    cold = [m.name for m in fresh if not cached(m)]
+    if cold:
+        print(f"compiling the constitutive kernels ({', '.join(cold)}; first run only, cached afterwards)...",
+              file=sys.stderr, flush=True)
+        t0 = time.perf_counter()
+        warm_up()
+        print(f"compiled: the first forward evaluation took {time.perf_counter() - t0:.1f} s, compilation "
+              "included", file=sys.stderr, flush=True)
 
 
 def evaluate_once(like, prior):

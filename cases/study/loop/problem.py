@@ -34,6 +34,7 @@ from cases.study.reading.records import generating_values
 from cases.study.reading.schema import Settings, Study
 from constitutive import physics_catalog
 from constitutive.registry import class_name, conventions, enrichment_family, model_spec
+from constitutive.swelling import SWELLING_SWITCH, DelayedSwelling
 from inference import diagnosis
 from inference.diagnosis import ModelClass
 from inference.discrepancy import where_it_lies
@@ -156,6 +157,10 @@ class LoopProblem:
     def executor(self):
         return inference.SerialExecutor()
 
+    def kernels(self, switches) -> list:
+        """The compiled-kernel source files of the class with ``switches``, announced when cold; none by default."""
+        return []
+
     def summary_extra(self, switches: dict) -> dict:
         return {}
 
@@ -207,6 +212,7 @@ class LoopProblem:
             log_uniform = tuple(log_uniform) + like.discrepancy_names
         prior = self.prior(bounds, log_uniform)
         self.calibrated[name] = (like, switches)
+        runner.announce_compilation(self.kernels(switches), lambda: runner.evaluate_once(like, prior))
         post = runner.calibrate(like, prior, run, out, seed, settings.n_samples, executor=self.executor(),
                                 max_steps=settings.max_steps, progress=False,
                                 **{"max_failure_fraction": self.failure_fraction, **sampler})
@@ -526,11 +532,22 @@ class StudyProblem(LoopProblem):
         enrichment family's with the parameters translated (``cases.study.forward.family``: an MCC study enriched as
         ANICREEP); ``refinement``: a discretisation this many times finer (``StudyForward``); ``observations``: the
         abscissae asked for (default the records)."""
-        own = self.study.spec.switches
         observations = self.observations if observations is None else observations
-        if enrichment_family(self.model).model != self.model and any(k not in own for k in switches):
+        if self.solved_model(switches) != self.model:
             return FamilyForward(self.study, observations, switches, self.preset, refinement)
         return StudyForward(self.study, observations, switches, self.preset, refinement)
+
+    def solved_model(self, switches) -> str:
+        """The model the class with ``switches`` is solved as: the base model where it has every switch, else its
+        enrichment family's."""
+        family, own = enrichment_family(self.model).model, self.study.spec.switches
+        return family if family != self.model and any(k not in own for k in switches) else self.model
+
+    def kernels(self, switches) -> list:
+        """The compiled-kernel source files the class with ``switches`` needs (``runner.kernel_files``)."""
+        swelling = runner.kernel_files(DelayedSwelling) if switches.get(SWELLING_SWITCH) else []
+        sbp = any("sbp" in (t.type, t.apparatus) for t in self.study.tests)
+        return runner.kernel_files(model_spec(self.solved_model(switches)).cls, fe=sbp) + swelling
 
     def map_curves(self, params, switches):
         return self.forward(switches)([params])[0]

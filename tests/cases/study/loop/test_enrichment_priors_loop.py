@@ -79,3 +79,17 @@ def test_an_enriched_class_is_warned_at_the_study_bound(tmp_path, monkeypatch):
     assert bound_warnings(post, lower_only=("sigma_eps",)) == [
         "C_alpha_e MAP 0.0005, 2.5 % quantile 0.0005001, 97.5 % quantile 0.0005049 at the lower bound 0.0005 of its "
         "prior: widen the bound or fix it"]
+
+
+def test_each_class_names_the_kernels_it_compiles(tmp_path):
+    """What the loop announces when a cache is cold (``runner.announce_compilation``): the base's kernels, the
+    enrichment family's for a class the base model cannot take, and delayed swelling's on top."""
+    problem = _problem(tmp_path)
+
+    def names(switches):
+        return [f.name for f in problem.kernels(switches)]
+
+    assert names({}) == ["_mcc_kernel.py"]
+    assert names({"viscous": True}) == ["_anicreep_kernel.py", "_anicreep_steps.py"]
+    assert names({"swelling": True}) == ["_anicreep_kernel.py", "_anicreep_steps.py", "_swelling_kernel.py",
+                                         "_swelling_steps.py"]
