@@ -68,6 +68,22 @@ def test_a_collapsed_posterior_blocks():
     assert "posterior collapsed" in confirmation_blocks(collapsed, ENRICHMENT, RULE)[0]
 
 
+def test_an_added_parameter_the_sampler_lost_blocks():
+    """A swelling class of a held-out CIU programme: the population stood at tau = 5.3e5 s with a standard deviation
+    of 73 s (1.2e-5 of the log range of [1e2, 1e7]) while the refined mode sat at 1.0e3 s; a parameter the data pin
+    down, at 1e-3 of its range, passes. Only the candidate's added parameters are asked."""
+    enrichment = {**ENRICHMENT, "parameters": {"tau": [1e2, 1e7]}}
+    lost = _class("e", "enriched", "A", 50.0, {"M": {"map": 1.2, "mean": 1.2, "std": 0.1},
+                                               "tau": {"map": 1026.0, "mean": 5.308e5, "std": 73.0}})
+    blocks = confirmation_blocks(lost, enrichment, RULE)
+    assert len(blocks) == 1 and blocks[0].startswith("the sampler lost its added parameter tau: posterior standard "
+                                                     "deviation 1.2e-05 of its prior range (below 0.0001), MAP 1026")
+    pinned = {"map": 5.3e5, "mean": 5.3e5, "std": 5.3e5 * 1e-3 * math.log(1e5)}
+    assert confirmation_blocks(replace(lost, parameters={**lost.parameters, "tau": pinned}), enrichment, RULE) == []
+    narrow_base = {"map": 1.2, "mean": 1.2, "std": 1e-9}     # a base parameter: not this check's
+    assert confirmation_blocks(replace(lost, parameters={"M": narrow_base, "tau": pinned}), enrichment, RULE) == []
+
+
 def test_refined_evidence_is_trusted_by_its_importance_check_or_the_sampler():
     ev = {"log_evidence": 756.5, "method": "importance sampling", "ess": 300.0, "n_draws": 1000, "std_error": 0.2}
     cls = _class("e", "enriched", "A", 756.5, sampler=584.9, evidence=ev)
