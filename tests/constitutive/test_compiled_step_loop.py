@@ -249,9 +249,12 @@ def test_adaptive_undrained_relaxation():
     np.testing.assert_array_equal(a["steps"], b["steps"])
 
 
+@pytest.mark.slow
 def test_adaptive_failure_reason():
     """A local Newton allowed one iteration and no sub-steps: the points fail at the same stage time with the
-    same reason from both drivers, NaN records after it."""
+    same reason from both drivers, NaN records after it. Slow: the Python driver takes about 170,000 adaptive steps
+    (55 s) before the second point fails; test_swelling_failure_reason and test_anicreep_failure_reason check the
+    failure reasons of the compiled loops in the default run."""
     class Brittle(ANICREEP):
         max_iterations = 1
         max_substep_depth = 0
