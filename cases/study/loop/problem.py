@@ -25,6 +25,7 @@ from cases.study import runner
 from cases.study.forward.family import FamilyForward
 from cases.study.forward.study import StudyForward
 from cases.study.loop.covariates import programme_covariates
+from cases.study.loop.evidence import refined_evidence
 from cases.study.outputs.calibration_warnings import calibration_warnings
 from cases.study.outputs.figures.dense import dense_curves, with_mean_stress
 from cases.study.outputs.report import plot_loop, write_outputs
@@ -38,7 +39,6 @@ from constitutive.swelling import SWELLING_SWITCH, DelayedSwelling
 from inference import diagnosis
 from inference.diagnosis import ModelClass
 from inference.discrepancy import where_it_lies
-from inference.executors import mpi_world
 from inference.priors import Bound
 
 __all__ = ["LoopProblem", "StudyProblem", "run_loop", "CASE", "LOG_BAYES_THRESHOLD", "DECISION_RULE"]
@@ -227,29 +227,9 @@ class LoopProblem:
         return cls, post, like
 
     def refined_evidence(self, like, prior, post, seed):
-        """ln Z and MAP from the refined posterior mode (``inference.mode_evidence``: TMCMC's estimate with few
-        particles falls short by an amount growing with its stages, so classes would be compared by the sampler's
-        lag), climbed from the best of the posterior sample and, for an enriched class, the base class's mode with the
-        added parameters at their prior's lower end (where the enriched class nests the base), and climbed again
-        from the base mode with the added parameters at mid-prior (a sample of few particles may sit on a lesser mode
-        of the enriched class), the higher mode kept. The batches of the refinement run on the study's process pool
-        (serially under MPI). None when no mode can be refined (the TMCMC values are then used)."""
-        starts = climbs = None
-        base = getattr(self, "base_mode", None)
-        if base is not None and set(base) < set(post.names):
-            levels = {}   # the added parameters' (lower end, mid-prior)
-            for n, b in zip(post.names, prior.bounds):
-                if n not in base:
-                    middle = np.sqrt(b.lower * b.upper) if b.kind == "log-uniform" else 0.5 * (b.lower + b.upper)
-                    levels[n] = (b.lower + 1e-3 * (b.upper - b.lower), middle)
-            starts, climbs = ([[base[n] if n in base else levels[n][level] for n in post.names]] for level in (0, 1))
-        evaluator = inference.Evaluator(like)
-        # under MPI every rank holds the posterior and refines the same mode by itself
-        executor = inference.SerialExecutor() if mpi_world() is not None else self.executor()
-        with executor:
-            return inference.mode_evidence(lambda thetas: executor.evaluate(evaluator, thetas)[0], prior,
-                                           post.samples, log_values=post.log_like, starts=starts, climbs=climbs,
-                                           seed=seed)
+        """ln Z and MAP from the refined posterior mode (:func:`cases.study.loop.evidence.refined_evidence`), climbed
+        also from the step's base mode (``base_mode``) where there is one, on the study's process pool."""
+        return refined_evidence(like, prior, post, seed, getattr(self, "base_mode", None), self.executor)
 
     def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s, evidence=None,
                      prior=None) -> tuple:
