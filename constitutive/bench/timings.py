@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 
-from . import labtests
-from .anicreep import ANICREEP
-from .mcc import ModifiedCamClay
-from .simsand import SIMSAND
+from .. import labtests
+from ..anicreep import ANICREEP
+from ..mcc import ModifiedCamClay
+from ..simsand import SIMSAND
 
 
 def _mcc_batch(n, seed=0):
@@ -169,7 +169,3 @@ def main(argv=None):
     chosen = [b for b in BENCHMARKS if not args.words or any(w in b.__name__ for w in args.words)]
     for bench in chosen:
         print(bench.__name__ if args.list else json.dumps(bench()), flush=True)
-
-
-if __name__ == "__main__":
-    main()
