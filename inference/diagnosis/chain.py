@@ -23,10 +23,10 @@ def misfit_per_curve(likelihood, cls) -> dict:
 def chain_steps(likelihood, result) -> list:
     """One row per step of the loop's ``result`` (`loop.LoopResult`, its later steps in ``steps``): {step, base,
     verdict (the base's screening), confirmed (candidate or "none"; a tentative one confirmed jointly with the next
-    step's, `loop` step 6), jointly_with, tentative_refused ({candidate, why} or None), class (the confirmed class
-    or None),
-    log_bayes_over_previous (its ln Z minus the step's base's), misfit_before (the base's per curve), misfit_left
-    (the confirmed class's, else the base's)}."""
+    step's, `loop` step 6), jointly_with, alone (a jointly confirmed candidate's decision on its own),
+    tentative_refused ({candidate, why} or None), class (the confirmed class or None), log_bayes_over_previous (its
+    ln Z minus the step's base's), misfit_before (the base's per curve), misfit_left (the confirmed class's, else the
+    base's)}."""
     rows = []
     for k, step in enumerate([result, *result.steps], start=1):
         base = step.classes[0]
@@ -36,6 +36,7 @@ def chain_steps(likelihood, result) -> list:
         before = misfit_per_curve(likelihood, base)
         rows.append({"step": k, "base": base.name, "verdict": step.first.verdict, "confirmed": confirmed,
                      "jointly_with": joint.get("with") if joint.get("explained") else None,
+                     "alone": joint.get("alone", "") if joint.get("explained") else "",
                      "tentative_refused": None if not joint or joint["explained"] else
                      {"candidate": joint["tentative"], "why": "; ".join(joint["left"])},
                      "class": None if cls is None else cls.name,
@@ -58,8 +59,8 @@ def chain_markdown(rows: list) -> str:
             lines.append(f"- Step {r['step']}: base {r['base']}; {why}: the discovery stops.")
         else:
             joint = ("" if not r["jointly_with"] else
-                     f" (alone it left part of the located misfit; confirmed jointly with {r['jointly_with']}, "
-                     "whose class on top of it removes that misfit)")
+                     f" (alone it was {r['alone'] or 'not confirmed'}; confirmed jointly with {r['jointly_with']}, "
+                     "whose class on top of it removes the located misfit and beats the model-form class)")
             lines.append(f"- Step {r['step']}: base {r['base']}; confirmed **{r['confirmed']}**: {r['class']}, "
                          f"ln B = {r['log_bayes_over_previous']:+.1f} over the step's base{joint}.")
     curves = list(rows[0]["misfit_before"])

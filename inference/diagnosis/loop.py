@@ -36,10 +36,12 @@ Steps of `run_loop`:
    2: nothing is calibrated), or after ``max_steps`` steps. Each later step is a `LoopResult` in
    ``LoopResult.steps`` (the first step is the result itself); ``LoopResult.chain`` lists the confirmed candidates.
    Two effects at once can hide each other: the leading candidate may pass every check but leave part of the
-   located misfit, which belongs to the other effect (`records.Conclusion.tentative`). Such a candidate is adopted
-   tentatively (once in a chain): when the next step confirms a second effect on top of it and the combined class
-   removes the misfit located on the tentative step's base (`rank.misfit_explained`, the rule's reduction), both
-   are confirmed (``LoopResult.joint`` of that step); otherwise neither is, and the discovery stops.
+   located misfit, which belongs to the other effect, or, named by its own signature, pass every check but the
+   lead over the model-form class, whose smooth discrepancy absorbs what the other effect leaves
+   (`records.Conclusion.tentative`). Such a candidate is adopted tentatively (once in a chain): when the next step
+   confirms a second effect on top of it, the combined class removes the misfit located on the tentative step's
+   base (`rank.misfit_explained`, the rule's reduction) and beats that step's model-form class by the rule's
+   margin, both are confirmed (``LoopResult.joint`` of that step); otherwise neither is, and the discovery stops.
 The loop's settings (alpha, level, n_shifts and the rule) stay with its result (``LoopResult.settings``), so that
 ``files.write_input(..., **result.settings)`` records them for the re-diagnosis of the run directory (of each step).
 """
@@ -54,6 +56,7 @@ from .rank import located_misfit, misfit_explained
 from .records import DecisionRule, Diagnosis, ModelClass
 from .report import diagnose
 from .screening import relative_residuals
+from .trust import highest_estimate
 
 __all__ = ["LoopProblem", "LoopResult", "run_loop", "ENRICH", "MAX_STEPS"]
 
@@ -118,7 +121,8 @@ class LoopResult:
     `files.write_input`); steps: the later steps of the stepwise discovery (module docstring, step 6), each a
     LoopResult; candidates: the candidates as the step's diagnosis read them (plain data); joint: for a step whose
     tentative candidate was adopted, {tentative, with (the next step's confirmed candidate or None), explained (the
-    combined class removes this step's located misfit), left (what it leaves, in words)}, else None.
+    combined class removes this step's located misfit and beats its model-form class), alone (the tentative
+    candidate's decision on its own), left (what the combined class leaves, in words)}, else None.
     """
 
     first: Diagnosis
@@ -210,8 +214,9 @@ def _joint(likelihood, step: LoopResult, after: LoopResult, tentative: str, rule
     """``step.joint``: whether the class the next step (``after``) confirmed on top of ``step``'s tentative candidate
     removes the misfit located on ``step``'s base (module docstring, step 6)."""
     second = after.final.omitted_physics
+    alone = next((c.decision for c in step.final.candidates if c.name == tentative), "")
     if second == "none":
-        step.joint = {"tentative": tentative, "with": None, "explained": False,
+        step.joint = {"tentative": tentative, "with": None, "explained": False, "alone": alone,
                       "left": ["no second effect was confirmed on top of it"]}
         return
     combined = next(c for c in after.classes if c.role == "enriched" and c.candidate == second)
@@ -219,7 +224,14 @@ def _joint(likelihood, step: LoopResult, after: LoopResult, tentative: str, rule
     base_r = relative_residuals(likelihood, base.map_simulated)
     explained, left = misfit_explained(located_misfit(step.final.screens[base.name], base_r), base_r,
                                        relative_residuals(likelihood, combined.map_simulated), rule.misfit_reduction)
-    step.joint = {"tentative": tentative, "with": second, "explained": explained, "left": left}
+    form = next((c for c in step.classes if c.role == "model form"), None)
+    if form is not None:
+        lead = combined.log_evidence - highest_estimate(form, rule)
+        if lead < rule.model_form_lead:
+            explained = False
+            left = [*left, f"the combined class {combined.name} is {lead:.2f} < {rule.model_form_lead:g} over the "
+                           f"model-form class of the tentative step's base ({form.name})"]
+    step.joint = {"tentative": tentative, "with": second, "explained": explained, "alone": alone, "left": left}
 
 
 def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str, conventions=None) -> LoopResult:

@@ -326,11 +326,13 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
     chosen = contenders[0] if len(contenders) == 1 else next(
         (r.name for r in ranked if r.named and r.name in contenders), None)
     omitted, tentative = "none", None
-    if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] and not blocks[chosen] \
-            and over_form.get(chosen, form_lead) >= form_lead:
-        if explained.get(chosen, (True, []))[0]:
+    if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] and not blocks[chosen]:
+        beats_form = over_form.get(chosen, form_lead) >= form_lead
+        if beats_form and explained.get(chosen, (True, []))[0]:
             omitted = chosen
-        else:   # all but its pattern or misfit explained: a second effect may hold the rest (`loop`, step 6)
+        elif beats_form or (rule.joint_below_model_form and getattr(entry.get(chosen), "named", False)):
+            # all but its pattern or misfit explained, or all but the model-form class beaten by a candidate its own
+            # signature names: a second effect may hold the rest (`loop`, step 6)
             tentative = chosen
     decisions = []
     for r in ranked:

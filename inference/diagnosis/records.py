@@ -66,13 +66,15 @@ class DecisionRule:
     (`trust`);
     model_form_margin: ln B by which the chosen enrichment must beat the model-form class when there is one (None:
     the threshold); numerical_fraction: the base's discretisation error, as a fraction of the located misfit, at which
-    the misfit
-    counts as numerical (no enrichment is confirmed on it; `trust.numerics_comparable`); sampler_agrees:
-    the sampler's own ln Z must not favour the base class (the refined estimates decide the size of ln B,
-    not its sign alone). A study calibrates the threshold and margin on negative controls (`rank` module docstring)
-    and passes its rule to the loop, which records it in DIR/diagnosis_input.json (`to_dict`, `from_dict`) for the
-    re-diagnosis of the directory. With a model-form class among the classes, the chosen enrichment must beat it,
-    too, by the threshold.
+    the misfit counts as numerical (no enrichment is confirmed on it; `trust.numerics_comparable`); sampler_agrees:
+    the sampler's own ln Z must not favour the base class (the refined estimates decide the size of ln B, not its
+    sign alone); joint_below_model_form: a leader named by its own signature that passes every check but the lead
+    over the model-form class is tentative (`rank.conclude`): two effects at once can leave a smooth discrepancy as
+    good as either alone, and the stepwise loop confirms both only when their combined class beats the model-form
+    class too (`loop`, step 6). A study calibrates the threshold and margin on negative controls (`rank` module
+    docstring) and passes its rule to the loop, which records it in DIR/diagnosis_input.json (`to_dict`,
+    `from_dict`) for the re-diagnosis of the directory. With a model-form class among the classes, the chosen
+    enrichment must beat it, too, by the threshold.
     """
 
     threshold: float = STRONG_LOG_BAYES
@@ -86,6 +88,7 @@ class DecisionRule:
     lost_dimension_fraction: float = LOST_DIMENSION_FRACTION
     numerical_fraction: float = NUMERICAL_FRACTION
     sampler_agrees: bool = True
+    joint_below_model_form: bool = True
 
     def __post_init__(self):
         if not self.threshold >= 0 or any(m is not None and not m >= 0 for m in (self.margin, self.model_form_margin)):
@@ -263,8 +266,9 @@ class Conclusion:
     model_form: None without a model-form class, else {class, log_bayes (over the base), log_bayes_enriched
     {enriched class: ln Z - ln Z_model_form}, prevails (no enrichment is confirmed and the model-form class beats the
     base by the threshold: a misfit of model form)}; tentative: when nothing is confirmed, the candidate that passes
-    every check but leaves part of the located misfit or of its own pattern (a second effect may hold the rest: the
-    stepwise loop tries it as the next step's base), else None."""
+    every check but leaves part of the located misfit or of its own pattern, or (named by its signature, under
+    ``rule.joint_below_model_form``) every check but the lead over the model-form class (a second effect may hold
+    the rest: the stepwise loop tries it as the next step's base), else None."""
 
     omitted_physics: str
     log_bayes: dict

@@ -119,6 +119,50 @@ def test_the_chain_reports_each_step_and_the_misfit_left(both):
     assert "Step 3: base" in text and "consistent with noise" in text and "| T1/y |" in text
 
 
+class WithModelForm(TwoEffects):
+    """The toy problem with a model-form class whose ln Z is set: at the first step ``lead`` above the better
+    single-effect class (so that no single effect beats it), or ``form_log_evidence`` when given; at later steps
+    ``later_form_log_evidence``, else the first step's."""
+
+    def __init__(self, b, k, lead):
+        super().__init__(b, k)
+        self.lead, self.form_log_evidence, self.later_form_log_evidence = lead, None, None
+
+    def calibrate_model_form(self):
+        from dataclasses import replace as with_
+        if self.form_log_evidence is None:
+            singles = [TwoEffects.calibrate(self, k).log_evidence for k in ("curvature", "stiffer T2")]
+            self.calibrated = self.calibrated[:-2]
+            self.form_log_evidence = max(singles) + self.lead
+        base = TwoEffects.calibrate(self, None)
+        self.calibrated.pop()
+        later = self.adopted and self.later_form_log_evidence is not None
+        return with_(base, name=base.name + " + delta", role="model form",
+                     log_evidence=self.later_form_log_evidence if later else self.form_log_evidence)
+
+
+def test_a_leader_below_the_model_form_class_is_confirmed_only_with_a_second_effect_that_beats_it():
+    """Neither effect alone beats a model-form class 10 above the better of them; the leader, named by its
+    signature, is adopted tentatively, and the combined class (both effects, about 100 above either alone) beats the
+    model-form class: both are confirmed. When the first step's model-form class lies above what the combined class
+    reaches, neither is, even though the second step confirms its effect over its own model-form class, and the
+    reason names the first step's."""
+    rule = diagnosis.DecisionRule(threshold=20.0, model_form_margin=0.0)
+    problem = WithModelForm(B, K, lead=10.0)
+    result = run_loop(problem, rule=rule)
+    assert result.final.omitted_physics == "none" and result.final.tentative is not None
+    assert result.joint["explained"] and set(result.chain) == {"curvature", "stiffer T2"}
+    combined = next(c for c in result.steps[0].classes if c.candidate == result.joint["with"])
+    assert combined.log_evidence > problem.form_log_evidence
+    problem = WithModelForm(B, K, lead=10.0)
+    problem.later_form_log_evidence = result.steps[0].classes[0].log_evidence   # the second step's base
+    problem.form_log_evidence = combined.log_evidence + 5.0
+    result = run_loop(problem, rule=rule)
+    assert result.steps[0].final.omitted_physics != "none"
+    assert result.chain == [] and not result.joint["explained"]
+    assert "-5.00 < 0 over the model-form class of the tentative step's base" in result.joint["left"][-1]
+
+
 def test_a_tentative_candidate_counts_only_when_the_next_effect_explains_the_rest():
     from dataclasses import replace as with_
 
