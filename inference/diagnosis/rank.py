@@ -322,7 +322,7 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
                 reasons.append(disagree)
         blocks[name] = reasons
     # the candidates within the margin of the best ln B; among several, the best-ranked one named by its signature
-    contenders = [k for k in order if by_candidate[k] > by_candidate[leader] - margin] if order else []
+    contenders = [k for k in order if by_candidate[k] >= by_candidate[leader] - margin] if order else []
     chosen = contenders[0] if len(contenders) == 1 else next(
         (r.name for r in ranked if r.named and r.name in contenders), None)
     omitted, tentative = "none", None

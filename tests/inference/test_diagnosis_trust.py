@@ -258,3 +258,15 @@ def test_a_named_leader_below_the_model_form_class_is_tentative():
     assert diagnosis.conclude(_ranked("A"), [base, form, leader], off).tentative is None
     below = replace(leader, log_evidence=16.0)   # below the threshold over the base
     assert diagnosis.conclude(_ranked("A"), [base, form, below], RULE).tentative is None
+
+
+def test_a_margin_of_zero_confirms_the_leader():
+    """The margin is how far the chosen class must lead the others: at 0 any lead will do (the leader is always
+    within 0 of itself), and a tie within it goes to the candidate its signature names."""
+    base = _class("base", "base", None, 0.0)
+    a, b = _class("base + A", "enriched", "A", 40.0, _params(xi=8.0)), _class("base + B", "enriched", "B", 30.0)
+    rule = replace(RULE, margin=0.0)
+    assert diagnosis.conclude(_ranked("A", "B"), [base, a, b], rule).omitted_physics == "A"
+    tie = replace(b, log_evidence=40.0)
+    ranked = [replace(r, named=r.name == "B") for r in _ranked("A", "B")]
+    assert diagnosis.conclude(ranked, [base, a, tie], rule).omitted_physics == "B"
