@@ -40,8 +40,11 @@ Steps of `run_loop`:
    lead over the model-form class, whose smooth discrepancy absorbs what the other effect leaves
    (`records.Conclusion.tentative`). Such a candidate is adopted tentatively (once in a chain): when the next step
    confirms a second effect on top of it, the combined class removes the misfit located on the tentative step's
-   base (`rank.misfit_explained`, the rule's reduction) and beats that step's model-form class by the rule's
-   margin, both are confirmed (``LoopResult.joint`` of that step); otherwise neither is, and the discovery stops.
+   base (`rank.misfit_explained`, the rule's reduction), beats that step's model-form class by the rule's margin
+   and the second effect's class alone (calibrated at that step) by the threshold, both are confirmed
+   (``LoopResult.joint`` of that step); otherwise neither is, and the discovery stops. (Beyond the base by its
+   trusted evidence is asked of a tentative candidate below the model-form class; beating the model-form class is
+   asked of the combined class.)
 The loop's settings (alpha, level, n_shifts and the rule) stay with its result (``LoopResult.settings``), so that
 ``files.write_input(..., **result.settings)`` records them for the re-diagnosis of the run directory (of each step).
 """
@@ -224,13 +227,18 @@ def _joint(likelihood, step: LoopResult, after: LoopResult, tentative: str, rule
     base_r = relative_residuals(likelihood, base.map_simulated)
     explained, left = misfit_explained(located_misfit(step.final.screens[base.name], base_r), base_r,
                                        relative_residuals(likelihood, combined.map_simulated), rule.misfit_reduction)
-    form = next((c for c in step.classes if c.role == "model form"), None)
-    if form is not None:
-        lead = combined.log_evidence - highest_estimate(form, rule)
-        if lead < rule.model_form_lead:
+    # each effect pays its own way: the combined class beats the tentative step's model-form class by its margin
+    # and the second effect's class alone (calibrated at the tentative step) by the threshold
+    for role, candidate, need, what in (("model form", None, rule.model_form_lead, "model-form class"),
+                                        ("enriched", second, float(rule.threshold), f"class of {second} alone")):
+        other = next((c for c in step.classes if c.role == role and c.candidate == candidate), None)
+        if other is None:
+            continue
+        lead = combined.log_evidence - highest_estimate(other, rule)
+        if lead < need:
             explained = False
-            left = [*left, f"the combined class {combined.name} is {lead:.2f} < {rule.model_form_lead:g} over the "
-                           f"model-form class of the tentative step's base ({form.name})"]
+            left = [*left, f"the combined class {combined.name} is {lead:.2f} < {need:g} over the {what} at the "
+                           f"tentative step ({other.name})"]
     step.joint = {"tentative": tentative, "with": second, "explained": explained, "alone": alone, "left": left}
 
 

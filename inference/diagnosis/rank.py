@@ -305,12 +305,12 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
     order = sorted(by_candidate, key=lambda k: -by_candidate[k])
     leader = order[0] if order else None
     against = {name: _against(entry.get(name)) for name in by_candidate}
-    blocks = {}
     # the ln Z an enriched class must reach to confirm: the base's plus the threshold, the model-form class's plus
     # its margin (`trust`: a lower bound of the class's ln Z that clears it is a check of its evidence)
-    floor = max(highest_estimate(base, rule) + threshold,
-                -np.inf if model_form is None else highest_estimate(model_form, rule) + form_lead)
-    for name, cl in enriched.items():
+    over_base = highest_estimate(base, rule) + threshold
+    floor = max(over_base, -np.inf if model_form is None else highest_estimate(model_form, rule) + form_lead)
+
+    def blocking(name, cl, floor):
         reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule, floor)
         if numerics:
             reasons.append(numerics)
@@ -320,19 +320,25 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
             disagree = sampler_disagrees(cl, base)
             if disagree:
                 reasons.append(disagree)
-        blocks[name] = reasons
+        return reasons
+
+    blocks = {name: blocking(name, cl, floor) for name, cl in enriched.items()}
     # the candidates within the margin of the best ln B; among several, the best-ranked one named by its signature
     contenders = [k for k in order if by_candidate[k] >= by_candidate[leader] - margin] if order else []
     chosen = contenders[0] if len(contenders) == 1 else next(
         (r.name for r in ranked if r.named and r.name in contenders), None)
     omitted, tentative = "none", None
-    if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen] and not blocks[chosen]:
+    if chosen is not None and by_candidate[chosen] >= threshold and not against[chosen]:
         beats_form = over_form.get(chosen, form_lead) >= form_lead
-        if beats_form and explained.get(chosen, (True, []))[0]:
-            omitted = chosen
-        elif beats_form or (rule.joint_below_model_form and getattr(entry.get(chosen), "named", False)):
-            # all but its pattern or misfit explained, or all but the model-form class beaten by a candidate its own
-            # signature names: a second effect may hold the rest (`loop`, step 6)
+        if beats_form and not blocks[chosen]:
+            if explained.get(chosen, (True, []))[0]:
+                omitted = chosen
+            else:   # all but its pattern or misfit explained: a second effect may hold the rest (`loop`, step 6)
+                tentative = chosen
+        elif not beats_form and rule.joint_below_model_form and getattr(entry.get(chosen), "named", False) \
+                and not blocking(chosen, enriched[chosen], over_base):
+            # named by its own signature, beyond the base by trusted evidence, below the model-form class: a second
+            # effect may hold what the discrepancy takes up (`loop`, step 6)
             tentative = chosen
     decisions = []
     for r in ranked:

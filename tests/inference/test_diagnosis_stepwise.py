@@ -160,7 +160,7 @@ def test_a_leader_below_the_model_form_class_is_confirmed_only_with_a_second_eff
     result = run_loop(problem, rule=rule)
     assert result.steps[0].final.omitted_physics != "none"
     assert result.chain == [] and not result.joint["explained"]
-    assert "-5.00 < 0 over the model-form class of the tentative step's base" in result.joint["left"][-1]
+    assert "-5.00 < 0 over the model-form class at the tentative step" in result.joint["left"][-1]
 
 
 def test_a_tentative_candidate_counts_only_when_the_next_effect_explains_the_rest():
