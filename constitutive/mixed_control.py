@@ -230,16 +230,16 @@ def _compiled_history(kernel, stress, state0, control, inc, dt, undrained, recor
     the arguments as normalized there, ``dt`` (K, n), ``newton`` (tol, max_iterations, max_cuts, previous-step
     predictor as 0 or 1)."""
     n, n_steps = stress.shape[0], dt.shape[0]
-    unknown = np.ascontiguousarray(np.argsort(control, axis=1, kind="stable"))  # the stress-controlled first
+    unknown = np.argsort(control, axis=1, kind="stable")  # the stress-controlled first
     fresh = ~control & np.vstack([np.ones((1, 6), dtype=bool), control[:-1]])
-    steps = (np.ascontiguousarray(control), fresh, unknown, np.count_nonzero(~control, axis=1),
-             np.ascontiguousarray(inc), np.ascontiguousarray(dt), np.ascontiguousarray(undrained), record,
-             np.ones((n_steps, n), dtype=bool) if active is None else np.ascontiguousarray(active),
-             np.r_[False, np.all(control[1:] == control[:-1], axis=1) & (undrained[1:] == undrained[:-1])])
+    steps = tuple(_kernel_array(a) for a in (
+        control, fresh, unknown, np.count_nonzero(~control, axis=1), inc, dt, undrained, record,
+        np.ones((n_steps, n), dtype=bool) if active is None else active,
+        np.r_[False, np.all(control[1:] == control[:-1], axis=1) & (undrained[1:] == undrained[:-1])]))
     if stop is None:
         stops = (-1, np.zeros(n), np.zeros(n))
     else:
-        stops = (int(stop[0]), *(np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (n,)))
+        stops = (int(stop[0]), *(_kernel_array(np.broadcast_to(np.asarray(v, dtype=float), (n,)))
                                  for v in stop[1:]))
     columns = 1 + int(np.count_nonzero(record))
     history = (np.empty((n, columns, 6)), np.empty((n, columns, 6)), np.empty((n, columns)), np.empty((n, columns)),
@@ -247,8 +247,8 @@ def _compiled_history(kernel, stress, state0, control, inc, dt, undrained, recor
     flat = kernel.pack(state0, n)
     ending = (np.empty((n, 6)), np.empty_like(flat), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64),
               np.empty((n, kernel.info_size)), np.empty((n, 6)), np.empty(n, dtype=np.int64), np.empty(n))
-    kernel.drive(kernel.parameters, kernel.settings, stress, flat, steps, stops, np.array(newton, dtype=float),
-                 history, ending)
+    kernel.drive(_kernel_array(kernel.parameters), _kernel_array(kernel.settings), _kernel_array(stress),
+                 _kernel_array(flat), steps, stops, np.array(newton, dtype=float), history, ending)
     final_stress, final_state, fail_step, fail_code, fail_info, fail_deps, stop_step, stop_value = ending
     failed = fail_step >= 0
     reasons = _failure_reasons(kernel, fail_step == -2, failed, ending[3:6], newton[2],
@@ -394,6 +394,13 @@ class LinearPath:
             (other.offset, other.slope, other.duration, other.capped))))
 
 
+def _kernel_array(a, dtype=None):
+    """``a`` as a C-contiguous, writable array (of ``dtype``), as the compiled step loops are given every array: numba
+    compiles a read-only array apart, and a broadcast view of one point is contiguous but read-only, so that one
+    point and a batch would compile the loops twice."""
+    return np.require(a, dtype=dtype, requirements=("C", "W"))
+
+
 def _per_point(a, n):
     """(K,) or (K, n) values as a contiguous (K, n) array."""
     a = np.asarray(a, dtype=float)
@@ -526,10 +533,12 @@ def _compiled_adaptive(kernel, stress, state0, control, undrained, path, segment
     flat = kernel.pack(state0, n)
     ending = (np.empty((n, 6)), np.empty_like(flat), np.empty(n, dtype=bool), np.empty(n), np.empty(n, dtype=np.int64),
               np.empty((n, kernel.info_size)), np.empty((n, 6)), np.empty(n, dtype=np.int64))
-    shaped = tuple(np.ascontiguousarray(np.broadcast_to(a, (n, 6)), dtype=t) for a, t in zip(
+    shaped = tuple(_kernel_array(np.broadcast_to(a, (n, 6)), t) for a, t in zip(
         (path.offset, path.slope, path.duration, path.capped), (float, float, float, bool)))
-    kernel.adapt(kernel.parameters, kernel.settings, stress, flat, np.ascontiguousarray(control), undrained, shaped,
-                 segments, rec, going, step_control, np.array(newton, dtype=float), history, ending)
+    kernel.adapt(_kernel_array(kernel.parameters), _kernel_array(kernel.settings), _kernel_array(stress),
+                 _kernel_array(flat), _kernel_array(control), undrained, shaped,
+                 tuple(_kernel_array(a) for a in segments), _kernel_array(rec), _kernel_array(going), step_control,
+                 np.array(newton, dtype=float), history, ending)
     final_stress, final_state, failed, fail_tau, _, _, _, steps = ending
     reasons = _failure_reasons(kernel, failed & (fail_tau == -1.0), failed, ending[4:7], step_control[-1],
                                lambda i: f"at stage time {fail_tau[i]:g} s")

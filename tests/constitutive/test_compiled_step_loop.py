@@ -340,3 +340,37 @@ def test_swelling_failure_reason():
     assert_same_history(a, b)
     assert a["failed"].all() and a["reasons"] == b["reasons"]
     assert "did not converge in 1 base updates" in a["reasons"][0]
+
+
+def test_one_point_and_a_batch_share_one_compiled_loop():
+    """The compiled loops are given C-contiguous, writable arrays whatever the batch size: a broadcast view of one
+    point is contiguous but read-only, and numba would compile (for minutes) a second specialization of each loop for
+    it, as the sampler's first evaluation of one prior draw did before its batches. A batch, then its first point
+    alone, through both drivers (an oedometer CRS and a load ramp held for an hour): no new specialization, and the
+    one point's history is the batch's first row."""
+    from constitutive import _mcc_kernel
+
+    values = dict(M=[1.0, 1.2, 1.4], lambda_=[0.15, 0.2, 0.25], kappa=[0.02, 0.03, 0.04], nu=[0.2, 0.25, 0.3],
+                  ocr=[1.0, 2.0, 4.0])
+    inc = np.zeros((40, 6))
+    inc[:, 0] = 0.001
+    segments = ([60.0, 3600.0], [6.0, 0.1], [6.0, np.inf], [np.inf, 0.1])
+
+    def run(n):
+        model = ModifiedCamClay(**{k: np.array(v[:n]) for k, v in values.items()})
+        stress = np.zeros((n, 6))
+        stress[:, :3] = 100.0
+        state = model.initial_state(stress, np.full(n, 1.2))
+        crs = lt.mixed_control(model, stress, state, lt.ALL_STRAIN, inc, np.ones(40))
+        path = lt.LinearPath.ramp(np.where(lt.OEDOMETER_STRESS, 0.0, stress),
+                                  np.where(lt.OEDOMETER_STRESS, 0.0, 2.0 * stress), np.full(n, 60.0), capped=True)
+        records = np.broadcast_to(np.array([60.0, 3600.0])[:, None], (2, n))
+        return crs, lt.adaptive_control(model, stress, state, lt.OEDOMETER_STRESS, path, segments, records)
+
+    crs, held = run(3)
+    compiled = {name: set(getattr(_mcc_kernel, name).signatures) for name in ("drive", "adapt")}
+    one_crs, one_held = run(1)
+    assert {name: set(getattr(_mcc_kernel, name).signatures) for name in ("drive", "adapt")} == compiled
+    for whole, one in ((crs, one_crs), (held, one_held)):
+        for key in KEYS:
+            np.testing.assert_allclose(one[key], whole[key][:1], rtol=0.0, atol=1e-8 * 400.0, err_msg=key)
