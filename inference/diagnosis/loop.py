@@ -32,8 +32,11 @@ Steps of `run_loop`:
 6. stepwise discovery (a problem with ``adopt``): when an enrichment is confirmed, ``problem.adopt(class)`` makes
    that enriched class the base of the next step, and steps 2-5 run again on it: the remaining candidates are
    enriched on top of it (combined classes), beside a model-form class of the new base, and confirmed by the same
-   rule. The discovery stops when a step confirms nothing, when the new base's screening finds no structure (step
-   2: nothing is calibrated), or after ``max_steps`` steps. Each later step is a `LoopResult` in
+   rule, except that a candidate named by the evidence alone whose signature cannot show in the records (every
+   primary item "not reported") does not confirm (``DecisionRule.signature_unseen_confirms`` off): on top of a
+   confirmed effect a flexible class takes up what that class leaves. The discovery stops when a step confirms
+   nothing, when the new base's screening finds no structure (step 2: nothing is calibrated), or after
+   ``max_steps`` steps. Each later step is a `LoopResult` in
    ``LoopResult.steps`` (the first step is the result itself); ``LoopResult.chain`` lists the confirmed candidates.
    Two effects at once can hide each other: the leading candidate may pass every check but leave part of the
    located misfit, which belongs to the other effect, or, named by its own signature, pass every check but the
@@ -202,7 +205,8 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), 
                 break
             name, tentative, tried_tentative = last.final.tentative, True, True
         confirmed = next(c for c in last.classes if c.role == "enriched" and c.candidate == name)
-        step = _step(problem, replace(adopt(confirmed), role="base", candidate=None), settings, enrich)
+        later = {**settings, "rule": replace(rule, signature_unseen_confirms=False)}
+        step = _step(problem, replace(adopt(confirmed), role="base", candidate=None), later, enrich)
         result.steps.append(step)
         if tentative:
             _joint(problem.likelihood, last, step, name, rule)

@@ -314,6 +314,10 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
         reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule, floor)
         if numerics:
             reasons.append(numerics)
+        if not rule.signature_unseen_confirms and unseen(entry.get(name)):
+            reasons.append("its signature cannot show in these records (no record reports "
+                           f"{' or '.join(sorted({i.covariate for i in entry[name].items if i.role == 'primary'}))}),"
+                           " and on top of a confirmed effect the evidence alone does not name it")
         # against the base only, and not when both refined estimates passed an importance check: a sampler's
         # estimate with few particles lags the more the more parameters a class has (`trust`, check 4)
         if rule.sampler_agrees and not (importance_checked(cl, rule, floor) and importance_checked(base, rule)):
@@ -387,6 +391,14 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
                 "log_bayes_enriched": {enriched[k].name: v for k, v in over_form.items()},
                 "prevails": omitted == "none" and lnb_form >= threshold}
     return Conclusion(omitted, log_bayes, tuple(decisions), rule, form, tentative)
+
+
+def unseen(entry) -> bool:
+    """The candidate (a `records.CandidateScore`) is named by the evidence alone and every primary item of its
+    signature is "not reported": no record defines its covariate, so the programme cannot show the effect's own
+    signature (`records.DecisionRule.signature_unseen_confirms`)."""
+    primary = [i for i in getattr(entry, "items", ()) if i.role == "primary"]
+    return bool(primary) and not entry.named and all(i.status == "not reported" for i in primary)
 
 
 def _against(entry) -> str:

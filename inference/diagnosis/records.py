@@ -71,10 +71,13 @@ class DecisionRule:
     sign alone); joint_below_model_form: a leader named by its own signature that passes every check but the lead
     over the model-form class is tentative (`rank.conclude`): two effects at once can leave a smooth discrepancy as
     good as either alone, and the stepwise loop confirms both only when their combined class beats the model-form
-    class too (`loop`, step 6). A study calibrates the threshold and margin on negative controls (`rank` module
-    docstring) and passes its rule to the loop, which records it in DIR/diagnosis_input.json (`to_dict`,
-    `from_dict`) for the re-diagnosis of the directory. With a model-form class among the classes, the chosen
-    enrichment must beat it, too, by the threshold.
+    class too (`loop`, step 6); signature_unseen_confirms: a candidate named by the evidence alone may confirm
+    although every primary item of its signature is "not reported" (no record where its covariate is defined: the
+    programme cannot show the effect's own signature); the stepwise loop sets it False from the second step on, where
+    a flexible class takes up what the confirmed class leaves (`rank.conclude`). A study calibrates the threshold and
+    margin on negative controls (`rank` module docstring) and passes its rule to the loop, which records it in
+    DIR/diagnosis_input.json (`to_dict`, `from_dict`) for the re-diagnosis of the directory. With a model-form class
+    among the classes, the chosen enrichment must beat it, too, by the threshold.
     """
 
     threshold: float = STRONG_LOG_BAYES
@@ -89,6 +92,7 @@ class DecisionRule:
     numerical_fraction: float = NUMERICAL_FRACTION
     sampler_agrees: bool = True
     joint_below_model_form: bool = True
+    signature_unseen_confirms: bool = True
 
     def __post_init__(self):
         if not self.threshold >= 0 or any(m is not None and not m >= 0 for m in (self.margin, self.model_form_margin)):

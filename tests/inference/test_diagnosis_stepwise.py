@@ -92,6 +92,9 @@ def test_two_effects_are_confirmed_one_step_after_the_other(both):
     third = result.steps[1]
     assert third.first.verdict == "consistent with noise" and [c.role for c in third.classes] == ["base"]
     assert len(problem.calibrated) == 1 + 3 + 2 and len(result.steps) == 2   # base, step 1's three, step 2's two
+    # from the second step on, an effect whose signature the records cannot show does not confirm by evidence alone
+    assert result.settings["rule"].signature_unseen_confirms
+    assert not any(s.settings["rule"].signature_unseen_confirms for s in result.steps)
 
 
 def test_one_effect_stops_after_the_second_step_finds_noise():

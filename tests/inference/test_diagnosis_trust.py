@@ -270,3 +270,28 @@ def test_a_margin_of_zero_confirms_the_leader():
     tie = replace(b, log_evidence=40.0)
     ranked = [replace(r, named=r.name == "B") for r in _ranked("A", "B")]
     assert diagnosis.conclude(ranked, [base, a, tie], rule).omitted_physics == "B"
+
+
+def test_a_signature_the_records_cannot_show_does_not_confirm_on_top_of_an_effect():
+    """The second step of CK0U programmes holding anisotropy (+ viscosity): delayed swelling, named by the evidence
+    alone (+99.8 over the anisotropic class), with every primary item of its signature "not reported" (no hold after
+    unloading in the programme). With ``signature_unseen_confirms`` off, as the stepwise loop sets it from the second
+    step on, it does not confirm, and the reason says why; a primary item the records report (even not significant)
+    lets it confirm, as at the first step."""
+    from inference.diagnosis.records import SignatureItem
+
+    def item(status):
+        return SignatureItem("hold time after unloading", "primary", 1.0, 1, "", None, None, None, None, None, None,
+                             status, 0.0)
+
+    base = _class("base", "base", None, 0.0)
+    swelling = _class("base + A", "enriched", "A", 99.8, _params(M=1.2, xi=8.0))
+    unseen = [replace(r, named=False, items=(item("not reported"), item("not reported"))) for r in _ranked("A")]
+    later = replace(RULE, signature_unseen_confirms=False)
+    assert diagnosis.conclude(unseen, [base, swelling], RULE).omitted_physics == "A"
+    d = diagnosis.conclude(unseen, [base, swelling], later)
+    assert d.omitted_physics == "none" and d.tentative is None
+    assert "its signature cannot show in these records (no record reports hold time after unloading)" in \
+        d.candidates[0].decision
+    seen = [replace(r, items=(item("not significant"), item("not reported"))) for r in unseen]
+    assert diagnosis.conclude(seen, [base, swelling], later).omitted_physics == "A"
