@@ -75,13 +75,13 @@ def test_predicted_tests_are_the_roles_and_a_bad_role_is_one_line(tmp_path, caps
     assert len(err) == 1 and "tests['test1'].role = 'forecast': expected one of calibrate, predict" in err[0]
 
 
-def test_a_predicted_test_outside_the_sand_route_or_no_calibrated_test_is_refused(tmp_path):
-    examples = STUDIES.parent / "examples"
-    text = (examples / "oedometer_crs.toml").read_text().replace('file = "data/', f'file = "{examples / "data"}/')
-    path = tmp_path / "crs.toml"
-    path.write_text(text.replace('name = "CRS_fast"\n', 'name = "CRS_fast"\nrole = "predict"\n'))
-    with pytest.raises(StudyError, match=r"tests\['CRS_fast'\]\.role = 'predict': predicted tests are run by "
-                       r'\[runner\] route = "sand"'):
+def test_a_predicted_test_on_the_pressuremeter_route_or_no_calibrated_test_is_refused(tmp_path):
+    burswood = (STUDIES / "burswood_sbp.toml").read_text().replace('file = "../', f'file = "{STUDIES.parent}/')
+    first = burswood.index("[[tests]]")
+    path = tmp_path / "sbp.toml"
+    path.write_text(burswood[:first] + burswood[first:].replace("name = ", 'role = "predict"\nname = ', 1))
+    with pytest.raises(StudyError, match=r"\.role = 'predict': the pressuremeter route \(\[runner\] route = "
+                                         r'"sbp"\) predicts no test'):
         load_study(path)
     path = _edited(tmp_path, 'name = "test2"\n', 'name = "test2"\nrole = "predict"\n')
     text = path.read_text().replace('name = "test6"\n', 'name = "test6"\nrole = "predict"\n').replace(

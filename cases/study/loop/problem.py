@@ -232,13 +232,13 @@ class LoopProblem:
         return refined_evidence(like, prior, post, seed, getattr(self, "base_mode", None), self.executor)
 
     def finish_class(self, post, like, name, switches, run, out, seed, draws, wall_s, evidence=None,
-                     prior=None) -> tuple:
-        """After one class's calibration: summary.json (with the class, its switches, ``wall_s`` and the refined
-        evidence, :meth:`refined_evidence`), the class record (:meth:`class_record`, with the ``prior``'s ranges)
-        and the study's outputs. Returns (ModelClass, summary)."""
+                     prior=None, extra=None) -> tuple:
+        """After one class's calibration: summary.json (with the class, its switches, ``wall_s``, the refined
+        evidence, :meth:`refined_evidence`, and ``extra``), the class record (:meth:`class_record`, with the
+        ``prior``'s ranges) and the study's outputs. Returns (ModelClass, summary)."""
         summary = runner.write_summary(out, self.case, run, seed, post, like, extra={
             "model_class": name, "switches": switches, **self.summary_extra(switches), "calibration_wall_s": wall_s,
-            **({"evidence": evidence.to_dict()} if evidence is not None else {})})
+            **({"evidence": evidence.to_dict()} if evidence is not None else {}), **(extra or {})})
         cls = self.class_record(post, like, name, switches, seed, draws, summary, evidence, prior)
         self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"], summary, switches)
         return cls, summary

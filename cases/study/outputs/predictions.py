@@ -80,7 +80,7 @@ def _pooled(rows, label, curve):
 
 def prediction_lines(rows, amplitude: dict, check: list, level=0.95) -> list:
     """The report's Predictions section: the model-error amplitudes and their check (``check``: rows of the
-    leave-one-test-out calibrations, :func:`cases.study.routes.sand.leave_one_out`), one table row per predicted
+    leave-one-test-out calibrations, :func:`cases.study.routes.held_out.leave_one_out`), one table row per predicted
     curve and the pooled coverage per quantity, without and with the model-error term."""
     pct = f"{100 * level:g} %"
     lines = ["## Predictions", "",

@@ -170,10 +170,10 @@ def load_study(path, check_files=True) -> Study:
         ck.fail("tests", [t.name for t in tests], 'every test has role = "predict": at least one must be calibrated')
     runner = read_runner(ck, ck.table(doc.get("runner", {}), "runner"), names, tuple(references), calibrated)
     predicted = [i for i, t in enumerate(tests) if t.role == "predict"]
-    if predicted and runner["route"] != "sand":
+    if predicted and runner["route"] == "sbp":
         ck.fail(f"tests[{tests[predicted[0]].name!r}].role", "predict",
-                'predicted tests are run by [runner] route = "sand" studies '
-                f'(this study\'s route is {runner["route"]!r}); give role = "calibrate" or leave the test out')
+                'the pressuremeter route ([runner] route = "sbp") predicts no test; give role = "calibrate", leave '
+                'the test out, or run the study on the general route (route = "study")')
     enrichment = read_enrichment_priors(ck, doc.get("enrichment", {}), model, switches,
                                         any("sbp" in (t.type, t.apparatus) for t in tests))
     return Study(path, name, description, model, switches, fixed, free, tuple(log_uniform), (lo, hi), sigma_kind,

@@ -10,14 +10,17 @@ naming it and the study's route.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
+import inference
 from cases.study.cli import UsageError, arguments, non_negative_int, positive_int, quantity, run_settings
 from cases.study.loop.problem import CASE, StudyProblem, run_loop
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 from cases.study.routes import sand as sand_route
 from cases.study.routes import sbp as sbp_route
+from cases.study.routes.held_out import predict_held_out
 from cases.study.runner import announce_compilation, evaluate_once, kernel_files, out_lock, run_all, run_directories
 from cases.study.synthetic.generate import generate
 from constitutive.registry import class_name
@@ -128,9 +131,25 @@ def main(argv, description, study_path=None, quick_help="the study's [sampler.qu
 
 
 def _general(study, run, diagnose) -> int:
-    """The general route: calibrate the study's base class, or with ``diagnose`` run the missing-physics loop."""
-    observations, times = load_observations(study.tests)
-    problem = StudyProblem(study, observations, times, run.quick, run.processes, run.dispatch)
+    """The general route: calibrate the study's base class, or with ``diagnose`` run the missing-physics loop, on
+    the tests to calibrate; the tests with ``role = "predict"`` are predicted from the calibration and scored
+    (:func:`cases.study.routes.held_out.predict_held_out`; the loop leaves them out)."""
+    recorded, times = load_observations(study.tests)
+    calibrated = [t.name for t in study.tests if t.role != "predict"]
+    predicted = [t.name for t in study.tests if t.role == "predict"]
+
+    def problem_of(names, processes=run.processes):
+        """The study restricted to the tests ``names`` (in the study's order) as a StudyProblem."""
+        tests = tuple(t for t in study.tests if t.name in names)
+        observations = inference.Observations([recorded[t.name] for t in tests])
+        return StudyProblem(replace(study, tests=tests), observations, times, run.quick, processes, run.dispatch)
+
+    def likelihood_of(names):
+        sub = problem_of(names, 1)
+        return sub.make_likelihood(sub.observations, study.switches)
+
+    problem = problem_of(calibrated)
+    observations = problem.observations
     settings = study.settings(run.quick, run.samples)
     if diagnose and mpi_world() is not None:
         raise UsageError("--diagnose runs without mpirun (use --processes for a local pool)")
@@ -152,10 +171,22 @@ def _general(study, run, diagnose) -> int:
                 print(f"report: {out / 'report.md'} (diagnosis: {out / 'diagnosis.md'})", flush=True)
         return 0
 
-    def finish(one, seed, out, post):
-        return problem.finish_class(post, like, name, study.switches, one, out, seed, settings.predictive_draws,
-                                    post.wall_s)[1]
+    sampler = {"max_steps": settings.max_steps, "max_failure_fraction": problem.failure_fraction}
 
-    run_all(run, default_out, like, prior, settings.n_samples,
-            {"max_steps": settings.max_steps, "max_failure_fraction": problem.failure_fraction}, finish, kernels)
+    def finish(one, seed, out, post):
+        lines, extra = [], {}
+        if predicted:
+            lines, entry, _ = predict_held_out(likelihood_of(calibrated + predicted), calibrated, predicted,
+                                               likelihood_of, prior, post, one, out, seed, settings.n_samples,
+                                               sampler, study.name)
+            extra = {"calibration_tests": calibrated, "predicted_tests": predicted, "predictions": entry}
+        summary = problem.finish_class(post, like, name, study.switches, one, out, seed, settings.predictive_draws,
+                                       post.wall_s, extra=extra)[1]
+        if lines:
+            report = Path(out) / "report.md"
+            report.write_text(report.read_text().rstrip("\n") + "\n\n" + "\n".join(lines) +
+                              "\nFigure of the predictions: predictions.png.\n")
+        return summary
+
+    run_all(run, default_out, like, prior, settings.n_samples, sampler, finish, kernels)
     return 0

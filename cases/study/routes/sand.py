@@ -15,7 +15,6 @@ Every output names the calibration and the predicted tests; the parameter table 
 from __future__ import annotations
 
 import json
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,13 +24,12 @@ import inference
 from cases.study.checks import Checker, read_toml
 from cases.study.cli import UsageError, unit_hint
 from cases.study.forward.lab import LabForward
-from cases.study.outputs.figures.labels import QUANTITY_LABELS
 from cases.study.outputs.glossary import glossary_lines
-from cases.study.outputs.predictions import draws_at_records, plot_predictions, prediction_lines, score_predictions
 from cases.study.outputs.report import parameter_table
 from cases.study.programme import TestSpec
 from cases.study.reading.error_model import ErrorModel, read_error_model
 from cases.study.reading.records import write_records
+from cases.study.routes.held_out import predict_held_out
 from cases.study.routes.sand_study import (
     CURVES,
     conditions_of,
@@ -44,13 +42,11 @@ from cases.study.routes.sand_study import (
     write_figures,
     write_runs,
 )
-from cases.study.runner import calibrate, is_root, method_name, run_all, write_summary
-from inference.executors import mpi_world
+from cases.study.runner import is_root, method_name, run_all, write_summary
 from inference.observations import read_csv_table
-from inference.prediction import model_error_amplitude
 from inference.priors import Bound
 
-__all__ = ["SandStudy", "build", "QUANTITY_GROUPS", "default_error_model", "leave_one_out", "load_stress_ratio",
+__all__ = ["SandStudy", "build", "QUANTITY_GROUPS", "default_error_model", "load_stress_ratio",
            "load_undrained", "read_error_groups", "curve_sigmas", "record_files", "generate_records", "volume_lines",
            "run"]
 
@@ -200,56 +196,6 @@ def default_error_model(study) -> ErrorModel:
     if study.error_model is not None and study.error_model.groups:
         return study.error_model
     return ErrorModel(tuple(study.sigma_bounds), study.sigma_kind, dict(QUANTITY_GROUPS), where=str(study.path))
-
-
-def leave_one_out(s: SandStudy, error_model, run, out, seed, n_samples, sampler) -> tuple:
-    """The model-error amplitudes (P2) of docs/reference.md section 10 by leaving out each calibration test in turn:
-    calibrate on the others (the same settings, in ``out``/leave_one_out/<test>), the left-out test's relative
-    residuals at that calibration's MAP beyond the variance it predicts (its noise and its parameters' spread).
-    Returns ({curve name: a_k} pooled over the left-out tests, check rows: each left-out curve's coverage without
-    the model-error term and with the amplitude of the other left-out tests only). ({}, []) with fewer than two
-    calibration tests; a left-out test whose calibration or prediction fails is said on stderr and skipped."""
-    names = list(s.cal_obs.tests)
-    if len(names) < 2:
-        return {}, []
-    folds = []
-    for name in names:
-        kept = inference.Observations([s.cal_obs[t] for t in names if t != name])
-        left = inference.Observations([s.cal_obs[name]])
-        try:
-            like = likelihood(kept, sand_forward(kept, s.forward.fixed, s.grid), error_model)
-            like_left = likelihood(left, sand_forward(left, s.forward.fixed, s.grid), error_model)
-            # under mpirun the other ranks have left with the main run's executor: the root calibrates alone
-            executor = inference.SerialExecutor() if mpi_world() is not None else None
-            post = calibrate(like, s.prior, run, Path(out) / "leave_one_out" / name, seed, n_samples, executor,
-                             **sampler)
-            like_left.bind(post.names)
-            residuals = like_left.residuals(post.map_theta)
-            sims, sigma = draws_at_records(like_left, post)
-        except Exception as exc:  # noqa: BLE001 - a fold that cannot be run leaves the others their say
-            print(f"note: leave-one-out without {name}: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
-            continue
-        explained = {}
-        for k, key in enumerate(like_left.curve_keys):
-            drawn = sims[key][:, like_left.masks[key]]
-            explained[key] = float(np.mean(sigma[:, k] ** 2) + np.mean(np.var(drawn / drawn.mean(axis=0), axis=0)))
-        folds.append((name, like_left, post, {key: (residuals[key], explained[key]) for key in like_left.curve_keys}))
-
-    def amplitudes(chosen):
-        curves = {}
-        for _, _, _, terms in chosen:
-            for (_, curve), term in terms.items():
-                curves.setdefault(curve, []).append(term)
-        return {c: model_error_amplitude(*zip(*terms)) for c, terms in curves.items()}
-
-    check = []
-    for k, (name, like_left, post, _) in enumerate(folds):
-        others = amplitudes(folds[:k] + folds[k + 1:])
-        for r in score_predictions(like_left, post, [name], others):
-            check.append({"test": name, "curve": r["curve"], "coverage_noise": r["noise"]["coverage"],
-                          "coverage_model": r["model"]["coverage"] if r["curve"] in others else None,
-                          "amplitude": others.get(r["curve"])})
-    return amplitudes(folds), check
 
 
 def likelihood(observations, forward, error_model: ErrorModel | None = None) -> inference.Likelihood:
@@ -415,7 +361,7 @@ def run(study, run_settings, args) -> int:
     """Calibrate the sand study ``study`` with the command line's run settings and sand options (``free``,
     ``sweeps``, ``undrained``, ``error_groups``, ``single_sigma``, ``noise``, ``generate``, ``regenerate``): error
     groups by quantity unless ``single_sigma`` (the paper's one sigma_eps) or ``error_groups`` (a FILE's groups);
-    the predicted tests scored with the model-error amplitudes of :func:`leave_one_out`."""
+    the predicted tests scored with the model-error amplitudes of :func:`cases.study.routes.held_out.leave_one_out`."""
     runner = study.runner
     noise = args.noise
     if noise is None and runner["noise_levels"] is not None:
@@ -451,13 +397,15 @@ def run(study, run_settings, args) -> int:
     drained_predicted = [t for t in s.predicted if "e" in s.all_obs[t].curves]
 
     def finish(one, seed, out, post):
-        predictions, volume_rows, amplitude = [], [], {}
+        predictions, volume_rows, amplitude, predicted = [], [], {}, {}
         if s.predicted:
-            amplitude, check = leave_one_out(s, error_model, one, out, seed, settings.n_samples, sampler)
-            rows = score_predictions(s.like_all, post, s.predicted, amplitude)
-            predictions = prediction_lines(rows, amplitude, check)
-            plot_predictions(Path(out) / "predictions.png", rows, f"{study.name}: {method_name(one.method)}, "
-                             f"predictions (95 % bands)", QUANTITY_LABELS)
+            def likelihood_of(tests):
+                kept = inference.Observations([s.cal_obs[t] for t in tests])
+                return likelihood(kept, sand_forward(kept, s.forward.fixed, s.grid), error_model)
+
+            predictions, predicted, amplitude = predict_held_out(
+                s.like_all, list(s.cal_obs.tests), s.predicted, likelihood_of, s.prior, post, one, out, seed,
+                settings.n_samples, sampler, study.name)
         if runner["volume_at_pct"] and drained_predicted:
             volume_rows = volume_change_table(s.forward_all, post, s.all_obs, drained_predicted,
                                               tuple(runner["volume_at_pct"]), sigmas=curve_sigmas(s.like),
@@ -476,11 +424,7 @@ def run(study, run_settings, args) -> int:
         if s.predicted:
             extra["J_g_all_tests"] = _jg_all(s.like_all, post)
             extra["volume_change"] = volume_rows
-            extra["predictions"] = {"model_error_amplitude": amplitude, "leave_one_out": check,
-                                    "curves": [{k: v for k, v in r.items() if k in ("test", "curve", "unit",
-                                                                                    "point_error", "amplitude")}
-                                               | {b: {k: v for k, v in r[b].items() if k not in ("lower", "upper")}
-                                                  for b in ("noise", "model")} for r in rows]}
+            extra["predictions"] = predicted
         summary = write_summary(out, study.name, one, seed, post, s.like, extra=extra)
         _report(out, one, seed, post, s, summary, volume_rows, truth, noise if synthetic else None,
                 reference_curves, predictions)

@@ -1,0 +1,31 @@
+"""Tests a general-route study predicts but does not calibrate on (``role = "predict"``, docs/reference.md section
+10): SYNTHETIC constant-rate-of-strain oedometer tests of the shipped oedometer_crs example's clay (viscous
+ANICREEP, 2 % noise) at 0.36 and 3.6 %/h calibrated, a third at 1.1 %/h predicted. Oracle: the records come from the
+calibrated model class itself, so the predicted test's 95 % band (parameters, noise, the leave-one-out model error)
+holds nearly all its points and its predictive mean lies within the noise of them."""
+import json
+from pathlib import Path
+
+from cases import calibrate as cal
+from cases.study.synthetic.generate import generate
+
+EXAMPLES = Path(__file__).resolve().parents[4] / "cases" / "examples"
+MID = ('\n[[tests]]\nname = "CRS_mid"\nrole = "predict"\nfile = "data/oedometer_crs_mid.csv"\n'
+       'type = "oedometer_crs"\nsigma_v0 = 20.0\nK0 = 0.6\nstrain_rate = 3.0e-6\n')
+
+
+def test_a_predicted_crs_test_is_scored_with_its_band(tmp_path):
+    study = tmp_path / "crs.toml"
+    study.write_text((EXAMPLES / "oedometer_crs.toml").read_text() + MID)
+    generate(study)
+    out = tmp_path / "out"
+    assert cal.main([str(study), "--quick", "--processes", "1", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["calibration_tests"] == ["CRS_slow", "CRS_fast"] and summary["predicted_tests"] == ["CRS_mid"]
+    assert set(summary["J_g_at_map"]) == {"CRS_slow", "CRS_fast"}   # the predicted test is not calibrated on
+    (row,) = summary["predictions"]["curves"]
+    assert row["test"] == "CRS_mid" and row["model"]["coverage"] >= 0.85 and row["point_error"] < 0.04
+    assert {c["test"] for c in summary["predictions"]["leave_one_out"]} == {"CRS_slow", "CRS_fast"}
+    assert all((out / "leave_one_out" / t / "progress.log").is_file() for t in ("CRS_slow", "CRS_fast"))
+    report = (out / "report.md").read_text()
+    assert "## Predictions" in report and "| CRS_mid |" in report and (out / "predictions.png").is_file()
