@@ -150,6 +150,7 @@ def _general(study, run, diagnose) -> int:
 
     problem = problem_of(calibrated)
     observations = problem.observations
+    like_all = likelihood_of(calibrated + predicted) if predicted else None   # its errors before any calibration
     settings = study.settings(run.quick, run.samples)
     if diagnose and mpi_world() is not None:
         raise UsageError("--diagnose runs without mpirun (use --processes for a local pool)")
@@ -176,9 +177,8 @@ def _general(study, run, diagnose) -> int:
     def finish(one, seed, out, post):
         lines, extra = [], {}
         if predicted:
-            lines, entry, _ = predict_held_out(likelihood_of(calibrated + predicted), calibrated, predicted,
-                                               likelihood_of, prior, post, one, out, seed, settings.n_samples,
-                                               sampler, study.name)
+            lines, entry, _ = predict_held_out(like_all, calibrated, predicted, likelihood_of, prior, post, one, out,
+                                               seed, settings.n_samples, sampler, study.name)
             extra = {"calibration_tests": calibrated, "predicted_tests": predicted, "predictions": entry}
         summary = problem.finish_class(post, like, name, study.switches, one, out, seed, settings.predictive_draws,
                                        post.wall_s, extra=extra)[1]
