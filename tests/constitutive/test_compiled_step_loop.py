@@ -345,9 +345,10 @@ def test_swelling_failure_reason():
 def test_one_point_and_a_batch_share_one_compiled_loop():
     """The compiled loops are given C-contiguous, writable arrays whatever the batch size: a broadcast view of one
     point is contiguous but read-only, and numba would compile a second specialization of each loop for it (18-28 s
-    more of a cold start for ANICREEP's), as the sampler's first evaluation of one prior draw did before its batches. A batch, then its first point
-    alone, through both drivers (an oedometer CRS and a load ramp held for an hour): no new specialization, and the
-    one point's history is the batch's first row."""
+    more of a cold start for ANICREEP's), as the sampler's first evaluation of one prior draw did before its
+    batches. A batch, then its first point alone, through both drivers (an oedometer CRS and a load ramp held for an
+    hour): no new specialization, and the one point's history is the batch's first row."""
+
     from constitutive import _mcc_kernel
 
     values = dict(M=[1.0, 1.2, 1.4], lambda_=[0.15, 0.2, 0.25], kappa=[0.02, 0.03, 0.04], nu=[0.2, 0.25, 0.3],
