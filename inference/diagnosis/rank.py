@@ -73,7 +73,7 @@ from .screening import ScreenReport
 from .trust import confirmation_blocks, highest_estimate, importance_checked, sampler_disagrees
 
 __all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "rank_candidates", "pattern_explained",
-           "misfit_explained", "conclude"]
+           "misfit_explained", "conclude", "unseen"]
 
 ROLES = ("primary", "supporting")
 
