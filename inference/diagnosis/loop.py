@@ -39,8 +39,8 @@ Steps of `run_loop`:
    ``max_steps`` steps. Each later step is a `LoopResult` in
    ``LoopResult.steps`` (the first step is the result itself); ``LoopResult.chain`` lists the confirmed candidates.
    Two effects at once can hide each other: the leading candidate may pass every check but leave part of the
-   located misfit, which belongs to the other effect, or, named by its own signature, pass every check but the
-   lead over the model-form class, whose smooth discrepancy absorbs what the other effect leaves
+   located misfit, which belongs to the other effect, or, with a signature the records can show, pass every check
+   but the lead over the model-form class, whose smooth discrepancy absorbs what the other effect leaves
    (`records.Conclusion.tentative`). Such a candidate is adopted tentatively (once in a chain): when the next step
    confirms a second effect on top of it, the combined class removes the misfit located on the tentative step's
    base (`rank.misfit_explained`, the rule's reduction), beats that step's model-form class by the rule's margin

@@ -339,10 +339,11 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
                 omitted = chosen
             else:   # all but its pattern or misfit explained: a second effect may hold the rest (`loop`, step 6)
                 tentative = chosen
-        elif not beats_form and rule.joint_below_model_form and getattr(entry.get(chosen), "named", False) \
+        elif not beats_form and rule.joint_below_model_form and not unseen(entry.get(chosen)) \
                 and not blocking(chosen, enriched[chosen], over_base):
-            # named by its own signature, beyond the base by trusted evidence, below the model-form class: a second
-            # effect may hold what the discrepancy takes up (`loop`, step 6)
+            # beyond the base by trusted evidence, below the model-form class, named by its signature or by the
+            # evidence with a signature the records can show: a second effect may hold what the discrepancy takes
+            # up (`loop`, step 6)
             tentative = chosen
     decisions = []
     for r in ranked:

@@ -68,8 +68,9 @@ class DecisionRule:
     the threshold); numerical_fraction: the base's discretisation error, as a fraction of the located misfit, at which
     the misfit counts as numerical (no enrichment is confirmed on it; `trust.numerics_comparable`); sampler_agrees:
     the sampler's own ln Z must not favour the base class (the refined estimates decide the size of ln B, not its
-    sign alone); joint_below_model_form: a leader named by its own signature that passes every check but the lead
-    over the model-form class is tentative (`rank.conclude`): two effects at once can leave a smooth discrepancy as
+    sign alone); joint_below_model_form: a leader that passes every check but the lead over the model-form class
+    (named by its signature, or by the evidence with a signature the records can show) is tentative
+    (`rank.conclude`): two effects at once can leave a smooth discrepancy as
     good as either alone, and the stepwise loop confirms both only when their combined class beats the model-form
     class too (`loop`, step 6); signature_unseen_confirms: a candidate named by the evidence alone may confirm
     although every primary item of its signature is "not reported" (no record where its covariate is defined: the
@@ -270,9 +271,10 @@ class Conclusion:
     model_form: None without a model-form class, else {class, log_bayes (over the base), log_bayes_enriched
     {enriched class: ln Z - ln Z_model_form}, prevails (no enrichment is confirmed and the model-form class beats the
     base by the threshold: a misfit of model form)}; tentative: when nothing is confirmed, the candidate that passes
-    every check but leaves part of the located misfit or of its own pattern, or (named by its signature, under
-    ``rule.joint_below_model_form``) every check but the lead over the model-form class (a second effect may hold
-    the rest: the stepwise loop tries it as the next step's base), else None."""
+    every check but leaves part of the located misfit or of its own pattern, or (under
+    ``rule.joint_below_model_form``, with a signature the records can show) every check but the lead over the
+    model-form class (a second effect may hold the rest: the stepwise loop tries it as the next step's base), else
+    None."""
 
     omitted_physics: str
     log_bayes: dict

@@ -241,19 +241,28 @@ def test_a_leader_that_leaves_its_misfit_is_tentative_not_confirmed():
     assert c.omitted_physics == "A" and c.tentative is None
 
 
-def test_a_named_leader_below_the_model_form_class_is_tentative():
+def test_a_leader_below_the_model_form_class_is_tentative():
     """Two effects at once (a CRS programme with viscosity and bonding): the viscous class beats the base by 63 and
     is named by its signature, but stays 1.3 below the model-form class, whose smooth discrepancy also absorbs what
-    bonding leaves: it is tentative (the stepwise loop tries a second effect on top of it). Not named by its own
-    signature, or with the rule's ``joint_below_model_form`` off, it is not even that."""
+    bonding leaves: it is tentative (the stepwise loop tries a second effect on top of it). Named by the evidence
+    alone it is too, unless its signature cannot show in the records (every primary item "not reported"); with the
+    rule's ``joint_below_model_form`` off, or below the threshold, it is not."""
+    from inference.diagnosis.records import SignatureItem
+
     base = _class("base", "base", None, 0.0)
     form = _class("base + delta", "model form", None, 64.3)
     leader = _class("base + A", "enriched", "A", 63.0, _params(M=1.2, xi=8.0))
     c = diagnosis.conclude(_ranked("A"), [base, form, leader], RULE)
     assert c.omitted_physics == "none" and c.tentative == "A"
     assert "-1.30 < 20 over the model-form class" in c.candidates[0].decision
-    unnamed = [replace(r, named=False) for r in _ranked("A")]
-    assert diagnosis.conclude(unnamed, [base, form, leader], RULE).tentative is None
+
+    def by_evidence(status):
+        item = SignatureItem("hold time after loading", "primary", 1.0, -1, "", None, None, None, None, None, None,
+                             status, 0.0)
+        return [replace(r, named=False, items=(item,)) for r in _ranked("A")]
+
+    assert diagnosis.conclude(by_evidence("not significant"), [base, form, leader], RULE).tentative == "A"
+    assert diagnosis.conclude(by_evidence("not reported"), [base, form, leader], RULE).tentative is None
     off = replace(RULE, joint_below_model_form=False)
     assert diagnosis.conclude(_ranked("A"), [base, form, leader], off).tentative is None
     below = replace(leader, log_evidence=16.0)   # below the threshold over the base
