@@ -45,9 +45,8 @@ Steps of `run_loop`:
    confirms a second effect on top of it, the combined class removes the misfit located on the tentative step's
    base (`rank.misfit_explained`, the rule's reduction), beats that step's model-form class by the rule's margin
    and the second effect's class alone (calibrated at that step) by the threshold, both are confirmed
-   (``LoopResult.joint`` of that step); otherwise neither is, and the discovery stops. (Beyond the base by its
-   trusted evidence is asked of a tentative candidate below the model-form class; beating the model-form class is
-   asked of the combined class.)
+   (``LoopResult.joint`` of that step); otherwise neither is, and the discovery stops. A tentative candidate below
+   the model-form class must still beat the base by the threshold with trusted evidence.
 The loop's settings (alpha, level, n_shifts and the rule) stay with its result (``LoopResult.settings``), so that
 ``files.write_input(..., **result.settings)`` records them for the re-diagnosis of the run directory (of each step).
 """
@@ -198,6 +197,7 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), 
     result = _step(problem, base, settings, enrich, getattr(problem, "compare_conventions", None))
     adopt = getattr(problem, "adopt", None)
     last, tried_tentative = result, False
+    later = {**settings, "rule": replace(rule, signature_unseen_confirms=False)}   # the rule of the later steps
     while adopt is not None and 1 + len(result.steps) < max_steps:
         name, tentative = last.final.omitted_physics, False
         if name == "none":
@@ -205,7 +205,6 @@ def run_loop(problem: LoopProblem, alpha=0.05, level=0.95, rule=DecisionRule(), 
                 break
             name, tentative, tried_tentative = last.final.tentative, True, True
         confirmed = next(c for c in last.classes if c.role == "enriched" and c.candidate == name)
-        later = {**settings, "rule": replace(rule, signature_unseen_confirms=False)}
         step = _step(problem, replace(adopt(confirmed), role="base", candidate=None), later, enrich)
         result.steps.append(step)
         if tentative:

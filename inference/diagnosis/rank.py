@@ -310,8 +310,9 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
     over_base = highest_estimate(base, rule) + threshold
     floor = max(over_base, -np.inf if model_form is None else highest_estimate(model_form, rule) + form_lead)
 
-    def blocking(name, cl, floor):
-        reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule, floor)
+    def blocking(name, cl, must_reach):
+        """Why the class ``cl`` of candidate ``name`` cannot confirm, its evidence checked against ``must_reach``."""
+        reasons = confirmation_blocks(cl, getattr(entry.get(name), "enrichment", None), rule, must_reach)
         if numerics:
             reasons.append(numerics)
         if not rule.signature_unseen_confirms and unseen(entry.get(name)):
@@ -320,7 +321,7 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
                            " and on top of a confirmed effect the evidence alone does not name it")
         # against the base only, and not when both refined estimates passed an importance check: a sampler's
         # estimate with few particles lags the more the more parameters a class has (`trust`, check 4)
-        if rule.sampler_agrees and not (importance_checked(cl, rule, floor) and importance_checked(base, rule)):
+        if rule.sampler_agrees and not (importance_checked(cl, rule, must_reach) and importance_checked(base, rule)):
             disagree = sampler_disagrees(cl, base)
             if disagree:
                 reasons.append(disagree)

@@ -70,9 +70,9 @@ class DecisionRule:
     the sampler's own ln Z must not favour the base class (the refined estimates decide the size of ln B, not its
     sign alone); joint_below_model_form: a leader that passes every check but the lead over the model-form class
     (named by its signature, or by the evidence with a signature the records can show) is tentative
-    (`rank.conclude`): two effects at once can leave a smooth discrepancy as
-    good as either alone, and the stepwise loop confirms both only when their combined class beats the model-form
-    class too (`loop`, step 6); signature_unseen_confirms: a candidate named by the evidence alone may confirm
+    (`rank.conclude`): two effects at once can leave a smooth discrepancy as good as either alone, and the stepwise
+    loop confirms both only when their combined class beats the model-form class too (`loop`, step 6);
+    signature_unseen_confirms: a candidate named by the evidence alone may confirm
     although every primary item of its signature is "not reported" (no record where its covariate is defined: the
     programme cannot show the effect's own signature); the stepwise loop sets it False from the second step on, where
     a flexible class takes up what the confirmed class leaves (`rank.conclude`). A study calibrates the threshold and

@@ -28,6 +28,15 @@ def _ranked(*names):
     return [diagnosis.CandidateScore(n, "", 0.0, True, True, False, ENRICHMENT, "") for n in names]
 
 
+def _by_evidence(covariate, *statuses):
+    """_ranked("A") named by the evidence alone, with primary signature items on ``covariate`` of these statuses."""
+    from inference.diagnosis.records import SignatureItem
+
+    items = tuple(SignatureItem(covariate, "primary", 1.0, 1, "", None, None, None, None, None, None, status, 0.0)
+                  for status in statuses)
+    return [replace(r, named=False, items=items) for r in _ranked("A")]
+
+
 def test_a_candidate_must_beat_the_model_form_class_too():
     base = _class("base", "base", None, 0.0)
     form = _class("base + delta", "model form", None, 40.0)
@@ -247,22 +256,16 @@ def test_a_leader_below_the_model_form_class_is_tentative():
     bonding leaves: it is tentative (the stepwise loop tries a second effect on top of it). Named by the evidence
     alone it is too, unless its signature cannot show in the records (every primary item "not reported"); with the
     rule's ``joint_below_model_form`` off, or below the threshold, it is not."""
-    from inference.diagnosis.records import SignatureItem
-
     base = _class("base", "base", None, 0.0)
     form = _class("base + delta", "model form", None, 64.3)
     leader = _class("base + A", "enriched", "A", 63.0, _params(M=1.2, xi=8.0))
     c = diagnosis.conclude(_ranked("A"), [base, form, leader], RULE)
     assert c.omitted_physics == "none" and c.tentative == "A"
     assert "-1.30 < 20 over the model-form class" in c.candidates[0].decision
-
-    def by_evidence(status):
-        item = SignatureItem("hold time after loading", "primary", 1.0, -1, "", None, None, None, None, None, None,
-                             status, 0.0)
-        return [replace(r, named=False, items=(item,)) for r in _ranked("A")]
-
-    assert diagnosis.conclude(by_evidence("not significant"), [base, form, leader], RULE).tentative == "A"
-    assert diagnosis.conclude(by_evidence("not reported"), [base, form, leader], RULE).tentative is None
+    reported = _by_evidence("hold time after loading", "not significant")
+    assert diagnosis.conclude(reported, [base, form, leader], RULE).tentative == "A"
+    unseen = _by_evidence("hold time after loading", "not reported")
+    assert diagnosis.conclude(unseen, [base, form, leader], RULE).tentative is None
     off = replace(RULE, joint_below_model_form=False)
     assert diagnosis.conclude(_ranked("A"), [base, form, leader], off).tentative is None
     below = replace(leader, log_evidence=16.0)   # below the threshold over the base
@@ -287,20 +290,14 @@ def test_a_signature_the_records_cannot_show_does_not_confirm_on_top_of_an_effec
     unloading in the programme). With ``signature_unseen_confirms`` off, as the stepwise loop sets it from the second
     step on, it does not confirm, and the reason says why; a primary item the records report (even not significant)
     lets it confirm, as at the first step."""
-    from inference.diagnosis.records import SignatureItem
-
-    def item(status):
-        return SignatureItem("hold time after unloading", "primary", 1.0, 1, "", None, None, None, None, None, None,
-                             status, 0.0)
-
     base = _class("base", "base", None, 0.0)
     swelling = _class("base + A", "enriched", "A", 99.8, _params(M=1.2, xi=8.0))
-    unseen = [replace(r, named=False, items=(item("not reported"), item("not reported"))) for r in _ranked("A")]
+    unseen = _by_evidence("hold time after unloading", "not reported", "not reported")
     later = replace(RULE, signature_unseen_confirms=False)
     assert diagnosis.conclude(unseen, [base, swelling], RULE).omitted_physics == "A"
     d = diagnosis.conclude(unseen, [base, swelling], later)
     assert d.omitted_physics == "none" and d.tentative is None
     assert "its signature cannot show in these records (no record reports hold time after unloading)" in \
         d.candidates[0].decision
-    seen = [replace(r, items=(item("not significant"), item("not reported"))) for r in unseen]
+    seen = _by_evidence("hold time after unloading", "not significant", "not reported")
     assert diagnosis.conclude(seen, [base, swelling], later).omitted_physics == "A"
