@@ -150,7 +150,8 @@ def _general(study, run, diagnose) -> int:
 
     problem = problem_of(calibrated)
     observations = problem.observations
-    like_all = likelihood_of(calibrated + predicted) if predicted else None   # its errors before any calibration
+    # every test's likelihood, built before any calibration: a predicted curve that no error group takes stops at load
+    like_all = likelihood_of(calibrated + predicted) if predicted else None
     settings = study.settings(run.quick, run.samples)
     if diagnose and mpi_world() is not None:
         raise UsageError("--diagnose runs without mpirun (use --processes for a local pool)")
