@@ -82,7 +82,9 @@ class EvidenceEstimate:
     size of the importance weights; n_draws: proposal draws; n_solves: forward solves spent (mode, Hessian, draws);
     log_posterior_mode: g at the refined mode; mode: the refined mode in the parameters (theta, the prior's order);
     log_lower: a lower bound of ln Z with probability 1 - LOWER_BOUND_RISK (module docstring, step 6; None when no
-    draw of the first batch had weight)."""
+    draw of the first batch had weight); log_likelihood_mode: ln L at the refined mode (g less the log prior density
+    and the log Jacobian of u): Z = int L pi dtheta <= max L, so no estimate of this class's ln Z can exceed the
+    highest ln L it reaches (None in records made before it was kept)."""
 
     log_evidence: float
     method: str
@@ -95,6 +97,7 @@ class EvidenceEstimate:
     log_posterior_mode: float
     mode: tuple = ()
     log_lower: float | None = None
+    log_likelihood_mode: float | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -302,9 +305,12 @@ def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, 
     log_is, ess, error, drawn, own = _importance(t, u, cov, n_draws, min_ess, adapt_rounds, df,
                                                  np.random.default_rng(seed))
     use_is = log_is is not None and ess >= min_ess * drawn
+    theta = t.to_theta(u[None, :])
+    log_likelihood_mode = float(f0 - prior.logpdf(theta)[0] - t.log_jacobian(u[None, :])[0])
     return EvidenceEstimate(log_is if use_is else log_laplace, "importance sampling" if use_is else "Laplace",
                             log_laplace, log_is, error, ess, drawn, t.n_solves, float(f0),
-                            tuple(float(v) for v in t.to_theta(u)), _lower_bound(own, adapt_rounds))
+                            tuple(float(v) for v in theta[0]), _lower_bound(own, adapt_rounds),
+                            log_likelihood_mode)
 
 
 def _lower_bound(own, adapt_rounds):

@@ -70,7 +70,7 @@ from .records import (
     SignatureItem,
 )
 from .screening import ScreenReport
-from .trust import confirmation_blocks, highest_estimate, importance_checked, sampler_disagrees
+from .trust import confirmation_blocks, highest_estimate, importance_checked, out_of_reach, sampler_disagrees
 
 __all__ = ["STRONG_LOG_BAYES", "PATTERN_REDUCTION", "MISFIT_REDUCTION", "rank_candidates", "pattern_explained",
            "misfit_explained", "conclude", "unseen"]
@@ -319,9 +319,11 @@ def conclude(ranked: list, classes: list, rule=DecisionRule(), explained=None, n
             reasons.append("its signature cannot show in these records (no record reports "
                            f"{' or '.join(sorted({i.covariate for i in entry[name].items if i.role == 'primary'}))}),"
                            " and on top of a confirmed effect the evidence alone does not name it")
-        # against the base only, and not when both refined estimates passed an importance check: a sampler's
-        # estimate with few particles lags the more the more parameters a class has (`trust`, check 4)
-        if rule.sampler_agrees and not (importance_checked(cl, rule, must_reach) and importance_checked(base, rule)):
+        # against the base only, and not when the class's refined estimate passed an importance check and the
+        # base's did too or cannot reach it: a sampler's estimate with few particles lags the more the more
+        # parameters a class has (`trust`, check 4)
+        if rule.sampler_agrees and not (importance_checked(cl, rule, must_reach) and (
+                importance_checked(base, rule) or out_of_reach(cl, base, threshold))):
             disagree = sampler_disagrees(cl, base)
             if disagree:
                 reasons.append(disagree)

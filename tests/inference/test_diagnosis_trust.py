@@ -8,7 +8,13 @@ import numpy as np
 
 from inference import diagnosis
 from inference.diagnosis import DecisionRule, ModelClass
-from inference.diagnosis.trust import confirmation_blocks, evidence_check, evidence_trusted, sampler_disagrees
+from inference.diagnosis.trust import (
+    confirmation_blocks,
+    evidence_check,
+    evidence_trusted,
+    out_of_reach,
+    sampler_disagrees,
+)
 
 RULE = DecisionRule(threshold=20.0)
 ENRICHMENT = {"inert_at": {"xi": "lower", "tau": "lower"}}
@@ -206,6 +212,27 @@ def test_the_sampler_sign_is_not_asked_of_two_importance_checked_estimates():
     d = diagnosis.conclude(_ranked("A"), [unchecked, enriched], RULE)
     assert d.omitted_physics == "none" and "favours the base class" in d.candidates[0].decision
 
+
+def test_the_sampler_sign_is_not_asked_when_the_base_cannot_reach_the_class():
+    """A swelling class on a viscous base (a relaxation programme with both effects): importance sampling 302.42 (ESS
+    140 of 512), its sampler stuck at 159.6 in a poorer mode; the base's Laplace 223.02 and importance estimate
+    225.8 (ESS 26 of 1024) disagree, its sampler says 198.4. The base's ln L at its refined mode, 250.0, bounds
+    every estimate of its ln Z (Z <= max L), 52.4 below the class: the sampler's sign is not asked. With the base's
+    ln L within the threshold of the class, or not recorded, it is."""
+    base_ev = {"log_evidence": 223.02, "method": "Laplace", "log_laplace": 223.02, "log_is": 225.8, "ess": 26.2,
+               "n_draws": 1024, "std_error": 0.19, "log_likelihood_mode": 250.0}
+    base = _class("base", "base", None, 223.02, sampler=198.4, evidence=base_ev)
+    ev = {"log_evidence": 302.42, "method": "importance sampling", "log_laplace": 302.53, "log_is": 302.42,
+          "ess": 140.3, "n_draws": 512, "std_error": 0.07}
+    enriched = _class("e", "enriched", "A", 302.42, _params(M=1.2, xi=8.0), sampler=159.6, evidence=ev)
+    assert sampler_disagrees(enriched, base) and evidence_check(base, RULE) == ""
+    assert out_of_reach(enriched, base, 20.0) and not out_of_reach(enriched, base, 52.5)
+    assert diagnosis.conclude(_ranked("A"), [base, enriched], RULE).omitted_physics == "A"
+    for top in (290.0, None):
+        near = replace(base, evidence={**base_ev, "log_likelihood_mode": top})
+        d = diagnosis.conclude(_ranked("A"), [near, enriched], RULE)
+        assert d.omitted_physics == "none" and "favours the base class (ln B = -38.8 by the sampler" in \
+            d.candidates[0].decision
 
 def test_a_lower_bound_that_clears_the_base_and_the_model_form_class_checks_the_evidence():
     """An IL programme with hidden destructuration: the class's Laplace value 259.86 and importance estimate 264.34

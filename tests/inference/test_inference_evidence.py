@@ -58,6 +58,23 @@ def test_log_uniform_parameter():
     assert abs(e.log_evidence - (-math.log(math.log(1e4)))) < 4 * e.std_error + 0.01
 
 
+def test_the_log_likelihood_at_the_mode_is_the_likelihood_there_and_bounds_the_evidence():
+    """A uniform and a log-uniform parameter: L = N(x; 0.3, 0.05^2) N(ln c; ln 0.01, 0.2^2). The recorded ln L at the
+    mode is the likelihood evaluated there (g less the prior and both Jacobians), at most the analytic maximum, and
+    above ln Z (Z = int L pi <= max L)."""
+    prior = Prior([Bound("x", 0.0, 1.0), Bound("c", 1e-4, 1.0, "log-uniform")])
+
+    def log_like(theta):
+        theta = np.atleast_2d(theta)
+        return stats.norm.logpdf(theta[:, 0], 0.3, 0.05) + stats.norm.logpdf(np.log(theta[:, 1]), math.log(0.01), 0.2)
+
+    start = np.column_stack([np.full(64, 0.35), np.full(64, 0.02)]) * np.exp(
+        0.1 * np.random.default_rng(5).standard_normal((64, 2)))
+    e = mode_evidence(log_like, prior, start, seed=4)
+    top = float(log_like(np.array([[0.3, 0.01]]))[0])
+    assert abs(e.log_likelihood_mode - float(log_like(np.array([e.mode]))[0])) < 1e-9
+    assert e.log_evidence < e.log_likelihood_mode <= top + 1e-12
+
 def test_curved_posterior_is_flagged_and_bounded():
     """Rosenbrock (curvature 100 along a parabola): far from Gaussian even in the logit map. The local curvature
     places a proposal whose weights are erratic, so the effective sample size stays under ``min_ess`` and the
