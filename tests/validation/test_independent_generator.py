@@ -246,6 +246,23 @@ def test_identifiability_control_is_its_own_plain_clay_and_a_bonded_clay_is_not(
     assert np.sqrt(np.mean(bonded ** 2)) > 1.0          # the bonded clay's records differ from the plain clay's
 
 
+def test_identifiability_against_an_effect_is_zero_on_its_own_records_and_sees_a_second_effect():
+    # the clay fitted against holds viscosity (C_alpha_e free): at the generating values it reproduces the viscous
+    # clay's own records exactly, and the records of viscosity with delayed swelling on the relaxation programme
+    # (strain held after unloading: the stress rises) differ from it by far more than the noise
+    from validation.independent.identifiability import CLAY as PLAIN
+    from validation.independent.identifiability import plain_residual, records_with_effect
+    clay = {**{k: PLAIN[k] for k in ("M", "lambda_", "kappa", "sigma_p")}, "C_alpha_e": 0.015}
+    own = plain_residual("relaxation", records_with_effect("relaxation", "viscosity", 1), clay, "viscosity")
+    assert np.max(np.abs(own)) == 0.0
+    both = records_with_effect("relaxation", "viscosity+time-dependent swelling", 1)
+    assert np.sqrt(np.mean(plain_residual("relaxation", both, clay, "viscosity") ** 2)) > 1.0
+    # the plain clay's parameters alone cannot take the viscous clay's place: C_alpha_e of the fitted clay matters
+    slower = plain_residual("relaxation", records_with_effect("relaxation", "viscosity", 1),
+                            {**clay, "C_alpha_e": 0.010}, "viscosity")
+    assert np.sqrt(np.mean(slower ** 2)) > 1.0
+
+
 @pytest.mark.slow
 def test_identifiability_fit_recovers_the_generating_clay_from_a_distant_start():
     # the control's records are the plain clay's own: least squares from 10-20 % off must return the generating
@@ -258,3 +275,15 @@ def test_identifiability_fit_recovers_the_generating_clay_from_a_distant_start()
     assert fit["E"] < 0.1
     for name, value in (("M", 1.2), ("lambda_", 0.25), ("kappa", 0.05), ("sigma_p", 100.0)):
         assert fit["values"][name] == pytest.approx(value, rel=5e-3), name
+
+
+@pytest.mark.slow
+def test_identifiability_fit_against_viscosity_recovers_the_viscous_clay():
+    # the viscous clay's own records, fitted against the viscous clay from 10-20 % off: E ~ 0 and the generating
+    # values back, C_alpha_e included (the same oracle as the plain clay's above)
+    from validation.independent.identifiability import best_plain_fit
+    fit = best_plain_fit("relaxation", "viscosity", 1, against="viscosity",
+                         start={"M": 1.32, "lambda_": 0.28, "kappa": 0.056, "sigma_p": 118.0, "C_alpha_e": 0.018})
+    assert fit["E"] < 0.1
+    for name, value in (("lambda_", 0.25), ("kappa", 0.05), ("sigma_p", 100.0), ("C_alpha_e", 0.015)):
+        assert fit["values"][name] == pytest.approx(value, rel=1e-2), name

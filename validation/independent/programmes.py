@@ -52,9 +52,10 @@ DAY = 86400.0
 def material(effect: str, clay: dict | None = None, conventions: dict | None = None):
     """(model, chi0) of the clay with ``effect`` (of :data:`EFFECTS` or :data:`COMBINED`: the creep-rate law where
     it holds viscosity, else the elastoplastic clay, with the effect's other parameters); ``clay`` overrides values
-    of :data:`CLAY`, ``conventions`` are the models' convention options (:mod:`validation.independent.models`;
-    default ours)."""
+    of :data:`CLAY` and of the effect's own parameters (e.g. ``C_alpha_e``), ``conventions`` are the models'
+    convention options (:mod:`validation.independent.models`; default ours)."""
     c, e, conv = {**CLAY, **(clay or {})}, {**EFFECTS, **COMBINED}[effect], conventions or {}
+    e = {k: c.get(k, v) for k, v in e.items()}
     base = (c["M"], c["lambda_"], c["kappa"], c["nu"])
     options = {k: v for k, v in e.items() if k not in ("C_alpha_e", "tau", "chi0")}
     if "C_alpha_e" in e:
