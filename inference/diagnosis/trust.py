@@ -30,9 +30,9 @@ A class cannot confirm when
    <= max L, so no estimate of the base, checked or not, could reach it unless the base fits far better somewhere
    its sampler and its climb never went (a swelling class on a viscous base: importance sampling 302.4, ESS 140 of
    512, its sampler stuck at 159.6 in a poorer mode; the base's ln L at its mode 250.0). Nor is it applied against
-   the model-form class, whose several extra parameters
-   make the few-particle sampler's estimate lag further: on a CRS programme with hidden viscosity the sampler put
-   the model-form class 9.1 above the viscous one, the refined estimates 14.8 below.
+   the model-form class, whose several extra parameters make the few-particle sampler's estimate lag further: on a
+   CRS programme with hidden viscosity the sampler put the model-form class 9.1 above the viscous one, the refined
+   estimates 14.8 below.
 And no class confirms anything when the base's misfit is of the size of its forward model's own discretisation
 error (`numerics_comparable`: the refined-minus-calibrated difference at the base's mode reaches
 ``numerical_fraction`` of the located misfit): the misfit is then not shown to be physics at all.

@@ -234,6 +234,7 @@ def test_the_sampler_sign_is_not_asked_when_the_base_cannot_reach_the_class():
         assert d.omitted_physics == "none" and "favours the base class (ln B = -38.8 by the sampler" in \
             d.candidates[0].decision
 
+
 def test_a_lower_bound_that_clears_the_base_and_the_model_form_class_checks_the_evidence():
     """An IL programme with hidden destructuration: the class's Laplace value 259.86 and importance estimate 264.34
     (ESS 17 of 1024) disagree, but the first batch's estimate 264.67 gives a 95 % lower bound 261.67 (Markov), above

@@ -75,6 +75,7 @@ def test_the_log_likelihood_at_the_mode_is_the_likelihood_there_and_bounds_the_e
     assert abs(e.log_likelihood_mode - float(log_like(np.array([e.mode]))[0])) < 1e-9
     assert e.log_evidence < e.log_likelihood_mode <= top + 1e-12
 
+
 def test_curved_posterior_is_flagged_and_bounded():
     """Rosenbrock (curvature 100 along a parabola): far from Gaussian even in the logit map. The local curvature
     places a proposal whose weights are erratic, so the effective sample size stays under ``min_ess`` and the

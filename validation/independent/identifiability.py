@@ -38,8 +38,9 @@ __all__ = ["ONE_DIMENSIONAL", "FREE", "AGAINST_FREE", "records_with_effect", "pl
 ONE_DIMENSIONAL = ("crs", "il", "relaxation")
 #: the plain clay's free values and their bounds (the study files' priors)
 FREE = {"M": (0.8, 1.6), "lambda_": (0.1, 0.5), "kappa": (0.01, 0.09), "sigma_p": (30.0, 400.0)}
-#: the parameters of the effect fitted against, free where it has them (the catalog's enrichment priors)
-AGAINST_FREE = {"C_alpha_e": (0.001, 0.1), "chi0": (0.0, 20.0), "a": (0.0, 30.0)}
+#: the parameters of the effect fitted against, free where it has them (the bounds of the catalog's enrichment priors:
+#: C_alpha_e of viscosity; chi0 and the destructuration rate, xi there, a here)
+AGAINST_FREE = {"C_alpha_e": (0.001, 0.1), "chi0": (0.1, 50.0), "a": (1.0, 30.0)}
 
 
 def best_plain_fit(programme: str, effect: str, seed: int, start: dict | None = None, against: str = "none") -> dict:
@@ -70,9 +71,8 @@ def records_with_effect(programme: str, effect: str, seed: int) -> list:
 
 def plain_residual(programme: str, truth: list, clay: dict, against: str = "none") -> np.ndarray:
     """(plain clay, or the clay with the effect ``against``, with the values ``clay`` - the records ``truth`` of
-    :func:`records_with_effect`) at the logged
-    times, in units of the noise standard deviation at the latter's values (module docstring); a plain-clay stage
-    shorter than a logged time takes its end value."""
+    :func:`records_with_effect`) at the logged times, in units of the noise standard deviation at the latter's values
+    (module docstring); a plain-clay stage shorter than a logged time takes its end value."""
     out = []
     for test, stages in zip(PROGRAMMES[programme][1], truth):
         spans, rows = simulate(test, against, clay)
