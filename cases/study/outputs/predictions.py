@@ -94,6 +94,12 @@ def prediction_lines(rows, amplitude: dict, check: list, level=0.95) -> list:
     if amplitude:
         lines += ["Model-error amplitude a_k per quantity (P2), from the leave-one-test-out predictions of the "
                   "calibration tests: " + ", ".join(f"{k} {100 * v:.2f} %" for k, v in amplitude.items()) + ".", ""]
+        if len({c["test"] for c in check}) == 2:
+            lines += ["With two calibration tests each leave-one-out calibration has one test and predicts the other "
+                      "by extrapolation (to another density or stress), where the calibration on both interpolates: "
+                      "the amplitude is then likely pessimistic and the \"+ model\" band too wide "
+                      "(notes/predictions.md). A third calibration test inside the range of the others makes it a "
+                      "measure of interpolation.", ""]
     else:
         lines += ["No model-error amplitude: it is estimated by leaving out each calibration test in turn, which "
                   "needs at least two calibration tests; the bands carry parameters and noise only.", ""]

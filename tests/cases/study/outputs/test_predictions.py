@@ -46,3 +46,9 @@ def test_bands_and_scores_are_the_normal_closed_form():
     text = "\n".join(prediction_lines([row], {"q": 0.04}, []))
     assert "## Predictions" in text and "q 4.00 %" in text
     assert f"| held_out | q (kPa) | {X.size} | {100 * row['noise']['coverage']:.0f} % |" in text
+    assert "With two calibration tests" not in text
+    two = [{"test": t, "curve": "q", "coverage_noise": 0.5, "coverage_model": 0.9, "amplitude": 0.04} for t in "AB"]
+    assert "With two calibration tests each leave-one-out calibration has one test" in \
+        "\n".join(prediction_lines([row], {"q": 0.04}, two))
+    assert "With two calibration tests" not in "\n".join(prediction_lines([row], {"q": 0.04}, two + [
+        {**two[0], "test": "C"}]))
