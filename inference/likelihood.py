@@ -186,6 +186,13 @@ class Likelihood:
                              f"be in exactly one of {list(groups)}")
         return {k: out[k] for k in self.curve_keys}
 
+    @property
+    def batch(self) -> bool:
+        """True when the forward model takes a batch of parameter sets in one call: the executors then hand the
+        likelihood whole chunks of a batch instead of one set at a time (``inference.executors``); a batched
+        forward model gives every set the bits it gives it alone."""
+        return bool(self.forward.batched)
+
     # ----------------------------------------------------------------- binding to a prior's parameter order
     def bind(self, names):
         """Fix the parameter order (the prior's). Returns self."""

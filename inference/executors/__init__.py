@@ -3,7 +3,10 @@
 Every evaluation of one parameter vector runs whole on one process (one forward solve per particle, as the paper's
 SPMD scheme). The sampler hands an executor a batch of parameter vectors and gets back, for each, the
 log-likelihood (or -inf), the failure reason (or None) and the rank that computed it. Results are stored by particle
-index, so the order in which workers finish never changes the answer.
+index, so the order in which workers finish never changes the answer. A likelihood whose forward model takes
+batches (``Likelihood.batch``) is handed chunks of up to ``local.BATCH_CHUNK`` vectors in one call, which carries the
+forward model's per-call work once for the chunk; a batched forward model gives each vector the bits it gives it
+alone, so the chunking never changes the answer either.
 
 MPI (mpi4py, chosen automatically under ``mpirun -n K`` with K > 1):
 - ``dynamic`` (default): rank 0 hands out one parameter vector at a time and keeps four in flight per worker, and

@@ -17,7 +17,18 @@ from multiprocessing.connection import wait
 
 import numpy as np
 
-__all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", "MAX_WORKER_DEATHS"]
+__all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", "MAX_WORKER_DEATHS", "BATCH_CHUNK"]
+
+#: the most parameter sets handed at once to a likelihood whose forward model takes batches (``loglike.batch``):
+#: one call then carries the per-call work (the drivers' set-up, the Python around the compiled loops) for up to this
+#: many sets, while a chunk stays short enough for progress lines, a prompt stop and a pool's redone chunk
+BATCH_CHUNK = 64
+
+
+def _batch_capable(evaluator) -> bool:
+    """The evaluator's log-likelihood takes a batch of parameter sets in one forward call (``inference.Likelihood``
+    with a batched forward model)."""
+    return bool(getattr(evaluator.loglike, "batch", False))
 
 
 class Executor:
@@ -58,7 +69,8 @@ class Executor:
 
 
 class SerialExecutor(Executor):
-    """Evaluates in this process, in chunks (a vectorized log-likelihood gets the whole chunk at once)."""
+    """Evaluates in this process, in chunks: a vectorized log-likelihood gets the whole batch at once, a likelihood
+    whose forward model takes batches up to :data:`BATCH_CHUNK` sets at once, any other one set at a time."""
 
     name = "serial"
 
@@ -70,7 +82,8 @@ class SerialExecutor(Executor):
         values = np.full(m, np.nan)
         reasons = [None] * m
         ranks = np.zeros(m, dtype=int)
-        chunk = self.chunk or (m if (evaluator.vectorized or getattr(evaluator.loglike, "batch", False)) else 1)
+        chunk = self.chunk or (m if evaluator.vectorized else min(m, BATCH_CHUNK) if _batch_capable(evaluator)
+                               else 1)
         for start in range(0, m, chunk):
             if stop is not None and stop():
                 break
@@ -303,9 +316,12 @@ class _Batch:
         self.deaths = np.zeros(m, dtype=int)
         self.idle_deaths = 0
         ev = pool._evaluator
-        vec = ev.vectorized or getattr(ev.loglike, "batch", False)
         n = pool.processes
-        chunk = pool.chunk or (math.ceil(m / n) if vec else max(1, m // (8 * n)))
+        # a vectorized log-likelihood: one chunk per worker; a batched forward model: two per worker (some balance
+        # between workers), at most BATCH_CHUNK; else small chunks that keep every worker busy to the end
+        chunk = pool.chunk or (math.ceil(m / n) if ev.vectorized else
+                               min(BATCH_CHUNK, math.ceil(m / (2 * n))) if _batch_capable(ev) else
+                               max(1, m // (8 * n)))
         self.queue = deque(np.arange(s, min(m, s + chunk)) for s in range(0, m, chunk))
 
     def unfinished(self):
