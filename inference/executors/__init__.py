@@ -10,7 +10,8 @@ alone, so the chunking never changes the answer either.
 
 MPI (mpi4py, chosen automatically under ``mpirun -n K`` with K > 1):
 - ``dynamic`` (default): rank 0 hands out one parameter vector at a time and keeps four in flight per worker, and
-  computes vectors itself between polls, so every rank is busy even when forward-solve times differ;
+  computes vectors itself between polls, so every rank is busy even when forward-solve times differ (a likelihood
+  whose forward model takes batches: chunks of up to ``local.BATCH_CHUNK`` vectors, two per rank, two in flight);
 - ``spmd``: static round-robin, rank r evaluates particles k with k % K == r (the paper's ``labindex`` scheme).
 Every rank calls :func:`inference.tmcmc`; rank 0 runs the sampler, the others serve evaluations and receive the
 final posterior. The sampler sees only :meth:`Executor.run` (its whole run, on the root rank), ``evaluate`` (one

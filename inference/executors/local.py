@@ -17,7 +17,8 @@ from multiprocessing.connection import wait
 
 import numpy as np
 
-__all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", "MAX_WORKER_DEATHS", "BATCH_CHUNK"]
+__all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", "MAX_WORKER_DEATHS", "BATCH_CHUNK",
+           "batch_capable"]
 
 #: the most parameter sets handed at once to a likelihood whose forward model takes batches (``loglike.batch``):
 #: one call then carries the per-call work (the drivers' set-up, the Python around the compiled loops) for up to this
@@ -25,7 +26,7 @@ __all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", 
 BATCH_CHUNK = 64
 
 
-def _batch_capable(evaluator) -> bool:
+def batch_capable(evaluator) -> bool:
     """The evaluator's log-likelihood takes a batch of parameter sets in one forward call (``inference.Likelihood``
     with a batched forward model)."""
     return bool(getattr(evaluator.loglike, "batch", False))
@@ -82,7 +83,7 @@ class SerialExecutor(Executor):
         values = np.full(m, np.nan)
         reasons = [None] * m
         ranks = np.zeros(m, dtype=int)
-        chunk = self.chunk or (m if evaluator.vectorized else min(m, BATCH_CHUNK) if _batch_capable(evaluator)
+        chunk = self.chunk or (m if evaluator.vectorized else min(m, BATCH_CHUNK) if batch_capable(evaluator)
                                else 1)
         for start in range(0, m, chunk):
             if stop is not None and stop():
@@ -320,7 +321,7 @@ class _Batch:
         # a vectorized log-likelihood: one chunk per worker; a batched forward model: two per worker (some balance
         # between workers), at most BATCH_CHUNK; else small chunks that keep every worker busy to the end
         chunk = pool.chunk or (math.ceil(m / n) if ev.vectorized else
-                               min(BATCH_CHUNK, math.ceil(m / (2 * n))) if _batch_capable(ev) else
+                               min(BATCH_CHUNK, math.ceil(m / (2 * n))) if batch_capable(ev) else
                                max(1, m // (8 * n)))
         self.queue = deque(np.arange(s, min(m, s + chunk)) for s in range(0, m, chunk))
 

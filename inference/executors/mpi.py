@@ -8,6 +8,7 @@ the other ranks wait for messages that will never come, so nothing but an abort 
 """
 from __future__ import annotations
 
+import math
 import os
 import signal
 import sys
@@ -15,7 +16,7 @@ import traceback
 
 import numpy as np
 
-from .local import Executor
+from .local import BATCH_CHUNK, Executor, batch_capable
 
 __all__ = ["RootRankError", "RankLost", "MPIExecutor", "mpi_world", "rank_lost_message", "EXIT_RANK_LOST"]
 
@@ -110,7 +111,11 @@ class MPIExecutor(Executor):
             return values, reasons, ranks
 
         comm = self.comm
-        queue = list(range(m))
+        # a likelihood whose forward model takes batches: chunks of up to BATCH_CHUNK sets, two per rank, and two in
+        # flight per worker (a chunk outlasts a message's round trip); else one set a message, ``depth`` in flight
+        chunk = min(BATCH_CHUNK, math.ceil(m / (2 * self.ranks))) if batch_capable(evaluator) else 1
+        depth = 2 if chunk > 1 else self.depth
+        queue = [np.arange(s, min(m, s + chunk)) for s in range(0, m, chunk)]
         queue.reverse()  # pop() hands out particle 0 first
         inflight = {w: 0 for w in range(1, self.ranks)}
         outstanding = 0
@@ -119,8 +124,8 @@ class MPIExecutor(Executor):
         def send_next(worker):
             nonlocal outstanding
             if queue and not stopping:
-                k = queue.pop()
-                comm.send((k, thetas[k]), dest=worker, tag=_TAG_TASK)
+                idx = queue.pop()
+                comm.send((idx, thetas[idx]), dest=worker, tag=_TAG_TASK)
                 inflight[worker] += 1
                 outstanding += 1
 
@@ -134,23 +139,23 @@ class MPIExecutor(Executor):
                 worker = status.Get_source()
                 if msg[0] == "error":
                     raise RuntimeError(f"MPI rank {worker} failed outside a forward evaluation:\n{msg[1]}")
-                _, k, v, r = msg
+                _, idx, v, r = msg
                 inflight[worker] -= 1
                 outstanding -= 1
-                store([k], [v], [r], worker)
+                store(idx, v, r, worker)
                 send_next(worker)
                 block = False
 
         for w in inflight:
-            for _ in range(self.depth):
+            for _ in range(depth):
                 send_next(w)
         while queue or outstanding:
             if stop is not None and stop():
                 stopping = True
             if queue and not stopping:
-                k = queue.pop()
-                v, r = evaluator(thetas[k:k + 1])
-                store([k], v, r, 0)
+                idx = queue.pop()
+                v, r = evaluator(thetas[idx])
+                store(idx, v, r, 0)
                 receive(block=False)
             else:
                 if outstanding == 0:
@@ -225,9 +230,9 @@ class MPIExecutor(Executor):
                 if status.Get_tag() == _TAG_STOP:
                     break
                 try:
-                    k, theta = msg
-                    v, r = evaluator(np.asarray(theta)[None, :])
-                    comm.send(("ok", k, float(v[0]), r[0]), dest=0, tag=_TAG_RESULT)
+                    idx, chunk = msg
+                    v, r = evaluator(np.atleast_2d(np.asarray(chunk, dtype=float)))
+                    comm.send(("ok", idx, np.asarray(v, dtype=float), list(r)), dest=0, tag=_TAG_RESULT)
                 except Exception:
                     comm.send(("error", traceback.format_exc()), dest=0, tag=_TAG_RESULT)
         return comm.bcast(None, root=0)

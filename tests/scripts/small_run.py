@@ -1,7 +1,10 @@
 """A small TMCMC run used by the MPI, determinism and kill-and-resume tests.
 
 python tests/scripts/small_run.py OUT.npz [--proposal de|gaussian] [--dispatch dynamic|spmd]
-    [--executor auto|serial|pool] [--checkpoint FILE] [--resume] [--sleep S] [--fail]
+    [--executor auto|serial|pool] [--checkpoint FILE] [--resume] [--sleep S] [--fail] [--batched]
+
+--batched: the log-likelihood says it takes batches (``batch = True``, as an ``inference.Likelihood`` with a batched
+forward model), so the executors hand it chunks of parameter vectors (each still evaluated alone by the evaluator).
 """
 import argparse
 import os
@@ -46,10 +49,13 @@ def main():
     ap.add_argument("--sleep", type=float, default=0.0)
     ap.add_argument("--fail", action="store_true")
     ap.add_argument("--fail-all", action="store_true")
+    ap.add_argument("--batched", action="store_true")
     a = ap.parse_args()
     prior = UniformPrior({"x": (-2, 2), "y": (-2, 3), "z": (-1, 1)})
     ex = {"auto": None, "serial": SerialExecutor(), "pool": PoolExecutor(2)}[a.executor]
-    post = tmcmc(Banana(a.sleep, a.fail, a.fail_all), prior, n_samples=a.samples, proposal=a.proposal, seed=7,
+    loglike = Banana(a.sleep, a.fail, a.fail_all)
+    loglike.batch = a.batched
+    post = tmcmc(loglike, prior, n_samples=a.samples, proposal=a.proposal, seed=7,
                  executor=ex, dispatch=a.dispatch, checkpoint=a.checkpoint, resume=a.resume, checkpoint_evals=5,
                  progress=False, max_steps=4)
     comm = mpi_world()
