@@ -318,10 +318,11 @@ class _Batch:
         self.idle_deaths = 0
         ev = pool._evaluator
         n = pool.processes
-        # a vectorized log-likelihood: one chunk per worker; a batched forward model: two per worker (some balance
-        # between workers), at most BATCH_CHUNK; else small chunks that keep every worker busy to the end
+        # a vectorized log-likelihood: one chunk per worker; a batched forward model: one per worker as well, at most
+        # BATCH_CHUNK (a large batch is then spread in chunks of that size); else small chunks that keep every worker
+        # busy to the end
         chunk = pool.chunk or (math.ceil(m / n) if ev.vectorized else
-                               min(BATCH_CHUNK, math.ceil(m / (2 * n))) if batch_capable(ev) else
+                               min(BATCH_CHUNK, math.ceil(m / n)) if batch_capable(ev) else
                                max(1, m // (8 * n)))
         self.queue = deque(np.arange(s, min(m, s + chunk)) for s in range(0, m, chunk))
 

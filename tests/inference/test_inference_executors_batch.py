@@ -1,5 +1,5 @@
 """Chunks the executors hand a likelihood: a batched forward model gets up to BATCH_CHUNK parameter sets in one call
-(serially; in the pool two chunks per worker at most that size), any other one set at a time, and the values are
+(serially; in the pool one chunk per worker at most that size), any other one set at a time, and the values are
 those of each set evaluated alone, bit for bit."""
 import math
 
@@ -48,7 +48,7 @@ def test_a_batched_forward_model_gets_chunks_of_at_most_batch_chunk_sets_with_th
     assert np.array_equal(values, alone) and np.all(np.isfinite(values)) and reasons == [None] * len(thetas)
 
 
-def test_the_pool_hands_a_batched_likelihood_two_chunks_per_worker_at_most_batch_chunk_sets():
+def test_the_pool_hands_a_batched_likelihood_a_chunk_per_worker_of_at_most_batch_chunk_sets():
     like = _likelihood(Quadratic())
     for m in (40, 3 * BATCH_CHUNK + 5):
         thetas = _thetas(m)
@@ -56,7 +56,7 @@ def test_the_pool_hands_a_batched_likelihood_two_chunks_per_worker_at_most_batch
         with PoolExecutor(2) as pool:
             values, _, _ = pool.evaluate(Evaluator(like), thetas,
                                          callback=lambda idx, v, r, ranks: chunks.append(len(idx)))
-        expected = min(BATCH_CHUNK, math.ceil(m / 4))
+        expected = min(BATCH_CHUNK, math.ceil(m / 2))
         assert max(chunks) == expected and sum(chunks) == m
         assert np.array_equal(values, SerialExecutor().evaluate(Evaluator(like), thetas)[0])
 
