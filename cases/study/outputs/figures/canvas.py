@@ -31,13 +31,13 @@ def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int
     return fig, flat[:n]
 
 
-def save(fig, path, title: str | None = None, dpi: int = 110):
-    """Title ``fig``, lay it out, write it to ``path`` and close it."""
+def save(fig, path, title: str | None = None, dpi: int = 110, layout: bool = True):
+    """Title ``fig``, lay it out (matplotlib's tight layout; ``layout=False`` for a figure placed on a fixed grid
+    already, which saves that pass), write it to ``path`` and close it."""
     plt = pyplot()
     if title:
         fig.suptitle(title, fontsize=10)
-        fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()))
-    else:
-        fig.tight_layout()
+    if layout:
+        fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_figheight()) if title else None)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)

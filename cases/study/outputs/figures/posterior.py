@@ -59,19 +59,21 @@ def marginals_figure(post, marks=None, units=None):
 def pairs_figure(post, marks=None, units=None):
     """The pairs (corner) plot: histograms on the diagonal, below it every pair of parameters as the posterior
     samples with the MAP (star) and the ``marks``; axes zoomed to the posterior (a ridge such as M against sigma'_p0
-    shows as a line of samples). Returns the figure."""
+    shows as a line of samples). Only the lower triangle's axes exist, on a fixed grid (no layout pass: the panels
+    share their outer labels). Returns the figure."""
     plt = pyplot()
     d = len(post.names)
     units = units or {}
     size = max(1.9, min(2.6, 12.0 / d))
-    fig, axes = plt.subplots(d, d, figsize=(size * d, size * d), squeeze=False)
+    fig = plt.figure(figsize=(size * d, size * d))
+    # margins in inches: the outer tick and axis labels on the left and at the bottom, the title at the top
+    w = size * d
+    grid = fig.add_gridspec(d, d, left=0.75 / w, right=1 - 0.1 / w, bottom=0.65 / w, top=1 - 0.5 / w,
+                            wspace=0.08, hspace=0.08)
     ranges = [zoom(post.samples[:, i]) for i in range(d)]
     for row in range(d):
-        for col in range(d):
-            ax = axes[row, col]
-            if col > row:
-                ax.axis("off")
-                continue
+        for col in range(row + 1):
+            ax = fig.add_subplot(grid[row, col])
             x = post.samples[:, col]
             if col == row:
                 ax.hist(x, bins=_bins(x), color="0.7")
@@ -100,7 +102,7 @@ def pairs_figure(post, marks=None, units=None):
                plt.Line2D([], [], ls="", marker="*", ms=10, color="C3", mec="k", label="MAP")]
     handles += [plt.Line2D([], [], ls="", marker=_MARKERS[k % 4], mfc="none", color=f"C{k}", label=label)
                 for k, label in enumerate(marks or {}) if marks[label]]
-    (axes[0, -1] if d > 1 else axes[0, 0]).legend(handles=handles, loc="upper right", fontsize=8)
+    fig.legend(handles=handles, loc="upper right", bbox_to_anchor=(1 - 0.1 / w, 1 - 0.5 / w), fontsize=8)
     return fig
 
 
@@ -119,5 +121,5 @@ def stages_figure(post, units=None):
 def write_posterior_figures(out, post, marks=None, units=None, title=None):
     """marginals.png, pairs.png and stages.png of ``post`` in the folder ``out``, each under ``title``."""
     save(marginals_figure(post, marks, units), out / "marginals.png", title, dpi=120)
-    save(pairs_figure(post, marks, units), out / "pairs.png", title)
+    save(pairs_figure(post, marks, units), out / "pairs.png", title, layout=False)
     save(stages_figure(post, units), out / "stages.png", title)

@@ -77,17 +77,18 @@ def test_marginals_are_zoomed_to_the_posterior_with_units_and_a_legend():
 def test_pairs_plot_shows_the_samples_the_map_and_the_ridge_with_units():
     post = _posterior()
     fig = pairs_figure(post, {"generating": {"M": 1.2, "sigma_p0": 100.0}}, UNITS)
-    grid = np.array(fig.axes).reshape(2, 2)
-    assert grid[1, 0].get_xlabel() == "M (-)" and grid[1, 0].get_ylabel() == "sigma_p0 (kPa)"
-    assert grid[1, 1].get_xlabel() == "sigma_p0 (kPa)"
-    samples, star, mark = grid[1, 0].get_lines()[:3]
+    # the lower triangle only, row by row: (0, 0), (1, 0), (1, 1)
+    diagonal, pair, last = fig.axes
+    assert pair.get_xlabel() == "M (-)" and pair.get_ylabel() == "sigma_p0 (kPa)"
+    assert last.get_xlabel() == "sigma_p0 (kPa)" and diagonal.get_xlabel() == ""
+    samples, star, mark = pair.get_lines()[:3]
     np.testing.assert_array_equal(samples.get_xdata(), post.samples[:, 0])
     np.testing.assert_array_equal(samples.get_ydata(), post.samples[:, 1])
     assert (star.get_xdata()[0], star.get_ydata()[0]) == tuple(post.map_theta)
     assert (mark.get_xdata()[0], mark.get_ydata()[0]) == (1.2, 100.0)
     # the ridge: the samples of the pair panel are correlated as drawn (M = 1 + 0.002 sigma_p0)
     assert np.corrcoef(samples.get_xdata(), samples.get_ydata())[0, 1] > 0.9
-    legend = [t.get_text() for t in grid[0, 1].get_legend().get_texts()]
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
     assert legend == ["posterior samples", "MAP", "generating"]
 
 
