@@ -280,10 +280,11 @@ def test_identifiability_fit_recovers_the_generating_clay_from_a_distant_start()
 @pytest.mark.slow
 def test_identifiability_fit_against_viscosity_recovers_the_viscous_clay():
     # the viscous clay's own records, fitted against the viscous clay from 10-20 % off: E ~ 0 and the generating
-    # values back, C_alpha_e included (the same oracle as the plain clay's above)
+    # values back, C_alpha_e included (the same oracle and the same tolerance as the plain clay's above; measured:
+    # C_alpha_e 1.5e-3 off, M 1.3e-3, the others below 1e-4)
     from validation.independent.identifiability import best_plain_fit
     fit = best_plain_fit("relaxation", "viscosity", 1, against="viscosity",
                          start={"M": 1.32, "lambda_": 0.28, "kappa": 0.056, "sigma_p": 118.0, "C_alpha_e": 0.018})
     assert fit["E"] < 0.1
-    for name, value in (("lambda_", 0.25), ("kappa", 0.05), ("sigma_p", 100.0), ("C_alpha_e", 0.015)):
-        assert fit["values"][name] == pytest.approx(value, rel=1e-2), name
+    for name, value in (("M", 1.2), ("lambda_", 0.25), ("kappa", 0.05), ("sigma_p", 100.0), ("C_alpha_e", 0.015)):
+        assert fit["values"][name] == pytest.approx(value, rel=5e-3), name
