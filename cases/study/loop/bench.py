@@ -5,8 +5,9 @@ of a Modified Cam Clay base and the sand programme of a SIMSAND base); prints a 
 
 Each run is ``python -m cases.calibrate STUDY --quick --diagnose`` in its own process (compiled kernels cached, so the
 first run of a fresh clone also pays the compilation: run once before timing). Phases, from DIR/loop.json: per model
-class the sampler, the refined evidence, and the record and figures; the conventions compared; the screenings and
-diagnoses; the whole loop; and the process's wall time. Medians over ``--repeat`` runs.
+class the sampler, the refined evidence, and the record and outputs (summary, posterior.nc, report.md); the
+conventions compared; the screenings and diagnoses; the whole loop; the figures, drawn at its end; and the process's
+wall time. Medians over ``--repeat`` runs.
 """
 from __future__ import annotations
 
@@ -27,8 +28,9 @@ DEFAULT_STUDIES = (EXAMPLES / "ciu_ocr.toml", EXAMPLES / "sand_lab.toml")
 
 
 def phases(loop: dict) -> dict:
-    """{phase: s} of one loop.json: "<class>: sampler|evidence|record and figures" per calibrated class, "conventions
-    not adopted", "screening and diagnosis" and "loop"."""
+    """{phase: s} of one loop.json: "<class>: sampler|evidence|record and outputs" per calibrated class, "conventions
+    not adopted", "screening and diagnosis", "loop", the "figures drawn at the end" (the classes' and the loop's
+    figures, side by side on the pool) and the "loop and its figures"."""
     out = {}
     for name, ph in (loop.get("phases_s") or {}).items():
         for k, v in (ph or {}).items():
@@ -39,6 +41,8 @@ def phases(loop: dict) -> dict:
     timings = [loop["timing"], *loop.get("steps_timing", [])]
     out["screening and diagnosis"] = sum(t["screen_and_rank_s"] + t["diagnose_final_s"] for t in timings)
     out["loop"] = loop["timing"]["loop_s"]
+    out["figures drawn at the end"] = loop["timing"].get("figures_s", 0.0)
+    out["loop and its figures"] = out["loop"] + out["figures drawn at the end"]
     return out
 
 

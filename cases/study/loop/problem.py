@@ -27,6 +27,7 @@ from cases.study.forward.study import StudyForward
 from cases.study.loop.covariates import programme_covariates
 from cases.study.loop.evidence import refined_evidence
 from cases.study.outputs.calibration_warnings import calibration_warnings
+from cases.study.outputs.figures.canvas import FigureQueue, draw
 from cases.study.outputs.figures.dense import dense_curves, with_mean_stress
 from cases.study.outputs.report import plot_loop, write_outputs
 from cases.study.programme import split_key
@@ -105,6 +106,9 @@ class LoopProblem:
     #: stage where nearly every solve fails stops, with the last reasons: too few particles are left to stand for
     #: the posterior.
     failure_fraction = 0.9
+    #: how a class's figures are drawn (:meth:`outputs`, :meth:`plot`): now, outside the loop; in the loop
+    #: (:meth:`start`) kept in a ``FigureQueue`` that :func:`run_loop` draws at its end, side by side on the pool
+    figures = staticmethod(draw)
 
     # ---------------------------------------------------------------------------------------- what a study supplies
     def forward(self, switches):
@@ -221,7 +225,8 @@ class LoopProblem:
         t2 = time.perf_counter()
         cls, _ = self.finish_class(post, like, name, switches, run, out, seed, settings.predictive_draws,
                                    t2 - t0, evidence, prior)
-        # where the class's time went (s): the sampler, the refined evidence, the record and the figures
+        # where the class's time went (s): the sampler, the refined evidence, the record and outputs (in the loop its
+        # figures are kept and drawn at the end, :func:`run_loop`)
         cls.extra["phases_s"] = {"sampler": t1 - t0, "evidence": t2 - t1, "record_and_outputs":
                                  time.perf_counter() - t2}
         return cls, post, like
@@ -290,6 +295,7 @@ class LoopProblem:
         # the stepwise discovery: the confirmed candidates, their switches, where the step's classes go
         self.adopted, self.adopted_switches, self.class_root, self.calibrated = (), {}, self.out, {}
         self.base_name = None
+        self.figures = FigureQueue()
 
     def candidates(self) -> list:
         """The catalog for the base class (with the candidates :meth:`adopt` confirmed in it), an enrichment's added
@@ -468,12 +474,14 @@ def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: 
         problem.plot(out / "chain.png", like, [result.classes[0], replace(
             last, role="enriched", candidate=" + ".join(result.chain))], final,
             f"{label}: the chain {' -> '.join(result.chain)}")
+    with problem.executor() as executor:
+        figures_s = problem.figures.draw_all(executor)
     (out / "loop.json").write_text(json.dumps({
         "label": label, "seed": seed, "verdict": final.verdict, "omitted_physics": final.omitted_physics,
         "confirmed_chain": result.chain, "chain": chain,
         "named": result.named, "named_without_enrichment": result.named_without_enrichment,
         "not_calibrated": result.not_calibrated, "log_bayes": final.log_bayes,
-        "conventions": problem.conventions_compared, "timing": result.timing,
+        "conventions": problem.conventions_compared, "timing": {**result.timing, "figures_s": figures_s},
         "phases_s": {c.name: c.extra.get("phases_s") for step in [result, *result.steps] for c in step.classes},
         "steps_timing": [s.timing for s in result.steps], "settings": vars(settings)},
         indent=1, default=float))
@@ -590,7 +598,7 @@ class StudyProblem(LoopProblem):
             with_mean_stress(like.observations))
         dense.update({(t, k): v for t, curves in map_curves.items() for k, v in curves.items() if isinstance(v, tuple)})
         write_outputs(out, run.method, post, like, cls, self.study, self.synthetic, self.generating, summary,
-                      map_curves, dense)
+                      map_curves, dense, self.figures)
 
     def plot(self, path, like, classes, diag, label):
-        plot_loop(path, like, classes, diag, label, self.synthetic)
+        plot_loop(path, like, classes, diag, label, self.synthetic, self.figures)

@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 
 from cases.study.outputs.calibration_warnings import calibration_warnings
-from cases.study.outputs.figures.canvas import pyplot, save
-from cases.study.outputs.figures.curves import curves_figure, stress_paths_figure
+from cases.study.outputs.figures.canvas import draw, pyplot
+from cases.study.outputs.figures.curves import curves_figure, stress_path_panels, stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, panel_title, quantity_label
 from cases.study.outputs.figures.posterior import write_posterior_figures
 from cases.study.outputs.glossary import glossary_lines
 from cases.study.runner import method_name
 from inference import diagnosis
 
-__all__ = ["parameter_table", "runs_table", "plot_loop", "write_outputs"]
+__all__ = ["parameter_table", "runs_table", "loop_figure", "plot_loop", "write_outputs"]
 
 def _fmt(v):
     if v is None or (isinstance(v, float) and not np.isfinite(v)):
@@ -69,25 +69,26 @@ def runs_table(summaries: list, names, reference: dict | None = None) -> str:
 
 
 def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, truth: dict | None, summary: dict,
-                  map_raw: dict, dense: dict):
+                  map_raw: dict, dense: dict, draw=draw):
     """report.md (with the calibration warnings of :mod:`cases.study.outputs.calibration_warnings`, also printed on
     stdout as ``warning: ...``), curves.png, stress_paths.png (triaxial tests), marginals.png, pairs.png, stages.png
     of one calibrated class of ``study``; ``cls`` the class record (MAP and posterior-sample curves), ``truth`` the
     values synthetic recordings were made from (or None), ``summary`` the class's summary.json content
     (``runner.write_summary``), ``map_raw`` the MAP's forward result {test: {quantity: values at the records}},
-    ``dense`` the MAP between the records (:func:`cases.study.outputs.figures.dense.dense_curves`)."""
+    ``dense`` the MAP between the records (:func:`cases.study.outputs.figures.dense.dense_curves`); ``draw`` draws the
+    figures (:func:`cases.study.outputs.figures.canvas.draw`: now, or a ``FigureQueue`` that keeps them)."""
     out = Path(out)
     tag = "SYNTHETIC recordings" if synthetic else "recordings"
     bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
     title = f"{study.name}: {cls['name']}, {method_name(method)} ({tag})"
-    save(curves_figure(like.observations, cls["map_simulated"], bands, dense), out / "curves.png", title)
+    draw(curves_figure, (like.observations, cls["map_simulated"], bands, dense), out / "curves.png", title)
     drained = {(t.name, s.name if t.staged and len(t.stages) > 1 else None): s.drainage == "drained"
                for t in study.tests for s in (t.stages if t.staged else [t])}
-    paths = stress_paths_figure(like.observations, map_raw, drained, dense)
-    if paths is not None:
-        save(paths, out / "stress_paths.png", title)
+    paths = bool(stress_path_panels(like.observations, map_raw, dense))
+    if paths:
+        draw(stress_paths_figure, (like.observations, map_raw, drained, dense), out / "stress_paths.png", title)
     units = {n: r.unit for n, r in study.spec.ranges.items()}
-    write_posterior_figures(out, post, {"generating (synthetic)": truth} if truth else None, units, title)
+    write_posterior_figures(out, post, {"generating (synthetic)": truth} if truth else None, units, title, draw)
     lines = [f"# {study.name}: {method_name(method)} calibration of {cls['name']}", ""]
     if synthetic:
         lines += ["**The recordings are SYNTHETIC** (their `# synthetic` header lines say how they were made); they "
@@ -116,16 +117,25 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
         print(f"warning: {text}", flush=True)
     lines += ["## Warnings", ""] + ([f"- {text}" for text in warnings] or ["none"]) + [""]
     lines += ["Figures: curves.png (records, MAP, 95 % posterior predictive band)"
-              + (", stress_paths.png (q-p')" if paths is not None else "") + ", marginals.png, pairs.png, stages.png.",
+              + (", stress_paths.png (q-p')" if paths else "") + ", marginals.png, pairs.png, stages.png.",
               "",
               *glossary_lines()]
     (out / "report.md").write_text("\n".join(lines))
 
 
-def plot_loop(path, like, classes, diag, label, synthetic):
+def plot_loop(path, like, classes, diag, label, synthetic, draw=draw):
+    """The loop's figure (:func:`loop_figure`) at ``path``, titled with the data's kind, ``label`` and the verdict;
+    ``draw`` draws it (:func:`cases.study.outputs.figures.canvas.draw`: now, or a ``FigureQueue`` that keeps it)."""
+    tag = "SYNTHETIC data" if synthetic else "recordings"
+    draw(loop_figure, (like, classes, diag), path,
+         f"{tag} ({label}): {diag.verdict}; omitted physics: {diag.omitted_physics}", 100)
+
+
+def loop_figure(like, classes, diag):
     """Per recorded curve: data with the base (dashed) and enriched (solid) MAP, and below it the base class's
     relative residual with the mismatch regions shaded. The enriched class drawn is the confirmed one, else the one
-    of largest ln Z. ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis."""
+    of largest ln Z. ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis.
+    Returns the figure."""
     plt = pyplot()
     panels = [(t.name, c) for t in like.observations for c in t.curves]
     ncol = min(4, len(panels))
@@ -155,5 +165,4 @@ def plot_loop(path, like, classes, diag, label, synthetic):
         bottom.axhline(0, color="k", lw=0.6)
         bottom.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
         bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")
-    tag = "SYNTHETIC data" if synthetic else "recordings"
-    save(fig, path, f"{tag} ({label}): {diag.verdict}; omitted physics: {diag.omitted_physics}", dpi=100)
+    return fig

@@ -13,7 +13,8 @@ from cases.study.outputs.figures.canvas import panel_grid
 from cases.study.outputs.figures.labels import abscissa_label, panel_title, quantity_label
 from cases.study.programme import split_key
 
-__all__ = ["curves_figure", "model_at_records", "recorded_mean_stress", "stress_paths_figure"]
+__all__ = ["curves_figure", "model_at_records", "recorded_mean_stress", "stress_path_panels",
+           "stress_paths_figure"]
 
 
 def _draw_map(ax, line, x, y):
@@ -90,12 +91,9 @@ def recorded_mean_stress(recorded, key, model, drained: bool):
     return model["mean_stress"] + shift if drained else None
 
 
-def stress_paths_figure(observations, map_raw, drained, dense=None):
-    """The q-p' paths of the triaxial tests and stages of ``observations`` (the records) whose MAP gives p'
-    (:func:`model_at_records`: ``map_raw`` {test: {key: values at the records}}, ``dense`` {(test, key): (x, y)}):
-    the MAP (a line where ``dense`` has it) and the records (:func:`recorded_mean_stress`; ``drained`` {(test, stage
-    name or None): bool}); a panel per q curve, at most four side by side. Returns the figure, or None when no curve
-    has a path."""
+def stress_path_panels(observations, map_raw, dense=None) -> list:
+    """The panels of :func:`stress_paths_figure`: (recorded test, q curve key, the MAP at its records
+    (:func:`model_at_records`)) of each q curve whose MAP gives p'."""
     dense = dense or {}
     panels = []
     for t in observations:
@@ -104,6 +102,17 @@ def stress_paths_figure(observations, map_raw, drained, dense=None):
                 model = model_at_records(t, key, map_raw.get(t.name, {}), dense)
                 if model is not None:
                     panels.append((t, key, model))
+    return panels
+
+
+def stress_paths_figure(observations, map_raw, drained, dense=None):
+    """The q-p' paths of the triaxial tests and stages of ``observations`` (the records) whose MAP gives p'
+    (:func:`model_at_records`: ``map_raw`` {test: {key: values at the records}}, ``dense`` {(test, key): (x, y)}):
+    the MAP (a line where ``dense`` has it) and the records (:func:`recorded_mean_stress`; ``drained`` {(test, stage
+    name or None): bool}); a panel per q curve, at most four side by side. Returns the figure, or None when no curve
+    has a path."""
+    dense = dense or {}
+    panels = stress_path_panels(observations, map_raw, dense)
     if not panels:
         return None
     fig, axes = panel_grid(len(panels), 4.0, 3.6)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import panel_grid, pyplot, save
+from cases.study.outputs.figures.canvas import FIXED, draw, panel_grid, pyplot
 from cases.study.outputs.figures.labels import parameter_label
 
 __all__ = ["zoom", "marginals_figure", "pairs_figure", "stages_figure", "write_posterior_figures"]
@@ -65,7 +65,7 @@ def pairs_figure(post, marks=None, units=None):
     d = len(post.names)
     units = units or {}
     size = max(1.9, min(2.6, 12.0 / d))
-    fig = plt.figure(figsize=(size * d, size * d))
+    fig = plt.figure(figsize=(size * d, size * d), label=FIXED)
     # margins in inches: the outer tick and axis labels on the left and at the bottom, the title at the top
     w = size * d
     grid = fig.add_gridspec(d, d, left=0.75 / w, right=1 - 0.1 / w, bottom=0.65 / w, top=1 - 0.5 / w,
@@ -118,8 +118,9 @@ def stages_figure(post, units=None):
     return fig
 
 
-def write_posterior_figures(out, post, marks=None, units=None, title=None):
-    """marginals.png, pairs.png and stages.png of ``post`` in the folder ``out``, each under ``title``."""
-    save(marginals_figure(post, marks, units), out / "marginals.png", title, dpi=120)
-    save(pairs_figure(post, marks, units), out / "pairs.png", title, layout=False)
-    save(stages_figure(post, units), out / "stages.png", title)
+def write_posterior_figures(out, post, marks=None, units=None, title=None, draw=draw):
+    """marginals.png, pairs.png and stages.png of ``post`` in the folder ``out``, each under ``title``; ``draw``
+    draws them (:func:`cases.study.outputs.figures.canvas.draw`: now, or a ``FigureQueue`` that keeps them)."""
+    draw(marginals_figure, (post, marks, units), out / "marginals.png", title, 120)
+    draw(pairs_figure, (post, marks, units), out / "pairs.png", title)
+    draw(stages_figure, (post, units), out / "stages.png", title)

@@ -5,8 +5,10 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.text import Text
 
-from cases.study.outputs.figures.canvas import MAX_COLUMNS, panel_grid, pyplot
+from cases.study.outputs.figures.canvas import MAX_COLUMNS, TITLE_ROOM, panel_grid, pyplot, save
 from cases.study.outputs.figures.curves import (
     curves_figure,
     model_at_records,
@@ -54,9 +56,40 @@ def test_the_grid_wraps_many_curves_into_rows_of_four():
     fig, axes = panel_grid(24, width=4.2, height=3.2)
     assert len(axes) == 24
     assert fig.get_size_inches()[0] == pytest.approx(MAX_COLUMNS * 4.2)
-    assert fig.get_size_inches()[1] == pytest.approx(6 * 3.2)    # 24 panels / 4 columns
+    assert fig.get_size_inches()[1] == pytest.approx(6 * 3.2 + TITLE_ROOM)    # 24 panels / 4 columns, the title
     fig, axes = panel_grid(5)
-    assert len(fig.axes) == 8 and sum(ax.axison for ax in fig.axes) == 5
+    assert len(fig.axes) == 5 and fig.get_size_inches()[0] == pytest.approx(4 * 4.2)
+
+
+def _overlap(a, b) -> float:
+    """The area (pixels^2) two bounding boxes share."""
+    w = min(a.x1, b.x1) - max(a.x0, b.x0)
+    h = min(a.y1, b.y1) - max(a.y0, b.y0)
+    return max(w, 0.0) * max(h, 0.0)
+
+
+@pytest.mark.parametrize("n, width, height", [(7, 3.4, 2.7), (7, 3.2, 2.6), (6, 4.2, 3.2), (2, 4.0, 3.6)])
+def test_the_fixed_grid_keeps_every_panel_with_its_labels_and_title_apart_and_inside_the_figure(n, width, height,
+                                                                                               tmp_path):
+    """No layout pass: each panel's drawn extent (axes, tick labels of five-digit values, axis labels, panel title)
+    lies inside the figure and below the figure's title, and shares no pixel with another panel's."""
+    fig, axes = panel_grid(n, width, height)
+    for k, ax in enumerate(axes):
+        ax.plot([0, 1e4], [-12000.0, 99999.0])
+        ax.set_xlabel("axial strain eps_a (%)")
+        ax.set_ylabel("sigma'_v (kPa)")
+        ax.set_title(f"TEST_{k}, stage relax_ocr1", fontsize=9)
+    save(fig, tmp_path / "grid.png", "SYNTHETIC data: a figure title")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    boxes = [ax.get_tightbbox(renderer) for ax in axes]
+    page = fig.bbox
+    title, = [t.get_window_extent(renderer) for t in fig.get_children()
+              if isinstance(t, Text) and t.get_text() == "SYNTHETIC data: a figure title"]
+    assert page.y0 <= title.y0 and title.y1 <= page.y1
+    for i, box in enumerate(boxes):
+        assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0 and box.y1 <= title.y0
+        for other in boxes[i + 1:]:
+            assert _overlap(box, other) == 0.0
 
 
 def test_marginals_are_zoomed_to_the_posterior_with_units_and_a_legend():

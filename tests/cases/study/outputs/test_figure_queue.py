@@ -1,0 +1,64 @@
+"""Figures kept and drawn later (cases.study.outputs.figures.canvas.FigureQueue): the same files, byte for byte, as
+drawn at once, whether the kept figures are drawn here or side by side on a process pool; nothing is drawn before
+``draw_all``; a figure that fails stops the drawing with its error."""
+import numpy as np
+import pytest
+
+import inference
+from cases.study.outputs.figures.canvas import FigureQueue, draw, panel_grid, pyplot
+
+
+def _panels(n, scale):
+    """A fixed-grid figure of ``n`` panels, each a line of slope ``scale`` * its index."""
+    fig, axes = panel_grid(n)
+    x = np.linspace(0.0, 1.0, 50)
+    for k, ax in enumerate(axes):
+        ax.plot(x, scale * k * x**2, "C0-")
+        ax.set_xlabel("axial strain eps_a (%)")
+        ax.set_ylabel("q (kPa)")
+    return fig
+
+
+def _laid_out(scale):
+    """A figure that :func:`save` lays out (plain subplots)."""
+    fig, ax = pyplot().subplots(1, 2)
+    ax[0].plot([0, 1], [0, scale])
+    return fig
+
+
+def _nothing():
+    return None
+
+
+def _fails():
+    raise ValueError("no such curve")
+
+
+FIGURES = [(_panels, (5, 2.0), "a.png", "SYNTHETIC: five panels", 110), (_laid_out, (3.0,), "b.png", None, 100),
+           (_nothing, (), "c.png", "nothing to draw", 110), (_panels, (1, 1.0), "d.png", "one panel", 120)]
+
+
+@pytest.mark.parametrize("executor", ["serial", "pool"])
+def test_kept_figures_are_the_figures_drawn_at_once(executor, tmp_path):
+    now, later = tmp_path / "now", tmp_path / "later"
+    now.mkdir()
+    later.mkdir()
+    queue = FigureQueue()
+    for make, args, name, title, dpi in FIGURES:
+        draw(make, args, now / name, title, dpi)
+        queue(make, args, later / name, title, dpi)
+    assert not list(later.iterdir())   # kept, not drawn
+    with (inference.PoolExecutor(2) if executor == "pool" else inference.SerialExecutor()) as ex:
+        queue.draw_all(ex)
+    assert sorted(p.name for p in later.iterdir()) == ["a.png", "b.png", "d.png"]
+    for name in ("a.png", "b.png", "d.png"):
+        assert (later / name).read_bytes() == (now / name).read_bytes()
+    assert queue.jobs == []
+
+
+def test_a_figure_that_fails_on_the_pool_stops_the_drawing_with_its_error(tmp_path):
+    queue = FigureQueue()
+    queue(_panels, (2, 1.0), tmp_path / "a.png")
+    queue(_fails, (), tmp_path / "b.png")
+    with inference.PoolExecutor(2) as ex, pytest.raises(RuntimeError, match="no such curve"):
+        queue.draw_all(ex)
