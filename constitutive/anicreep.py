@@ -37,6 +37,13 @@ Equations (docs/reference.md section 4; Yin, Karstunen et al. 2010, 2011; Wheele
                     alpha_K0 = (eta_K0^2 + 3 eta_K0 - M^2)/3,
                     omega_d = 3(4M^2 - 4eta_K0^2 - 3eta_K0)/(8(eta_K0^2 + 2eta_K0 - M^2)),
                     omega = (1 + e0)/(lambda - kappa) ln[(10M^2 + 2 alpha_K0 omega_d)/(M^2 + 2 alpha_K0 omega_d)].
+(I)  initial fabric alpha_d,0 = alpha_0 (e_v e_v - I/3) about the vertical axis e_v, alpha_0 = alpha_K0 of (K) unless
+                    given (the parameter ``alpha0``: a natural clay's fabric measured or calibrated, 0 <= alpha_0 <
+                    M); alpha_0 also sets the initial reference surface (the surface (F) inclined at alpha_0 through
+                    the K0_nc state at sigma'_v = sigma'_p0) and replaces alpha_K0 in mu of (V). ``omega_ratio``
+                    (default 1) scales the rate omega of (R): omega_ratio = 0 keeps the fabric at alpha_d,0 (S-CLAY1's
+                    inclined surface without rotational hardening; with viscous=False the inclined Modified Cam Clay
+                    ellipse of Wheeler et al. 2003, Eq. 1).
 
 Switches of the one implementation:
   ``anisotropy=False``  alpha_d = 0 and omega = 0 (isotropic creep model; alpha_K0 -> 0 in mu and in p'_m^r0);
@@ -158,8 +165,11 @@ class ANICREEP(MaterialModel):
                     clays);
         xi_d      : relative weight of deviatoric viscoplastic strain in destructuration (>= 0; "b", typically
                     0.2-0.4);
+        alpha0    : initial fabric alpha_0 of (I), 0 <= alpha0 < M (needs anisotropy=True; default alpha_K0 of (K));
+        omega_ratio: factor on the rotational-hardening rate omega of (K), >= 0 (needs anisotropy=True; default 1; 0
+                    fixes the fabric at its initial value);
         vertical_axis : 1, 2 or 3, the Voigt component that is the deposition (vertical, K0-consolidation) axis of
-                    the initial fabric alpha_d = alpha_K0 (e_v e_v - I/3). Default 1 (the axial direction of the lab
+                    the initial fabric alpha_d = alpha_0 (e_v e_v - I/3). Default 1 (the axial direction of the lab
                     drivers); the axisymmetric FE maps r->1, z->2, theta->3, so the pressuremeter needs 2.
         specific_volume : "initial" (v = 1 + e0 in (E), (H), mu and omega; default) or "current" (v = 1 + e_n frozen
                     over each increment; module docstring).
@@ -173,7 +183,8 @@ class ANICREEP(MaterialModel):
 
     name = "ANICREEP"
     tangent_kind = "consistent"
-    parameter_names = ("M", "lambda_", "kappa", "nu", "e0", "C_alpha_e", "tau", "sigma_p0", "chi0", "xi", "xi_d")
+    parameter_names = ("M", "lambda_", "kappa", "nu", "e0", "C_alpha_e", "tau", "sigma_p0", "chi0", "xi", "xi_d",
+                       "alpha0", "omega_ratio")
     parameter_ranges = {
         "M": ParameterRange(0.0, 3.0, (0.8, 1.8)),
         "lambda_": ParameterRange(0.0, None, (0.05, 0.5)),
@@ -186,6 +197,8 @@ class ANICREEP(MaterialModel):
         "chi0": ParameterRange(0.0, None, (0.0, 20.0), lower_open=False),
         "xi": ParameterRange(0.0, None, (5.0, 15.0), lower_open=False),
         "xi_d": ParameterRange(0.0, None, (0.1, 0.5), lower_open=False),
+        "alpha0": ParameterRange(0.0, 3.0, (0.3, 0.6), lower_open=False),
+        "omega_ratio": ParameterRange(0.0, None, (0.5, 1.5), lower_open=False),
     }
     required_parameters = ("M", "lambda_", "kappa", "nu", "e0", "sigma_p0")
     switches = {"viscous": True, "anisotropy": True, "destructuration": False}
@@ -207,8 +220,8 @@ class ANICREEP(MaterialModel):
     option_names = ("specific_volume",)
 
     def __init__(self, M, lambda_, kappa, nu, e0, sigma_p0, C_alpha_e=None, tau=REFERENCE_TIME, *, anisotropy=True,
-                 viscous=True, destructuration=False, chi0=None, xi=None, xi_d=None, vertical_axis=1,
-                 specific_volume="initial"):
+                 viscous=True, destructuration=False, chi0=None, xi=None, xi_d=None, alpha0=None, omega_ratio=None,
+                 vertical_axis=1, specific_volume="initial"):
         name = self.name
         if specific_volume not in SPECIFIC_VOLUMES:
             raise ParameterError(f"{name}: specific_volume = {specific_volume!r} must be one of "
@@ -244,13 +257,18 @@ class ANICREEP(MaterialModel):
             elif value is not None:
                 raise ParameterError(f"{name}: parameter {key} = {value!r} given but destructuration=False")
             setattr(self, key, value)
+        for key, value in (("alpha0", alpha0), ("omega_ratio", omega_ratio)):
+            if value is not None and not self.anisotropy:
+                raise ParameterError(f"{name}: parameter {key} = {value!r} given but anisotropy=False")
+            setattr(self, key, None if value is None else self._checked(key, value))
         if vertical_axis not in (1, 2, 3):
             raise ParameterError(f"{name}: parameter vertical_axis = {vertical_axis!r} must be 1, 2 or 3")
         self.vertical_axis = int(vertical_axis)
 
         shapes = [np.shape(v) for v in (self.M, self.lambda_, self.kappa, self.nu, self.e0, self.sigma_p0, self.tau,
                                          self.C_alpha_e if self.C_alpha_e is not None else 1.0,
-                                         *((self.chi0, self.xi, self.xi_d) if self.destructuration else ()))]
+                                         *((self.chi0, self.xi, self.xi_d) if self.destructuration else ()),
+                                         *(v for v in (self.alpha0, self.omega_ratio) if v is not None))]
         try:
             self._shape = np.broadcast_shapes(*shapes)
         except ValueError:
@@ -260,10 +278,12 @@ class ANICREEP(MaterialModel):
 
         k0_nc, eta_k0, alpha_k0, omega_d = anisotropy_constants(self.M)
         M2 = self.M**2
-        if self.anisotropy and np.any(self.M <= alpha_k0):
-            bad = np.broadcast_to(self.M <= alpha_k0, np.shape(self.M))
-            raise ParameterError(f"{name}: parameter M = {np.asarray(self.M)[bad].ravel()[0]:g} must exceed "
-                                 f"alpha_K0 = {np.asarray(alpha_k0)[bad].ravel()[0]:g}")
+        fabric = alpha_k0 if self.alpha0 is None else self.alpha0
+        if self.anisotropy and np.any(self.M <= fabric):
+            bad = np.broadcast_arrays(self.M <= fabric, self.M, fabric)
+            which = "alpha_K0" if self.alpha0 is None else "alpha0"
+            raise ParameterError(f"{name}: parameter M = {bad[1][bad[0]].ravel()[0]:g} must exceed "
+                                 f"{which} = {bad[2][bad[0]].ravel()[0]:g}")
         self.k0_nc, self.eta_k0 = k0_nc, eta_k0
         if self.anisotropy:
             arg_den = M2 + 2.0 * alpha_k0 * omega_d
@@ -274,10 +294,15 @@ class ANICREEP(MaterialModel):
             self.alpha_k0 = alpha_k0
             self.omega_d = omega_d
             self._rotation_log = np.log((10.0 * M2 + 2.0 * alpha_k0 * omega_d) / arg_den)  # omega/c_p, (K)
+            if self.omega_ratio is not None:
+                self._rotation_log = self._rotation_log * self.omega_ratio
+            #: alpha_0 of (I): the initial fabric, the inclination of the initial reference surface, mu's alpha
+            self.fabric0 = fabric
         else:
             self.alpha_k0 = np.zeros_like(alpha_k0)
             self.omega_d = np.zeros_like(omega_d)
             self._rotation_log = np.zeros(np.shape(self.M))
+            self.fabric0 = self.alpha_k0
         self.beta = (self.lambda_ - self.kappa) / self.C_alpha_e if self.viscous else np.inf
         initial = self._volume_columns(1.0 + self.e0)
         #: omega of (K) and mu of (V) (1/s; nan when rate independent) with v = 1 + e0
@@ -306,12 +331,12 @@ class ANICREEP(MaterialModel):
     def _volume_columns(self, v):
         """The kernel columns that carry the specific volume ``v`` (scalar or (n,)): c_e = v/kappa of (E),
         c_p = v/(lambda - kappa) of (H), omega = c_p ln[(10M^2 + 2 alpha_K0 omega_d)/(M^2 + 2 alpha_K0 omega_d)] of
-        (K) and mu = C_alpha_e/(v tau) (M^2 - alpha_K0^2)/(M^2 - eta_K0^2) of (V) in 1/s (1, unused, when rate
-        independent)."""
+        (K) (times omega_ratio) and mu = C_alpha_e/(v tau) (M^2 - alpha_0^2)/(M^2 - eta_K0^2) of (V) in 1/s (1,
+        unused, when rate independent; alpha_0 of (I))."""
         c_p = v / (self.lambda_ - self.kappa)
         M2 = self.M**2
         return {"c_e": v / self.kappa, "c_p": c_p, "omega": c_p * self._rotation_log,
-                "mu": (self.C_alpha_e / (v * self.tau) * (M2 - self.alpha_k0**2) / (M2 - self.eta_k0**2)
+                "mu": (self.C_alpha_e / (v * self.tau) * (M2 - self.fabric0**2) / (M2 - self.eta_k0**2)
                        if self.viscous else 1.0)}
 
     def _kernel_columns(self, n):
@@ -351,16 +376,16 @@ class ANICREEP(MaterialModel):
         return prm
 
     def initial_fabric(self, n):
-        """alpha_d = alpha_K0 (e_v e_v - I/3) for the vertical axis, (n, 6) stress-like Voigt."""
+        """alpha_d = alpha_0 (e_v e_v - I/3) for the vertical axis, (n, 6) stress-like Voigt ((I))."""
         unit = -IDENTITY / 3.0
         unit[self.vertical_axis - 1] += 1.0
-        return np.broadcast_to(self.alpha_k0, (n,))[:, None] * unit
+        return np.broadcast_to(self.fabric0, (n,))[:, None] * unit
 
     def reference_size(self, n):
-        """p'_m^r0 (kPa): the surface (F) with alpha = alpha_K0 (0 without anisotropy) through the K0_nc state at
+        """p'_m^r0 (kPa): the surface (F) with alpha = alpha_0 of (I) (0 without anisotropy) through the K0_nc state at
         sigma'_v = sigma'_p0: p' = (1 + 2K0_nc) sigma'_p0/3, q = (1 - K0_nc) sigma'_p0 (with destructuration the
         apparent size (1 + chi_0) p'_mi^r0)."""
-        k0, a, M2 = (np.broadcast_to(v, (n,)) for v in (self.k0_nc, self.alpha_k0, self.M**2))
+        k0, a, M2 = (np.broadcast_to(v, (n,)) for v in (self.k0_nc, self.fabric0, self.M**2))
         sp = np.broadcast_to(self.sigma_p0, (n,))
         p = (1.0 + 2.0 * k0) * sp / 3.0
         q = (1.0 - k0) * sp
@@ -368,7 +393,7 @@ class ANICREEP(MaterialModel):
 
     # ------------------------------------------------------------------ state
     def initial_state(self, stress0, void_ratio0=None) -> dict:
-        """State at effective stress ``stress0`` (n, 6): alpha_d = alpha_K0 about the vertical axis, p'_m^r from
+        """State at effective stress ``stress0`` (n, 6): alpha_d = alpha_0 of (I) about the vertical axis, p'_m^r from
         sigma'_p0 (``reference_size``), chi = chi_0 (0 without destructuration), void ratio ``void_ratio0`` (default
         e0). A stress outside the reference surface
         (sigma'_p0 below the in-situ state) is allowed: it carries an initial overstress and creeps at once."""
