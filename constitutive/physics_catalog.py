@@ -217,8 +217,16 @@ CATALOG = (
          _item("stress ratio", "supporting", 0, "misfit grows with the stress ratio as the stress path turns "
                "towards the rotated surface")),
         {"anisotropy": True},
-        Enrichment("ANICREEP", {"anisotropy": True}, {}),
-        references=("docs/reference.md section 4: alpha_K0, omega, omega_d from M",)),
+        # S-CLAY1's initial fabric alpha_K0 and rotation rate omega follow from M (docs/reference.md section 4, (K));
+        # a natural clay's fabric and how fast it rotates are its own: the initial inclination alpha0 (alpha_K0 is
+        # 0.32-0.64 for M 0.8-1.6; 0 is isotropic) and the factor omega_ratio on omega (0: a fixed fabric, the
+        # inclined ellipse of Wheeler et al. 2003 Eq. 1; 1: S-CLAY1) are free, uniform. With alpha_K0 and omega from
+        # M, the anisotropic class fitted an independent CK0U programme of a clay with a fixed fabric (inclination
+        # 0.30) with 28 % RMS misfit of q in extension at the generating M, lambda and kappa (the preconsolidation
+        # scanned); with alpha0 = 0.30 and omega_ratio = 0, 2 %.
+        Enrichment("ANICREEP", {"anisotropy": True}, {"alpha0": (0.0, 0.75), "omega_ratio": (0.0, 2.0)}),
+        references=("docs/reference.md section 4: alpha_K0, omega, omega_d from M; constitutive/anicreep.py (I): "
+                    "the initial fabric alpha0 and omega_ratio",)),
     Candidate(
         "destructuration",
         "Bonding and structure of natural (sensitive) clay destroyed by plastic straining: the soil yields at an "

@@ -277,7 +277,7 @@ LAB_TOMLS = [
     ("enrichment typo", lambda t: t + "\n[enrichment.viscosty]\nC_alpha_e = [0.001, 0.05]\n",
      ["enrichment.viscosty = {'C_alpha_e': [0.001, 0.05]}: not a candidate of the catalog; did you mean "
       "'viscosity'? candidates with parameters: viscosity, time_dependent_swelling, partial_drainage, "
-      "destructuration"]),
+      "anisotropy, destructuration"]),
     ("enrichment parameter typo", lambda t: t + "\n[enrichment.viscosity]\nC_alpha = [0.001, 0.05]\n",
      ["enrichment.viscosity.C_alpha = [0.001, 0.05]: not a parameter of the 'viscosity' enrichment; did you mean "
       "'C_alpha_e'? it adds C_alpha_e"]),
@@ -287,8 +287,9 @@ LAB_TOMLS = [
      ["enrichment.time-dependent swelling.tau_s = [1000000.0, 1000.0]: lower bound must be < upper bound"]),
     ("enrichment below the physical range", lambda t: t + "\n[enrichment.destructuration]\n"
      'chi0 = { bounds = [-1.0, 20.0], prior = "uniform" }\n', ["enrichment.destructuration.chi0", "chi0"]),
-    ("enrichment without parameters", lambda t: t + "\n[enrichment.anisotropy]\nomega = [1, 2]\n",
-     ["enrichment.anisotropy", "the 'anisotropy' enrichment adds no parameter"]),
+    ("enrichment parameter of the model, not of the enrichment", lambda t: t + "\n[enrichment.anisotropy]\n"
+     "omega = [1, 2]\n", ["enrichment.anisotropy.omega = [1, 2]: not a parameter of the 'anisotropy' enrichment",
+                          "it adds alpha0, omega_ratio"]),
     ("enrichment of another family", lambda t: t + "\n[enrichment.state_dependent_dilatancy]\nn_p = [1, 2]\n",
      ["enrichment.state_dependent_dilatancy", "no enrichment of ModifiedCamClay for 'state-dependent dilatancy'"]),
     ("enrichment without its forward model", lambda t: t + "\n[enrichment.partial_drainage]\n"

@@ -41,8 +41,8 @@ def test_catalog_entries_are_complete_and_well_formed():
             kwargs = (set(inspect.signature(cls).parameters) | set(c.enrichment.forward_arguments)
                       | {SWELLING_SWITCH, *SWELLING_RANGES})  # any model takes delayed swelling (registry)
             assert set(c.enrichment.switches) <= kwargs, c.name
-            for p, (lo, hi) in c.enrichment.parameters.items():
-                assert p in kwargs and 0 < lo < hi, (c.name, p)
+            for p, (lo, hi) in c.enrichment.parameters.items():   # a log-uniform prior starts above 0
+                assert p in kwargs and 0 <= lo < hi and (lo > 0 or p not in c.enrichment.log_uniform), (c.name, p)
             assert set(c.enrichment.log_uniform) <= set(c.enrichment.parameters)
         json.dumps(c.as_data())  # plain data for inference/
     # the real enrichments now: three ANICREEP switches, delayed swelling, the coupled SBP forward model and two
