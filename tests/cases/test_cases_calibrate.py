@@ -15,7 +15,7 @@ from cases import burswood_sbp
 from cases import calibrate as cal
 from cases.study.checks import StudyError
 from cases.study.cli import arguments
-from cases.study.loop.problem import StudyProblem
+from cases.study.loop.study_problem import StudyProblem
 from cases.study.reading.records import generating_values, load_observations
 from cases.study.reading.schema import Settings, load_study
 from cases.study.routes import sbp as sbp_route

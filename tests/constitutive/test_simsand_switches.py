@@ -237,7 +237,7 @@ def test_study_switches_off_without_n_p_n_d_and_the_initial_state_parameter_cova
     model (phi_mu = 30: no peak above M_mu) and reports each test's initial state parameter psi_0 = e_0 - e_c(p'_0)
     (Been & Jefferies 1985), computed here from (VI) and the test conditions, as a between-test covariate."""
     import inference
-    from cases.study.loop.problem import StudyProblem
+    from cases.study.loop.study_problem import StudyProblem
     from cases.study.reading.records import load_observations
     from cases.study.reading.schema import load_study
 

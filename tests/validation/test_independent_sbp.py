@@ -275,7 +275,7 @@ def test_shipped_records_regenerate():
 def test_an_sbp_study_with_a_modified_cam_clay_base_builds_its_enriched_classes():
     """The loop enriches an MCC pressuremeter study through the ANICREEP family (its e0 from the test, as the
     family's translation gives it per particle): every enrichable candidate's forward model is built."""
-    from cases.study.loop.problem import StudyProblem
+    from cases.study.loop.study_problem import StudyProblem
     from cases.study.reading.records import load_observations
     from cases.study.reading.schema import load_study
     from constitutive import physics_catalog

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import inference
 from cases.study.cli import UsageError, arguments, non_negative_int, positive_int, quantity, run_settings
-from cases.study.loop.problem import CASE, StudyProblem, run_loop
+from cases.study.loop.problem import CASE, run_loop
+from cases.study.loop.study_problem import StudyProblem
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 from cases.study.routes import sand as sand_route

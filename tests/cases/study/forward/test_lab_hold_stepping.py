@@ -122,7 +122,7 @@ def test_adaptive_holds_match_the_refined_step_table():
 
 def _viscous_forward(name):
     """The viscous class of an independent study (its forward model and prior bounds)."""
-    from cases.study.loop.problem import StudyProblem
+    from cases.study.loop.study_problem import StudyProblem
     from cases.study.reading.records import load_observations
     from cases.study.reading.schema import load_study
     from constitutive import physics_catalog

@@ -8,7 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from cases.study.loop.problem import CONVENTION_LOG_BAYES, StudyProblem
+from cases.study.loop.problem import CONVENTION_LOG_BAYES
+from cases.study.loop.study_problem import StudyProblem
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 from inference.diagnosis import ModelClass

@@ -9,7 +9,7 @@ from corpus_inputs import LAB_CSV, LAB_TOML
 
 import inference
 from cases.study.loop import problem as problem_module
-from cases.study.loop.problem import StudyProblem
+from cases.study.loop.study_problem import StudyProblem
 from cases.study.outputs.calibration_warnings import bound_warnings
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cases.study.loop.problem import StudyProblem
+from cases.study.loop.study_problem import StudyProblem
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 from inference.diagnosis import ModelClass

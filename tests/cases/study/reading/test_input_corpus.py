@@ -40,7 +40,7 @@ import inference
 from cases import burswood_sbp, calibrate, simsand_synthetic, toyoura
 from cases.study import runner
 from cases.study.cli import command
-from cases.study.loop.problem import StudyProblem
+from cases.study.loop.study_problem import StudyProblem
 from cases.study.reading.records import load_observations, load_sbp_recordings
 from cases.study.reading.schema import load_study
 

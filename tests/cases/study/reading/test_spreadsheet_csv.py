@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from cases.study.cli import UsageError
-from cases.study.loop.problem import StudyProblem
+from cases.study.loop.study_problem import StudyProblem
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 from cases.study.routes import sand as sand_route

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cases.study.checks import StudyError
-from cases.study.loop.problem import StudyProblem
+from cases.study.loop.study_problem import StudyProblem
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 
