@@ -150,13 +150,12 @@ def test_k0_loading_keeps_alpha_and_k0nc(vertical_axis):
     assert alpha_sim == pytest.approx(alpha_k0, rel=5e-3)
 
 
-def test_isotropic_loading_rotates_alpha_to_ten_percent_after_one_efold():
-    """Isotropic (stress-controlled) loading from inside the reference surface: eta = 0, and (R) integrates in closed
-    form in s = ln(p'_m^r/p'_m^r0) = (1 + e0)/(lambda - kappa) eps_v^vp:
-    ln(a/a0) - ln((M^2 + 2 omega_d a)/(M^2 + 2 omega_d a0)) = -omega s (lambda - kappa)/(1 + e0); a = a0/10 at s = 1.
-    Backward Euler is first order: the error halves with the step and the Richardson extrapolation is exact."""
-    M = 1.2
-    m = ANICREEP(M=M, sigma_p0=40.0, C_alpha_e=0.02, **BURSWOOD)
+def _isotropic_rotation(m, M=1.2):
+    """Isotropic (stress-controlled) loading of ``m`` (Burswood slopes) from 20 to 90 kPa in 100 and 200 steps:
+    eta = 0, and (R) integrates in closed form in s = ln(p'_m^r/p'_m^r0) = (1 + e0)/(lambda - kappa) eps_v^vp:
+    ln(a/a0) - ln((M^2 + 2 omega_d a)/(M^2 + 2 omega_d a0)) = -omega s (lambda - kappa)/(1 + e0).
+    Returns (the simulated |alpha| of each step size, the closed form at each one's s, the closed form's residual
+    closed(a, s), a0)."""
     s0 = np.zeros((1, 6))
     s0[0, :3] = 20.0
     st0 = m.initial_state(s0)
@@ -176,11 +175,32 @@ def test_isotropic_loading_rotates_alpha_to_ten_percent_after_one_efold():
         assert s > 0.9  # about one e-fold of p'_m^r
         exact.append(brentq(closed, 1e-8 * a0, a0, args=(s,)))
         sims.append(np.sqrt(1.5 * np.sum(np.array([1, 1, 1, 2, 2, 2]) * st["alpha"][0] ** 2)))
-    err = np.array(sims) / np.array(exact) - 1.0
+    return np.array(sims), np.array(exact), closed, a0
+
+
+def test_isotropic_loading_rotates_alpha_to_ten_percent_after_one_efold():
+    """Isotropic loading from inside the reference surface (:func:`_isotropic_rotation`): a = a0/10 at s = 1.
+    Backward Euler is first order: the error halves with the step and the Richardson extrapolation is exact."""
+    m = ANICREEP(M=1.2, sigma_p0=40.0, C_alpha_e=0.02, **BURSWOOD)
+    sims, exact, closed, a0 = _isotropic_rotation(m)
+    err = sims / exact - 1.0
     assert err[1] < 0.02 and 1.8 < err[0] / err[1] < 2.2
     assert 2 * sims[1] - sims[0] == pytest.approx(exact[1], rel=2e-4)
     # REFERENCE: 10 % of alpha_K0 after one e-fold of p'_m (closed form of (R) with the omega of (K))
     assert brentq(closed, 1e-8, a0, args=(1.0,)) / a0 == pytest.approx(0.1, rel=1e-10)
+
+
+def test_omega_ratio_scales_the_rotation_under_isotropic_loading():
+    """The initial fabric alpha0 and omega_ratio of (I): the closed form of :func:`_isotropic_rotation` with the
+    rate omega_ratio * omega of (K), met by the Richardson extrapolation of the two step sizes."""
+    ratio, a0 = 0.4, 0.35
+    m = ANICREEP(M=1.2, sigma_p0=40.0, C_alpha_e=0.02, alpha0=a0, omega_ratio=ratio, **BURSWOOD)
+    full = ANICREEP(M=1.2, sigma_p0=40.0, C_alpha_e=0.02, **BURSWOOD)
+    assert float(m.omega) == pytest.approx(ratio * float(full.omega), rel=1e-14)
+    sims, exact, _, start = _isotropic_rotation(m)
+    assert start == pytest.approx(a0, rel=1e-14)
+    assert exact[1] < 0.75 * a0          # a rotation well beyond the noise
+    assert 2 * sims[1] - sims[0] == pytest.approx(exact[1], rel=2e-4)
 
 
 # --------------------------------------------------------------------------------------------- MCC limits

@@ -1,10 +1,9 @@
 """ANICREEP's initial fabric alpha_0 and rotational-hardening factor (constitutive.anicreep, (I)): the default is the
 model without them bit for bit; a fixed fabric (omega_ratio = 0) in the rate-independent limit is the inclined
-Modified Cam Clay ellipse of Wheeler et al. (2003), whose undrained path has a closed form; omega_ratio scales the
-rotation of (R) in its closed form under isotropic loading; bad values are named."""
+Modified Cam Clay ellipse of Wheeler et al. (2003), whose undrained path has a closed form; bad values are named.
+(omega_ratio against the closed-form rotation under isotropic loading: tests/constitutive/test_anicreep.py.)"""
 import numpy as np
 import pytest
-from scipy.optimize import brentq
 
 from constitutive import ANICREEP, ParameterError, labtests
 from constitutive.anicreep import anisotropy_constants
@@ -74,36 +73,6 @@ def test_a_fixed_fabric_follows_the_inclined_ellipse_in_undrained_shear(alpha0, 
     if direction < 0:   # elastic at constant p' until the surface's lower branch
         q_yield = alpha0 * p0[0] - np.sqrt((M**2 - alpha0**2) * (pm0 - p0[0]) * p0[0])
         assert np.all(q[~plastic] >= q_yield - 1e-6 * p0[0]) and q[plastic][0] < q_yield
-
-
-def test_omega_ratio_scales_the_rotation_under_isotropic_loading():
-    """Isotropic loading (eta = 0) from alpha_0: (R) in closed form with the rate omega_ratio * omega of (K),
-    ln(a/a0) - ln((M^2 + 2 omega_d a)/(M^2 + 2 omega_d a0)) = -omega_ratio omega s (lambda - kappa)/(1 + e0),
-    s = ln(p'_m^r/p'_m^r0); backward Euler, so Richardson's extrapolation of two step sizes meets it."""
-    M, ratio, a0 = 1.2, 0.4, 0.35
-    m = ANICREEP(M=M, lambda_=0.40, kappa=0.026, nu=0.3, e0=2.0, sigma_p0=40.0, C_alpha_e=0.02, alpha0=a0,
-                 omega_ratio=ratio)
-    full = ANICREEP(M=M, lambda_=0.40, kappa=0.026, nu=0.3, e0=2.0, sigma_p0=40.0, C_alpha_e=0.02)
-    assert float(m.omega) == pytest.approx(ratio * float(full.omega), rel=1e-14)
-    s0 = np.zeros((1, 6))
-    s0[0, :3] = 20.0
-    st0 = m.initial_state(s0)
-    assert 1.5 * st0["alpha"][0, 0] == pytest.approx(a0, rel=1e-14)
-    om, omd, c = ratio * float(full.omega), float(full.omega_d), (0.40 - 0.026) / 3.0
-
-    def closed(a, s):
-        return np.log(a / a0) - np.log((M**2 + 2 * omd * a) / (M**2 + 2 * omd * a0)) + om * s * c
-
-    sims, exact = [], []
-    for n_steps in (100, 200):
-        inc = np.zeros((n_steps, 6))
-        inc[:, :3] = (90.0 - 20.0) / n_steps
-        st = labtests.mixed_control(m, s0, st0, labtests.NORMAL_STRESS, inc, np.full(n_steps, 2e4 / n_steps))["state"]
-        s = np.log(st["pm_ref"][0] / st0["pm_ref"][0])
-        exact.append(brentq(closed, 1e-8 * a0, a0, args=(s,)))
-        sims.append(np.sqrt(1.5 * np.sum(np.array([1, 1, 1, 2, 2, 2]) * st["alpha"][0] ** 2)))
-    assert exact[1] < 0.75 * a0          # a rotation well beyond the noise
-    assert 2 * sims[1] - sims[0] == pytest.approx(exact[1], rel=2e-4)
 
 
 @pytest.mark.parametrize("extra, message", [
