@@ -8,7 +8,7 @@ from .discrepancy import Discrepancy
 from .evidence import EvidenceEstimate, mode_evidence
 from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
 from .forward import ForwardModel, ForwardModelError, ListForward, ParticleForward
-from .likelihood import Likelihood, goodness_of_fit
+from .likelihood import Likelihood, distinct_rows, goodness_of_fit
 from .observations import Curve, DataError, Observations, Test
 from .priors import Bound, Constraint, LogUniformPrior, Prior, PriorError, UniformPrior
 from .results import Posterior, RunProgress, write_failures
@@ -17,6 +17,7 @@ from .tmcmc import EXIT_CHECKPOINTED, Checkpointed, RunStopped, SamplerError, TM
 __all__ = [
     "CheckpointError", "Discrepancy", "Evaluator", "Executor", "MPIExecutor", "PoolExecutor", "SerialExecutor",
     "default_executor", "ForwardModel", "ForwardModelError", "ListForward", "ParticleForward", "Likelihood",
+    "distinct_rows",
     "goodness_of_fit", "Curve", "DataError", "Observations", "Test",
     "Bound", "Constraint", "LogUniformPrior", "Prior", "PriorError", "UniformPrior", "Posterior", "RunProgress",
     "write_failures",

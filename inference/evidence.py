@@ -79,7 +79,8 @@ MAX_STEP = 1.0
 class EvidenceEstimate:
     """log_evidence: the reported ln Z (``method`` "importance sampling" or "Laplace"); log_laplace, log_is: the two
     estimates (log_is None when no draw had weight); std_error: standard error of ln Z_IS; ess: effective sample
-    size of the importance weights; n_draws: proposal draws; n_solves: forward solves spent (mode, Hessian, draws);
+    size of the importance weights; n_draws: proposal draws; n_solves: log-likelihood evaluations spent (mode,
+    Hessian, draws; an ``inference.Likelihood`` solves once the sets that share their soil parameters);
     log_posterior_mode: g at the refined mode; mode: the refined mode in the parameters (theta, the prior's order);
     log_lower: a lower bound of ln Z with probability 1 - LOWER_BOUND_RISK (module docstring, step 6; None when no
     draw of the first batch had weight); log_likelihood_mode: ln L at the refined mode (g less the log prior density

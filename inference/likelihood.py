@@ -38,7 +38,20 @@ from .discrepancy import CurveDiscrepancy, Discrepancy, normalized_abscissa
 from .forward import ForwardModelError, as_forward_model, batch_or_each, reason_of
 from .observations import Observations
 
-__all__ = ["ForwardModelError", "Likelihood", "goodness_of_fit", "curve_mean_squares", "log_likelihood_test"]
+__all__ = ["ForwardModelError", "Likelihood", "goodness_of_fit", "curve_mean_squares", "log_likelihood_test",
+           "distinct_rows"]
+
+
+def distinct_rows(rows):
+    """(first, inverse) of the rows of ``rows`` (m, k): ``first`` the index of each distinct row's first occurrence,
+    in the order of occurrence; ``inverse`` (m,) the position in ``first`` of the row equal to each row (a row
+    holding NaN equals no other)."""
+    rows = np.ascontiguousarray(rows)
+    _, index, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(index)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return index[order], rank[np.asarray(inverse).ravel()]
 
 
 def curve_mean_squares(observed, simulated) -> list:
@@ -465,11 +478,27 @@ class Likelihood:
             raise ForwardModelError(reason)
         return float(self._log_likelihood(self._simulated_one(result), sigma, delta)[0])
 
-    def _simulate(self, thetas) -> tuple:
-        """The forward model's (curves, failed) for the parameter sets ``thetas`` (rows in the prior's order)."""
+    def soil_parameters(self, thetas):
+        """The forward model's parameters (m, k) of m parameter sets (rows in the prior's order): every column but
+        the error and discrepancy parameters, in the prior's order."""
         if self.names is None:
             raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
-        return self.forward.simulate_batch(self._soil_names, thetas[:, self._soil_columns])
+        return np.atleast_2d(np.asarray(thetas, dtype=float))[:, self._soil_columns]
+
+    def _simulate(self, thetas) -> tuple:
+        """The forward model's (curves, failed) for the parameter sets ``thetas`` (rows in the prior's order). Sets
+        that differ only in their error or discrepancy parameters share one solve (the forward model is given each
+        distinct row once, in the order of first occurrence)."""
+        rows = self.soil_parameters(thetas)
+        first, inverse = distinct_rows(rows)
+        if len(first) == len(rows):
+            return self.forward.simulate_batch(self._soil_names, rows)
+        curves, failed = self.forward.simulate_batch(self._soil_names, rows[first])
+        failed = [failed[k] for k in inverse]
+        if not isinstance(curves, Mapping):
+            return [curves[k] for k in inverse], failed
+        return ({t: {c: (v[0], np.asarray(v[1])[inverse]) if isinstance(v, tuple) else np.asarray(v)[inverse]
+                     for c, v in cs.items()} for t, cs in curves.items()}, failed)
 
     @staticmethod
     def _particle(curves, failed, i):
@@ -490,14 +519,16 @@ class Likelihood:
 
     def simulated_many(self, thetas) -> dict:
         """{(test, curve): (m, n_recorded)} simulated values at the recorded abscissae of the parameter sets
-        ``thetas`` (rows in the prior's order); raises the first failed set's exception (ForwardModelError for
-        unusable curves)."""
+        ``thetas`` (rows in the prior's order; sets sharing their soil parameters are solved once); raises the first
+        failed set's exception (ForwardModelError for unusable curves)."""
         thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
         if self.forward.batched:
             curves, failed = self._simulate(thetas)
             results = [self._particle(curves, failed, i) for i in range(len(thetas))]
         else:
-            results = [self._forward_one(theta) for theta in thetas]
+            first, inverse = distinct_rows(self.soil_parameters(thetas))
+            solved = [self._forward_one(thetas[i]) for i in first]
+            results = [solved[k] for k in inverse]
         per_set = [self.simulated_at_observations(result) for result in results]
         return {key: np.stack([values[key] for values in per_set]) for key in per_set[0]}
 
@@ -512,16 +543,29 @@ class Likelihood:
             raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
         m = len(thetas)
         whole = (lambda: self._evaluate_batch(thetas)) if self.forward.batched and m > 1 else None
+        inverse = distinct_rows(self.soil_parameters(thetas))[1]
+        solved = {}   # one forward solve (or its exception) per distinct row of soil parameters
 
         def alone(i):
-            values, reasons = self._evaluate_batch(thetas[i:i + 1])
+            k = inverse[i]
+            if k not in solved:
+                try:
+                    solved[k] = self._simulate(thetas[i:i + 1])
+                except Exception as exc:  # noqa: BLE001 - raised again for every set that shares this solve
+                    solved[k] = exc
+            if isinstance(solved[k], Exception):
+                raise solved[k]
+            values, reasons = self._evaluate_solved(thetas[i:i + 1], *solved[k])
             return values[0], reasons[0]
 
         return batch_or_each(whole, alone, m)
 
     def _evaluate_batch(self, thetas):
         """(values (m,), reasons) of one forward call over ``thetas``; raises what the forward model raises."""
-        curves, failed = self._simulate(thetas)
+        return self._evaluate_solved(thetas, *self._simulate(thetas))
+
+    def _evaluate_solved(self, thetas, curves, failed):
+        """(values (m,), reasons) of the parameter sets ``thetas`` from their forward model's (curves, failed)."""
         if isinstance(curves, Mapping):
             return self._evaluate_arrays(thetas, curves, failed)
         values = np.full(len(thetas), -np.inf)

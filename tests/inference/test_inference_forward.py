@@ -74,3 +74,53 @@ def test_a_failed_record_and_the_single_particle_adapter():
     assert values[0] == pytest.approx(like(THETAS[0])) and values[0] > values[2]
     with pytest.raises(ArithmeticError):
         like(THETAS[1])
+
+
+SHARED = np.array([[1.0, 0.1], [2.0, 0.1], [1.0, 0.3], [1.5, 0.1], [2.0, 0.05], [1.0, 0.1]])
+
+
+def test_sets_differing_only_in_their_error_parameter_share_one_solve():
+    """A batch (a finite-difference stencil moving sigma_eps) gives the forward model each distinct set of soil
+    parameters once, and each set the value it has alone: Eq. (4) at its own sigma_eps on the shared curves."""
+    forward = Linear()
+    like = Likelihood(_obs(), forward).bind(("a", "sigma_eps"))
+    values, reasons = like.evaluate_many(SHARED)
+    assert forward.calls == [3] and reasons == [None] * 6
+    alone = [like(theta) for theta in SHARED]
+    np.testing.assert_array_equal(values, alone)
+    # Eq. (4) by hand: q = 10 a x against 10 x, every point used
+    j = (1.0 - SHARED[:, 0]) ** 2
+    n = len(X)
+    expected = -n / 2 * np.log(2 * np.pi * SHARED[:, 1] ** 2) - n * j / (2 * SHARED[:, 1] ** 2)
+    np.testing.assert_allclose(values, expected, rtol=1e-12)
+
+
+def test_a_shared_solve_that_fails_fails_every_set_sharing_it_and_one_at_a_time_forwards_solve_once():
+    forward = Linear(always_bad=2.0)
+    values, reasons = Likelihood(_obs(), forward).bind(("a", "sigma_eps")).evaluate_many(SHARED)
+    assert forward.calls == [3, 1, 1, 1]   # the batch of the 3 distinct sets fails, then each distinct set alone
+    assert reasons[1] == reasons[4] == "ValueError: a = 2.0 is refused"
+    assert values[1] == values[4] == -np.inf and np.isfinite(values[[0, 2, 3, 5]]).all()
+
+    seen = []
+
+    def one(params):  # a single-particle callable
+        seen.append(params["a"])
+        return {"t": {"q": 10.0 * params["a"] * X}}
+
+    like = Likelihood(_obs(), one).bind(("a", "sigma_eps"))
+    values, _ = like.evaluate_many(SHARED)
+    assert seen == [1.0, 2.0, 1.5]
+    np.testing.assert_array_equal(values, [like(theta) for theta in SHARED])
+
+
+def test_simulated_curves_of_sets_sharing_their_soil_parameters_are_solved_once():
+    seen = []
+
+    def one(params):
+        seen.append(params["a"])
+        return {"t": {"q": 10.0 * params["a"] * X}}
+
+    simulated = Likelihood(_obs(), one).bind(("a", "sigma_eps")).simulated_many(SHARED)
+    assert seen == [1.0, 2.0, 1.5]
+    np.testing.assert_array_equal(simulated["t", "q"], 10.0 * SHARED[:, :1] * X)
