@@ -134,7 +134,8 @@ class ModelClass:
     sigma, a list in the likelihood's curve order); map_simulated: {(test, curve): simulated values at the recorded
     abscissae} at the MAP; sample_simulated: {(test, curve): (n_s, n)} the same for n_s posterior samples,
     sample_sigma (n_s,) their sigma_eps, or (n_s, n_curves) with error groups (for the predictive bands); wall_s:
-    calibration wall time (s); n_forward_solves: forward solves of the calibration; extra: the problem's own data
+    calibration wall time (s); n_forward_solves: log-likelihood evaluations of the calibration (the sampler's and
+    the refined evidence's, whose sets sharing their soil parameters share one solve); extra: the problem's own data
     (e.g. the MAP's raw curves for its covariates and figures), never read by the diagnosis; warnings: the
     calibration's own findings of a poor fit, in words (e.g. "sigma_eps at its prior's upper bound 0.3", "M on its
     prior's lower bound"), named in the diagnosis' verdict; sampler_log_evidence: the sampler's own ln Z when
