@@ -88,7 +88,10 @@ class Enrichment:
     of the coupled FE). ``inert_at``: {parameter: "lower" or "upper"}, the end of an added parameter's prior where
     the enriched class is the base class again or is no longer the physics the candidate names (a viscosity
     coefficient at its floor; a swelling time constant at its floor is an instantaneous compliance, not a time
-    effect): an enriched class whose mode sits there cannot confirm the candidate."""
+    effect): an enriched class whose mode sits there cannot confirm the candidate. ``seen_in_shear``: the added
+    parameters the records show only where a specimen is sheared away from its consolidation path (a triaxial shear
+    stage, the pressuremeter's cavity expansion); a one-dimensional programme (oedometer, CRS, incremental loading,
+    relaxation) leaves them out of the prior, at the model's own values (:func:`enriched_settings`)."""
 
     model_class: str
     switches: dict
@@ -96,12 +99,16 @@ class Enrichment:
     log_uniform: tuple = ()
     forward_arguments: tuple = ()
     inert_at: dict = field(default_factory=dict)
+    seen_in_shear: tuple = ()
 
     def __post_init__(self):
         for name, end in self.inert_at.items():
             if name not in self.parameters or end not in ("lower", "upper"):
                 raise ValueError(f"enrichment {self.switches}: inert_at {name}={end!r} must name a free parameter "
                                  "and 'lower' or 'upper'")
+        if not set(self.seen_in_shear) <= set(self.parameters):
+            raise ValueError(f"enrichment {self.switches}: seen_in_shear {self.seen_in_shear} must name free "
+                             "parameters")
 
 
 @dataclass(frozen=True)
@@ -223,8 +230,12 @@ CATALOG = (
         # inclined ellipse of Wheeler et al. 2003 Eq. 1; 1: S-CLAY1) are free, uniform. With alpha_K0 and omega from
         # M, the anisotropic class fitted an independent CK0U programme of a clay with a fixed fabric (inclination
         # 0.30) with 28 % RMS misfit of q in extension at the generating M, lambda and kappa (the preconsolidation
-        # scanned); with alpha0 = 0.30 and omega_ratio = 0, 2 %.
-        Enrichment("ANICREEP", {"anisotropy": True}, {"alpha0": (0.0, 0.75), "omega_ratio": (0.0, 2.0)}),
+        # scanned); with alpha0 = 0.30 and omega_ratio = 0, 2 %. Only shearing shows them: along a one-dimensional
+        # path the fabric follows the K0 line whatever its start and rate (the generator's anisotropic clay leaves
+        # CRS, IL and relaxation records consistent with noise), and free there they bend the compression curve
+        # like bonding (IL: ln B 60.4 and 62.0 against destructuration's 57.6 and 72.4, the true effect).
+        Enrichment("ANICREEP", {"anisotropy": True}, {"alpha0": (0.0, 0.75), "omega_ratio": (0.0, 2.0)},
+                   seen_in_shear=("alpha0", "omega_ratio")),
         references=("docs/reference.md section 4: alpha_K0, omega, omega_d from M; constitutive/anicreep.py (I): "
                     "the initial fabric alpha0 and omega_ratio",)),
     Candidate(
@@ -339,14 +350,16 @@ def signatures(base_switches: dict, model_class: str | None = None) -> list:
     return out
 
 
-def enriched_settings(name: str, base_switches: dict, base_bounds: dict, model_class: str | None = None) -> tuple:
+def enriched_settings(name: str, base_switches: dict, base_bounds: dict, model_class: str | None = None,
+                      shears: bool = True) -> tuple:
     """(switches, prior bounds, log-uniform names) of the enriched class of candidate ``name`` for a base model with
-    ``base_switches`` and free-parameter ``base_bounds`` (of class ``model_class`` when given). For a base model
-    enriched through another class of its family (``constitutive.registry.enrichment_family``: Modified Cam Clay ->
-    ANICREEP), the switches are the family's (every physics off) plus the enrichment's, and the bounds keep the base
-    model's parameter names (the forward model translates them, ``Family.translate``) plus the enrichment's extra
-    parameters. Raises ValueError when the enrichment is not implemented or is outside the class's family (message:
-    the reason) or the base model already has the physics."""
+    ``base_switches`` and free-parameter ``base_bounds`` (of class ``model_class`` when given), on a programme that
+    ``shears`` a specimen (False: the enrichment's ``seen_in_shear`` parameters stay out of the prior). For a base
+    model enriched through another class of its family (``constitutive.registry.enrichment_family``: Modified Cam
+    Clay -> ANICREEP), the switches are the family's (every physics off) plus the enrichment's, and the bounds keep
+    the base model's parameter names (the forward model translates them, ``Family.translate``) plus the
+    enrichment's extra parameters. Raises ValueError when the enrichment is not implemented or is outside the
+    class's family (message: the reason) or the base model already has the physics."""
     c = candidate(name)
     reason = _unavailable(c, model_class)
     if reason:
@@ -358,5 +371,6 @@ def enriched_settings(name: str, base_switches: dict, base_bounds: dict, model_c
         raise ValueError(f"candidate {name!r}: parameters {sorted(overlap)} are already free in the base model")
     family = None if model_class is None else enrichment_family(model_class)
     switches = dict(family.switches) if family is not None and family.model != model_class else dict(base_switches)
-    return ({**switches, **c.enrichment.switches}, {**base_bounds, **c.enrichment.parameters},
-            tuple(c.enrichment.log_uniform))
+    added = {k: v for k, v in c.enrichment.parameters.items() if shears or k not in c.enrichment.seen_in_shear}
+    return ({**switches, **c.enrichment.switches}, {**base_bounds, **added},
+            tuple(k for k in c.enrichment.log_uniform if k in added))

@@ -64,6 +64,13 @@ def test_catalog_enrichment_settings_and_refusals():
     assert plain["enrichment"] is None and "ANICREEP has no switch" in plain["unavailable"]
     with pytest.raises(ValueError, match="already has it"):
         catalog.enriched_settings("anisotropy", BASE, {})
+    # the fabric's start and rotation only where a specimen is sheared
+    isotropic = {**BASE, "anisotropy": False}
+    assert set(catalog.enriched_settings("anisotropy", isotropic, {})[1]) == {"alpha0", "omega_ratio"}
+    assert catalog.enriched_settings("anisotropy", isotropic, {}, shears=False)[1] == {}
+    assert catalog.enriched_settings("viscosity", BASE, {}, shears=False)[1] == {"C_alpha_e": (0.001, 0.1)}
+    with pytest.raises(ValueError, match="seen_in_shear"):
+        catalog.Enrichment("ANICREEP", {"anisotropy": True}, {"alpha0": (0.0, 0.75)}, seen_in_shear=("omega",))
     with pytest.raises(ValueError, match="not in the catalog"):
         catalog.candidate("magic")
     data = {d["name"]: d for d in catalog.signatures(BASE)}

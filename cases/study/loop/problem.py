@@ -82,6 +82,10 @@ class LoopProblem:
     error_groups = None
     #: {test: weight} of Eq. (6) (tests not named: 1)
     weights: dict = {}
+    #: whether the programme shears a specimen (a triaxial shear stage, a pressuremeter expansion): where it does
+    #: not, an enrichment's parameters that only shearing shows stay out of the prior
+    #: (``physics_catalog.Enrichment.seen_in_shear``)
+    shears = True
     #: {candidate: {parameter: (lower, upper, kind)}}: the study's priors of an enrichment's added parameters,
     #: replacing the catalog's (``cases.study.reading.enrichment_priors``)
     enrichment_priors: dict = {}
@@ -328,7 +332,7 @@ class LoopProblem:
         ``candidate``, on top of the candidates :meth:`adopt` confirmed (a combined class), in the base's
         convention."""
         switches, bounds, extra_log = physics_catalog.enriched_settings(
-            candidate, {**self.base_switches, **self.adopted_switches}, self.base_bounds, self.model)
+            candidate, {**self.base_switches, **self.adopted_switches}, self.base_bounds, self.model, self.shears)
         bounds, extra_log = self.enriched_priors(candidate, bounds, extra_log)
         switches = {**switches, **self.adopted_switches, **self.convention}
         return (class_name(switches, enrichment_family(self.model).model), switches, bounds,

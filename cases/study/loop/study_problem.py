@@ -13,6 +13,7 @@ from cases.study.loop.covariates import programme_covariates
 from cases.study.loop.problem import CASE, LoopProblem
 from cases.study.outputs.figures.dense import dense_curves, with_mean_stress
 from cases.study.outputs.report import plot_loop, write_outputs
+from cases.study.programme import programme_of
 from cases.study.reading.presets import FE_FIELDS
 from cases.study.reading.records import generating_values
 from cases.study.reading.schema import Study
@@ -47,6 +48,8 @@ class StudyProblem(LoopProblem):
         self.base_dir = "."
         self.preset = study.preset(quick)
         self.processes, self.dispatch = processes, dispatch
+        self.shears = any(t.apparatus == "sbp" or any(s.procedure.shearing for s in t.stages)
+                          for t in map(programme_of, study.tests))
         self.synthetic = any("synthetic" in t.conditions for t in observations)
         self.generating = generating_values(observations)
 

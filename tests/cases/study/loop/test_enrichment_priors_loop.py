@@ -3,6 +3,8 @@ calibrated under them, the diagnosis' record of the candidates carries them, and
 enriched class are measured against them. The calibration itself is intercepted (no solve)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from corpus_inputs import LAB_CSV, LAB_TOML
@@ -93,3 +95,21 @@ def test_each_class_names_the_kernels_it_compiles(tmp_path):
     assert names({"viscous": True}) == ["_anicreep_kernel.py", "_anicreep_steps.py"]
     assert names({"swelling": True}) == ["_anicreep_kernel.py", "_anicreep_steps.py", "_swelling_kernel.py",
                                          "_swelling_steps.py"]
+
+
+INDEPENDENT = Path(__file__).resolve().parents[4] / "validation" / "data" / "independent"
+
+
+@pytest.mark.parametrize("case, shears", [("il_B_s1", False), ("crs_B_s1", False), ("relaxation_A_s1", False),
+                                          ("ck0u_C_s1", True), ("ciu_A_s1", True)])
+def test_the_fabric_is_free_only_on_a_programme_that_shears(tmp_path, monkeypatch, case, shears):
+    """The anisotropic class frees the initial fabric and its rotation (alpha0, omega_ratio) where a specimen is
+    sheared (CK0U, CIU); on an incremental-loading, CRS or relaxation programme it keeps S-CLAY1's from M."""
+    study = load_study(INDEPENDENT / case / "study.toml")
+    obs, times = load_observations(study.tests)
+    problem = StudyProblem(study, obs, times, quick=True)
+    problem.start(obs, None, tmp_path, 1, study.settings(True), "test")
+    assert problem.shears is shears
+    names = set(_prior_of(problem, "anisotropy", monkeypatch).names)
+    assert names >= {"M", "lambda_", "kappa", "pc0", "sigma_eps"}
+    assert names & {"alpha0", "omega_ratio"} == ({"alpha0", "omega_ratio"} if shears else set())
