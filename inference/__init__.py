@@ -7,8 +7,8 @@ from .diagnosis import ScreenReport, screen
 from .discrepancy import Discrepancy
 from .evidence import EvidenceEstimate, mode_evidence
 from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
-from .forward import ForwardModel, ForwardModelError, ListForward, ParticleForward
-from .likelihood import Likelihood, distinct_rows, goodness_of_fit
+from .forward import ForwardModel, ForwardModelError, ListForward, ParticleForward, distinct_rows
+from .likelihood import Likelihood, goodness_of_fit
 from .observations import Curve, DataError, Observations, Test
 from .priors import Bound, Constraint, LogUniformPrior, Prior, PriorError, UniformPrior
 from .results import Posterior, RunProgress, write_failures

@@ -1,5 +1,6 @@
-"""The forward-model protocol of :class:`inference.Likelihood`, its adapters for plain callables, and the failure
-policy of a batch of evaluations (written once here, applied by the likelihood and the executors' evaluator).
+"""The forward-model protocol of :class:`inference.Likelihood`, its adapters for plain callables, the failure
+policy of a batch of evaluations (written once here, applied by the likelihood and the executors' evaluator), and
+one solve per distinct parameter set of a batch (:func:`simulate_distinct`).
 
 A forward model maps m parameter sets to simulated curves:
 
@@ -21,15 +22,19 @@ in the units of the recorded curves.
 A model whose values the whole batch cannot be simulated with raises; the failure policy (:func:`batch_or_each`)
 then evaluates each particle alone, and a particle that still raises gets log-likelihood -inf with the reason
 ``"<exception class>: <message>"``. A model with ``batched = False`` is only ever given one particle at a time.
+
+Parameter sets of a batch that differ only in what the forward model does not take (a likelihood's error or
+discrepancy parameters: a finite-difference stencil moves them about one set of soil parameters) share one solve.
 """
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 
 import numpy as np
 
 __all__ = ["ForwardModelError", "ForwardModel", "ParticleForward", "ListForward", "as_forward_model", "batch_or_each",
-           "particle_dicts", "reason_of"]
+           "particle_dicts", "reason_of", "distinct_rows", "simulate_distinct"]
 
 
 class ForwardModelError(RuntimeError):
@@ -128,3 +133,29 @@ def as_forward_model(forward, batch: bool) -> ForwardModel:
     if isinstance(forward, ForwardModel):
         return forward
     return ListForward.of(forward) if batch else ParticleForward(forward)
+
+
+def distinct_rows(rows):
+    """(first, inverse) of the rows of ``rows`` (m, k): ``first`` the index of each distinct row's first occurrence,
+    in the order of occurrence; ``inverse`` (m,) the position in ``first`` of the row equal to each row (a row
+    holding NaN equals no other)."""
+    rows = np.ascontiguousarray(rows)
+    _, index, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(index)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return index[order], rank[np.asarray(inverse).ravel()]
+
+
+def simulate_distinct(forward: ForwardModel, names, values) -> tuple:
+    """``forward.simulate_batch(names, values)`` (module docstring) with each distinct row of ``values`` (m, k)
+    solved once, in the order of first occurrence, and its curves and failure handed to every row equal to it."""
+    first, inverse = distinct_rows(values)
+    if len(first) == len(values):
+        return forward.simulate_batch(names, values)
+    curves, failed = forward.simulate_batch(names, values[first])
+    failed = [failed[k] for k in inverse]
+    if not isinstance(curves, Mapping):
+        return [curves[k] for k in inverse], failed
+    return ({t: {c: (v[0], np.asarray(v[1])[inverse]) if isinstance(v, tuple) else np.asarray(v)[inverse]
+                 for c, v in cs.items()} for t, cs in curves.items()}, failed)

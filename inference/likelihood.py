@@ -35,23 +35,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from .discrepancy import CurveDiscrepancy, Discrepancy, normalized_abscissa
-from .forward import ForwardModelError, as_forward_model, batch_or_each, reason_of
+from .forward import ForwardModelError, as_forward_model, batch_or_each, distinct_rows, reason_of, simulate_distinct
 from .observations import Observations
 
-__all__ = ["ForwardModelError", "Likelihood", "goodness_of_fit", "curve_mean_squares", "log_likelihood_test",
-           "distinct_rows"]
-
-
-def distinct_rows(rows):
-    """(first, inverse) of the rows of ``rows`` (m, k): ``first`` the index of each distinct row's first occurrence,
-    in the order of occurrence; ``inverse`` (m,) the position in ``first`` of the row equal to each row (a row
-    holding NaN equals no other)."""
-    rows = np.ascontiguousarray(rows)
-    _, index, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(index)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    return index[order], rank[np.asarray(inverse).ravel()]
+__all__ = ["ForwardModelError", "Likelihood", "goodness_of_fit", "curve_mean_squares", "log_likelihood_test"]
 
 
 def curve_mean_squares(observed, simulated) -> list:
@@ -486,19 +473,9 @@ class Likelihood:
         return np.atleast_2d(np.asarray(thetas, dtype=float))[:, self._soil_columns]
 
     def _simulate(self, thetas) -> tuple:
-        """The forward model's (curves, failed) for the parameter sets ``thetas`` (rows in the prior's order). Sets
-        that differ only in their error or discrepancy parameters share one solve (the forward model is given each
-        distinct row once, in the order of first occurrence)."""
-        rows = self.soil_parameters(thetas)
-        first, inverse = distinct_rows(rows)
-        if len(first) == len(rows):
-            return self.forward.simulate_batch(self._soil_names, rows)
-        curves, failed = self.forward.simulate_batch(self._soil_names, rows[first])
-        failed = [failed[k] for k in inverse]
-        if not isinstance(curves, Mapping):
-            return [curves[k] for k in inverse], failed
-        return ({t: {c: (v[0], np.asarray(v[1])[inverse]) if isinstance(v, tuple) else np.asarray(v)[inverse]
-                     for c, v in cs.items()} for t, cs in curves.items()}, failed)
+        """The forward model's (curves, failed) for the parameter sets ``thetas`` (rows in the prior's order); sets
+        that differ only in their error or discrepancy parameters share one solve (``forward.simulate_distinct``)."""
+        return simulate_distinct(self.forward, self._soil_names, self.soil_parameters(thetas))
 
     @staticmethod
     def _particle(curves, failed, i):
@@ -543,11 +520,10 @@ class Likelihood:
             raise RuntimeError("Likelihood.bind(prior.names) must be called before evaluation")
         m = len(thetas)
         whole = (lambda: self._evaluate_batch(thetas)) if self.forward.batched and m > 1 else None
-        inverse = distinct_rows(self.soil_parameters(thetas))[1]
         solved = {}   # one forward solve (or its exception) per distinct row of soil parameters
 
         def alone(i):
-            k = inverse[i]
+            k = self.soil_parameters(thetas[i]).tobytes()
             if k not in solved:
                 try:
                     solved[k] = self._simulate(thetas[i:i + 1])
