@@ -39,7 +39,7 @@ from cases.study.stages.pressuremeter import MAX_CAVITY_STRAIN, Expansion
 from cases.study.stages.shear import Shear
 
 __all__ = ["TestSpec", "Stage", "InitialState", "TEST_TYPES", "ROLES", "APPARATUS", "programme_of", "curve_key",
-           "split_key"]
+           "split_key", "condition_features"]
 
 TEST_TYPES = ("triaxial", "oedometer_crs", "oedometer_creep", "sbp")
 #: what a study does with a test (``role``): calibrate on it (default), or predict it without its data and score the
@@ -228,3 +228,43 @@ def split_key(key: str) -> tuple:
     """(quantity, stage name or None) of a curve key."""
     quantity, _, stage = key.partition("@")
     return quantity, stage or None
+
+
+def condition_features(spec: TestSpec) -> dict:
+    """The conditions of a test as features of the state space of docs/reference.md (P2) (the distance between tests
+    that sizes the model error of a prediction): numbers ``e0`` (initial void ratio), ``ln p0`` (initial mean
+    effective stress, kPa), ``ln ocr`` (initial overconsolidation ratio), ``ln permeability`` (m/s, pressuremeter)
+    where given; per stage kind present, ``ln <kind> stress`` (the largest target effective stress, kPa), ``ln <kind>
+    rate`` (the mean log strain rate magnitude, 1/s) and ``ln <kind> duration`` (s, the mean log duration) where its
+    stages give them; texts ``apparatus``, ``stages`` (the kinds in order) and per kind ``<kind> drainage`` and
+    ``<kind> direction`` (compression, extension; loading or unloading for a CRS stage) where given."""
+    spec = programme_of(spec)
+    init = spec.initial
+    state = {"apparatus": spec.apparatus, "stages": " ".join(s.kind for s in spec.stages)}
+    if init.e0 is not None:
+        state["e0"] = float(init.e0)
+    if init.p0 is not None or init.sigma_v0 is not None:
+        state["ln p0"] = float(np.log(init.p))
+    if init.ocr is not None or init.preconsolidation is not None:
+        ocr = init.ocr if init.ocr is not None else init.preconsolidation / init.vertical
+        state["ln ocr"] = float(np.log(ocr))
+    if spec.permeability is not None:
+        state["ln permeability"] = float(np.log(spec.permeability))
+    for kind in dict.fromkeys(s.kind for s in spec.stages):
+        stages = [s for s in spec.stages if s.kind == kind]
+        stress = [v for s in stages for v in (s.p, s.sigma_v, s.to_sigma_v) if v is not None]
+        rate = [abs(s.strain_rate) for s in stages if s.strain_rate]
+        duration = [s.duration for s in stages if s.duration]
+        if stress:
+            state[f"ln {kind} stress"] = float(np.log(max(stress)))
+        if rate:
+            state[f"ln {kind} rate"] = float(np.mean(np.log(rate)))
+        if duration:
+            state[f"ln {kind} duration"] = float(np.mean(np.log(duration)))
+        drainage = {s.drainage for s in stages if s.kind in ("shear", "creep", "relaxation")}
+        direction = {s.direction or ("unloading" if (s.strain_rate or 0.0) < 0 else None) for s in stages} - {None}
+        if drainage:
+            state[f"{kind} drainage"] = " ".join(sorted(drainage))
+        if direction:
+            state[f"{kind} direction"] = " ".join(sorted(direction))
+    return state

@@ -42,10 +42,11 @@ def draws_at_records(like, post, n_draws=200, seed=0):
 
 def score_predictions(like, post, tests, amplitude: dict, level=0.95, n_draws=200, seed=0) -> list:
     """The predictions of ``tests`` (names in ``like``, whose calibration produced ``post``) with the model-error
-    amplitudes ``amplitude`` {curve name: a_k}: one row per (test, curve) with its recorded points (x, observed), the
-    MAP-free predictive mean, the bands without ("noise": parameters and noise) and with ("model": + model error) the
-    model-error term, and their scores (:func:`inference.prediction.band_scores`) plus ``point_error`` (RMS of the
-    predictive mean's relative error, the same in both)."""
+    amplitudes ``amplitude`` {(test, curve): a_k} (a curve not named: none): one row per (test, curve) with its
+    recorded points (x, observed), the MAP-free predictive mean, the bands without ("noise": parameters and noise)
+    and with ("model": + model error) the model-error term, its ``amplitude``, and their scores
+    (:func:`inference.prediction.band_scores`) plus ``point_error`` (RMS of the predictive mean's relative error, the
+    same in both)."""
     sims, sigma = draws_at_records(like, post, n_draws, seed)
     column = {key: k for k, key in enumerate(like.curve_keys)}
     rows = []
@@ -54,7 +55,7 @@ def score_predictions(like, post, tests, amplitude: dict, level=0.95, n_draws=20
         for name in tests:
             for curve in like.observations[name].curves:
                 key = (name, curve)
-                relative = np.sqrt(sigma[:, column[key]] ** 2 + amp.get(curve, 0.0) ** 2)
+                relative = np.sqrt(sigma[:, column[key]] ** 2 + amp.get(key, 0.0) ** 2)
                 mean = sims[key]
                 used = like.masks[key]
                 scores = band_scores(bands[key], mean, np.abs(mean) * relative[:, None], used)
@@ -64,7 +65,7 @@ def score_predictions(like, post, tests, amplitude: dict, level=0.95, n_draws=20
                     rows.append({"test": name, "curve": curve, "unit": c.y_unit, "x": c.x, "observed": c.y,
                                  "x_label": f"{c.x_name} ({c.x_unit})",
                                  "mean": bands[key].mean, "point_error": float(np.sqrt(np.mean(error**2))),
-                                 "amplitude": float(amplitude.get(curve, 0.0))})
+                                 "amplitude": float(amplitude.get(key, 0.0))})
                 row = next(r for r in rows if (r["test"], r["curve"]) == key)
                 row[label] = {**scores, "lower": bands[key].lower, "upper": bands[key].upper}
     return rows
@@ -78,10 +79,11 @@ def _pooled(rows, label, curve):
                  for k in ("coverage", "relative_width", "point_error"))
 
 
-def prediction_lines(rows, amplitude: dict, check: list, level=0.95) -> list:
-    """The report's Predictions section: the model-error amplitudes and their check (``check``: rows of the
-    leave-one-test-out calibrations, :func:`cases.study.routes.held_out.leave_one_out`), one table row per predicted
-    curve and the pooled coverage per quantity, without and with the model-error term."""
+def prediction_lines(rows, model_error, check: list, level=0.95) -> list:
+    """The report's Predictions section: the model error (:class:`inference.prediction.ModelError`) and its check
+    (``check``: rows of the leave-one-test-out calibrations, :func:`cases.study.routes.held_out.leave_one_out`), one
+    table row per predicted curve (with its distance to the calibrated tests and amplitude when the rows carry them)
+    and the pooled coverage per quantity, without and with the model-error term."""
     pct = f"{100 * level:g} %"
     lines = ["## Predictions", "",
              f"Tests not calibrated on (role = \"predict\"), predicted from the posterior and compared with their "
@@ -91,33 +93,41 @@ def prediction_lines(rows, amplitude: dict, check: list, level=0.95) -> list:
              f"{pct}); width: mean band width (the curve's unit) and relative to the measured value; interval score "
              "(P3) and CRPS (P4): mean penalties in the curve's unit, lower is better; point error: RMS relative "
              "error of the predictive mean.", ""]
-    if amplitude:
-        lines += ["Model-error amplitude a_k per quantity (P2), from the leave-one-test-out predictions of the "
-                  "calibration tests: " + ", ".join(f"{k} {100 * v:.2f} %" for k, v in amplitude.items()) + ".", ""]
+    if model_error.excess:
+        lines += ["Model error (P2), from the leave-one-test-out predictions of the calibration tests: the amplitude "
+                  "a_k of each quantity grows with a test's distance d from the nearest calibrated test in the space "
+                  "of the tests' conditions (initial void ratio and stress, stage stresses, rates, drainage; each "
+                  "scaled by its range over the study's tests), a_k^2 = excess_k d / d_k: " + ", ".join(
+                      f"{k} {100 * np.sqrt(v):.2f} % at d_k = {model_error.distance[k]:.2f}"
+                      for k, v in model_error.excess.items()) + " (d_k: the left-out tests' mean distance to "
+                  "their calibration's tests). A test inside the calibrated range is nearer than the left-out tests "
+                  "were and gets less; one beyond it gets more.", ""]
         if len({c["test"] for c in check}) == 2:
             lines += ["With two calibration tests each leave-one-out calibration has one test and predicts the other "
-                      "by extrapolation (to another density or stress), where the calibration on both interpolates: "
-                      "the amplitude is then likely pessimistic and the \"+ model\" band too wide "
-                      "(notes/predictions.md). A third calibration test inside the range of the others makes it a "
-                      "measure of interpolation.", ""]
+                      "by extrapolation (to another density or stress): the amplitude then rests on two one-test "
+                      "calibrations (notes/predictions.md). A third calibration test inside the range of the others "
+                      "makes it a measure of interpolation.", ""]
     else:
         lines += ["No model-error amplitude: it is estimated by leaving out each calibration test in turn, which "
                   "needs at least two calibration tests; the bands carry parameters and noise only.", ""]
     if check:
         lines += ["Check by leave-one-test-out (each calibration test predicted from a calibration on the others, its "
-                  "model-error amplitude from the other left-out tests only):", "",
-                  "| left-out test | curve | coverage noise | coverage + model | a_k used (%) |",
-                  "|---|---|---|---|---|"]
+                  "model error from the other left-out tests only, at its own distance d):", "",
+                  "| left-out test | curve | d | coverage noise | coverage + model | a_k used (%) |",
+                  "|---|---|---|---|---|---|"]
         for c in check:
             model = ("- | -" if c["amplitude"] is None else
                      f"{100 * c['coverage_model']:.0f} % | {100 * c['amplitude']:.2f}")
-            lines.append(f"| {c['test']} | {c['curve']} | {100 * c['coverage_noise']:.0f} % | {model} |")
+            lines.append(f"| {c['test']} | {c['curve']} | {c['distance']:.2f} | {100 * c['coverage_noise']:.0f} % | "
+                         f"{model} |")
         lines.append("")
-    lines += ["| test | curve | points | coverage noise | width noise | coverage + model | width + model | "
-              "interval score + model | CRPS + model | point error |", "|---|---|---|---|---|---|---|---|---|---|"]
+    lines += ["| test | curve | points | d | a_k | coverage noise | width noise | coverage + model | width + model | "
+              "interval score + model | CRPS + model | point error |", "|---" * 12 + "|"]
     for r in rows:
         n, m = r["noise"], r["model"]
-        lines.append(f"| {r['test']} | {r['curve']} ({r['unit']}) | {n['n']} | {100 * n['coverage']:.0f} % | "
+        d = f"{r['distance']:.2f}" if "distance" in r else "-"
+        lines.append(f"| {r['test']} | {r['curve']} ({r['unit']}) | {n['n']} | {d} | {100 * r['amplitude']:.2f} % | "
+                     f"{100 * n['coverage']:.0f} % | "
                      f"{n['mean_width']:.4g} ({100 * n['relative_width']:.2g} %) | {100 * m['coverage']:.0f} % | "
                      f"{m['mean_width']:.4g} ({100 * m['relative_width']:.2g} %) | {m['interval_score']:.4g} | "
                      f"{m['crps']:.4g} | {100 * r['point_error']:.2g} % |")

@@ -17,6 +17,7 @@ import inference
 from cases.study.cli import UsageError, arguments, non_negative_int, positive_int, quantity, run_settings
 from cases.study.loop.problem import CASE, run_loop
 from cases.study.loop.study_problem import StudyProblem
+from cases.study.programme import condition_features
 from cases.study.reading.records import load_observations
 from cases.study.reading.schema import load_study
 from cases.study.routes import sand as sand_route
@@ -179,8 +180,9 @@ def _general(study, run, diagnose) -> int:
     def finish(one, seed, out, post):
         lines, extra = [], {}
         if predicted:
+            conditions = {t.name: condition_features(t) for t in study.tests}
             lines, entry, _ = predict_held_out(like_all, calibrated, predicted, likelihood_of, prior, post, one, out,
-                                               seed, settings.n_samples, sampler, study.name)
+                                               seed, settings.n_samples, sampler, study.name, conditions)
             extra = {"calibration_tests": calibrated, "predicted_tests": predicted, "predictions": entry}
         summary = problem.finish_class(post, like, name, study.switches, one, out, seed, settings.predictive_draws,
                                        post.wall_s, extra=extra)[1]

@@ -26,7 +26,7 @@ from cases.study.cli import UsageError, unit_hint
 from cases.study.forward.lab import LabForward
 from cases.study.outputs.glossary import glossary_lines
 from cases.study.outputs.report import parameter_table
-from cases.study.programme import TestSpec
+from cases.study.programme import TestSpec, condition_features
 from cases.study.reading.error_model import ErrorModel, read_error_model
 from cases.study.reading.records import write_records
 from cases.study.routes.held_out import predict_held_out
@@ -403,9 +403,10 @@ def run(study, run_settings, args) -> int:
                 kept = inference.Observations([s.cal_obs[t] for t in tests])
                 return likelihood(kept, sand_forward(kept, s.forward.fixed, s.grid), error_model)
 
+            conditions = {t: condition_features(conditions_of(s.all_obs[t])) for t in s.all_obs.tests}
             predictions, predicted, amplitude = predict_held_out(
                 s.like_all, list(s.cal_obs.tests), s.predicted, likelihood_of, s.prior, post, one, out, seed,
-                settings.n_samples, sampler, study.name)
+                settings.n_samples, sampler, study.name, conditions)
         if runner["volume_at_pct"] and drained_predicted:
             volume_rows = volume_change_table(s.forward_all, post, s.all_obs, drained_predicted,
                                               tuple(runner["volume_at_pct"]), sigmas=curve_sigmas(s.like),

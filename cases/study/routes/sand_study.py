@@ -149,8 +149,8 @@ def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None, ampl
     """Posterior predictive of Eq. (1): U = c U_num(b), c ~ N(1, sigma^2), over ``n_draws`` final-stage samples
     (one batched forward call). ``sigmas``: {curve: error parameter} with error groups (Eq. 6g), e.g.
     {"q": "sigma_eps_stress", "e": "sigma_eps_volume"}; a curve not named takes sigma_eps, or no noise when the
-    posterior has no sigma_eps. ``amplitude``: {curve: a_k}, the model-error term of (P1) (docs/reference.md section
-    10) added to the relative variance, c ~ N(1, sigma^2 + a_k^2), for tests without data (predictions). Returns
+    posterior has no sigma_eps. ``amplitude``: {(test, curve): a_k}, the model-error term of (P1) (docs/reference.md
+    section 10) added to the relative variance, c ~ N(1, sigma^2 + a_k^2), for tests without data (predictions). Returns
     ({test: {curve: (q2.5, q50, q97.5) arrays}}, {test: grid}, MAP curves)."""
     rng = np.random.default_rng(seed)
     names = list(post.names)
@@ -171,7 +171,7 @@ def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None, ampl
         band[t.name], at_map[t.name] = {}, {}
         for k, (grid, v) in table[t.name].items():
             grids[t.name] = grid
-            relative = np.sqrt(sigma_of(k) ** 2 + (amplitude or {}).get(k, 0.0) ** 2)
+            relative = np.sqrt(sigma_of(k) ** 2 + (amplitude or {}).get((t.name, k), 0.0) ** 2)
             sims = v[:-1] * (1.0 + relative[:, None] * rng.standard_normal(v[:-1].shape))
             ok = ~failed[t.name][:-1]
             band[t.name][k] = np.nanquantile(sims[ok], [0.025, 0.5, 0.975], axis=0) if ok.any() else None

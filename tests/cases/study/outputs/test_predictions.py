@@ -10,6 +10,7 @@ from scipy import stats
 
 import inference
 from cases.study.outputs.predictions import prediction_lines, score_predictions
+from inference.prediction import ModelError
 
 X = np.linspace(0.5, 10.0, 40)
 U = 100.0 + 10.0 * X                                   # kPa, the simulated curve at a = 1
@@ -27,7 +28,7 @@ def _study():
 
 def test_bands_and_scores_are_the_normal_closed_form():
     like, post, y = _study()
-    (row,) = score_predictions(like, post, ["held_out"], {"q": 0.04})
+    (row,) = score_predictions(like, post, ["held_out"], {("held_out", "q"): 0.04})
     z = stats.norm.ppf(0.975)
     for label, sd in (("noise", 0.03), ("model", math.hypot(0.03, 0.04))):
         band = row[label]
@@ -43,12 +44,16 @@ def test_bands_and_scores_are_the_normal_closed_form():
         crps = s * (w * (2 * stats.norm.cdf(w) - 1) + 2 * stats.norm.pdf(w) - 1 / math.sqrt(math.pi))
         assert band["crps"] == pytest.approx(crps.mean(), rel=1e-9)
     assert row["point_error"] == pytest.approx(np.sqrt(np.mean((OFFSETS / (1 + OFFSETS)) ** 2)), rel=1e-9)
-    text = "\n".join(prediction_lines([row], {"q": 0.04}, []))
-    assert "## Predictions" in text and "q 4.00 %" in text
-    assert f"| held_out | q (kPa) | {X.size} | {100 * row['noise']['coverage']:.0f} % |" in text
+    assert row["amplitude"] == 0.04
+    error = ModelError({"q": 0.04**2}, {"q": 0.8})
+    row["distance"] = 0.8
+    text = "\n".join(prediction_lines([row], error, []))
+    assert "## Predictions" in text and "q 4.00 % at d_k = 0.80" in text
+    assert f"| held_out | q (kPa) | {X.size} | 0.80 | 4.00 % | {100 * row['noise']['coverage']:.0f} % |" in text
     assert "With two calibration tests" not in text
-    two = [{"test": t, "curve": "q", "coverage_noise": 0.5, "coverage_model": 0.9, "amplitude": 0.04} for t in "AB"]
+    two = [{"test": t, "curve": "q", "distance": 0.8, "coverage_noise": 0.5, "coverage_model": 0.9,
+            "amplitude": 0.04} for t in "AB"]
     assert "With two calibration tests each leave-one-out calibration has one test" in \
-        "\n".join(prediction_lines([row], {"q": 0.04}, two))
-    assert "With two calibration tests" not in "\n".join(prediction_lines([row], {"q": 0.04}, two + [
+        "\n".join(prediction_lines([row], error, two))
+    assert "With two calibration tests" not in "\n".join(prediction_lines([row], error, two + [
         {**two[0], "test": "C"}]))

@@ -13,7 +13,7 @@ import pytest
 from tolerances import FE_RTOL, PRINTED_RTOL
 
 from cases.study.checks import StudyError
-from cases.study.programme import Stage, curve_key, programme_of, split_key
+from cases.study.programme import InitialState, Stage, TestSpec, condition_features, curve_key, programme_of, split_key
 from cases.study.reading.records import load_test
 from cases.study.reading.schema import load_study
 from cases.study.reading.stage_records import recorded_programme
@@ -557,3 +557,24 @@ def test_shipped_programme_examples_are_labelled_and_equal_the_generator(tmp_pat
     obs, _ = load_observations(s.tests)
     for t in s.tests:  # every stage recorded, under <quantity>@<stage>
         assert {split_key(k)[1] for k in obs[t.name].curves} == {x.name for x in t.stages}, t.name
+
+
+def test_test_conditions_of_a_staged_programme_by_hand():
+    # the features of (P2)'s state space: initial state, per stage kind the largest target stress, the mean log
+    # rate and duration, drainage and direction; a flat test's the same as its programme's
+    spec = TestSpec("t", "programme", apparatus="triaxial",
+                    initial=InitialState(e0=1.1, sigma_v0=50.0, K0=0.5, ocr=2.0),
+                    stages=(Stage("consolidation", "c1", duration=3600.0, p=200.0),
+                            Stage("consolidation", "c2", duration=36000.0, p=100.0),
+                            Stage("shear", "s1", drainage="undrained", direction="extension", strain_rate=1e-6),
+                            Stage("shear", "s2", drainage="undrained", direction="extension", strain_rate=1e-4)))
+    got = condition_features(spec)
+    assert got == {"apparatus": "triaxial", "stages": "consolidation consolidation shear shear", "e0": 1.1,
+                   "ln p0": pytest.approx(np.log(50.0 * 2.0 / 3.0)), "ln ocr": pytest.approx(np.log(2.0)),
+                   "ln consolidation stress": pytest.approx(np.log(200.0)),
+                   "ln consolidation duration": pytest.approx(0.5 * np.log(3600.0 * 36000.0)),
+                   "ln shear rate": pytest.approx(np.log(1e-5)), "shear drainage": "undrained",
+                   "shear direction": "extension"}
+    crs = TestSpec("u", "oedometer_crs", sigma_v0=20.0, K0=0.6, strain_rate=-1e-6)
+    assert condition_features(crs) == condition_features(programme_of(crs))
+    assert condition_features(crs)["crs direction"] == "unloading"

@@ -4,7 +4,10 @@ ANICREEP, 2 % noise) at 0.36 and 3.6 %/h calibrated, a third at 1.1 %/h predicte
 calibrated model class itself, so the predicted test's 95 % band (parameters, noise, the leave-one-out model error)
 holds nearly all its points and its predictive mean lies within the noise of them."""
 import json
+import math
 from pathlib import Path
+
+import pytest
 
 from cases import calibrate as cal
 from cases.study.synthetic.generate import generate
@@ -26,6 +29,13 @@ def test_a_predicted_crs_test_is_scored_with_its_band(tmp_path):
     (row,) = summary["predictions"]["curves"]
     assert row["test"] == "CRS_mid" and row["model"]["coverage"] >= 0.85 and row["point_error"] < 0.04
     assert {c["test"] for c in summary["predictions"]["leave_one_out"]} == {"CRS_slow", "CRS_fast"}
+    # (P2) by hand: the rates are the only condition that differs; ln rate scaled by its range ln 10, each left-out
+    # test 1 from the other, the predicted one log10(3) from the slow test: a^2 = excess d / d_k
+    error = summary["predictions"]["model_error"]
+    assert list(error["distance"].values()) == [pytest.approx(1.0)]
+    (excess,) = error["excess_variance"].values()
+    assert row["distance"] == pytest.approx(math.log10(3.0))
+    assert row["amplitude"] == pytest.approx(math.sqrt(excess * math.log10(3.0)))
     assert all((out / "leave_one_out" / t / "progress.log").is_file() for t in ("CRS_slow", "CRS_fast"))
     report = (out / "report.md").read_text()
     assert "## Predictions" in report and "| CRS_mid |" in report and (out / "predictions.png").is_file()
