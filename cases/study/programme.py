@@ -236,8 +236,8 @@ def condition_features(spec: TestSpec) -> dict:
     effective stress, kPa), ``ln ocr`` (initial overconsolidation ratio), ``ln permeability`` (m/s, pressuremeter)
     where given; per stage kind present, ``ln <kind> stress`` (the largest target effective stress, kPa), ``ln <kind>
     rate`` (the mean log strain rate magnitude, 1/s) and ``ln <kind> duration`` (s, the mean log duration) where its
-    stages give them; texts ``apparatus``, ``stages`` (the kinds in order) and per kind ``<kind> drainage`` and
-    ``<kind> direction`` (compression, extension; loading or unloading for a CRS stage) where given."""
+    stages give them; texts ``apparatus``, ``stages`` (the kinds in order) and per kind ``<kind> drainage`` and, where
+    given, ``<kind> direction`` (compression, extension; "negative rate" for a CRS stage that unloads)."""
     spec = programme_of(spec)
     init = spec.initial
     state = {"apparatus": spec.apparatus, "stages": " ".join(s.kind for s in spec.stages)}
@@ -250,21 +250,22 @@ def condition_features(spec: TestSpec) -> dict:
         state["ln ocr"] = float(np.log(ocr))
     if spec.permeability is not None:
         state["ln permeability"] = float(np.log(spec.permeability))
-    for kind in dict.fromkeys(s.kind for s in spec.stages):
-        stages = [s for s in spec.stages if s.kind == kind]
-        stress = [v for s in stages for v in (s.p, s.sigma_v, s.to_sigma_v) if v is not None]
-        rate = [abs(s.strain_rate) for s in stages if s.strain_rate]
-        duration = [s.duration for s in stages if s.duration]
+    by_kind = {}
+    for st in spec.stages:
+        by_kind.setdefault(st.kind, []).append(st)
+    for kind, stages in by_kind.items():
+        stress = [v for st in stages for v in (st.p, st.sigma_v, st.to_sigma_v) if v is not None]
+        rate = [abs(st.strain_rate) for st in stages if st.strain_rate]
+        duration = [st.duration for st in stages if st.duration]
+        direction = {st.direction or ("negative rate" if (st.strain_rate or 0.0) < 0 else None)
+                     for st in stages} - {None}
         if stress:
             state[f"ln {kind} stress"] = float(np.log(max(stress)))
         if rate:
             state[f"ln {kind} rate"] = float(np.mean(np.log(rate)))
         if duration:
             state[f"ln {kind} duration"] = float(np.mean(np.log(duration)))
-        drainage = {s.drainage for s in stages if s.kind in ("shear", "creep", "relaxation")}
-        direction = {s.direction or ("unloading" if (s.strain_rate or 0.0) < 0 else None) for s in stages} - {None}
-        if drainage:
-            state[f"{kind} drainage"] = " ".join(sorted(drainage))
+        state[f"{kind} drainage"] = " ".join(sorted({st.drainage for st in stages}))
         if direction:
             state[f"{kind} direction"] = " ".join(sorted(direction))
     return state

@@ -559,7 +559,7 @@ def test_shipped_programme_examples_are_labelled_and_equal_the_generator(tmp_pat
         assert {split_key(k)[1] for k in obs[t.name].curves} == {x.name for x in t.stages}, t.name
 
 
-def test_test_conditions_of_a_staged_programme_by_hand():
+def test_condition_features_of_a_staged_programme_by_hand():
     # the features of (P2)'s state space: initial state, per stage kind the largest target stress, the mean log
     # rate and duration, drainage and direction; a flat test's the same as its programme's
     spec = TestSpec("t", "programme", apparatus="triaxial",
@@ -573,8 +573,9 @@ def test_test_conditions_of_a_staged_programme_by_hand():
                    "ln p0": pytest.approx(np.log(50.0 * 2.0 / 3.0)), "ln ocr": pytest.approx(np.log(2.0)),
                    "ln consolidation stress": pytest.approx(np.log(200.0)),
                    "ln consolidation duration": pytest.approx(0.5 * np.log(3600.0 * 36000.0)),
+                   "consolidation drainage": "drained",
                    "ln shear rate": pytest.approx(np.log(1e-5)), "shear drainage": "undrained",
                    "shear direction": "extension"}
     crs = TestSpec("u", "oedometer_crs", sigma_v0=20.0, K0=0.6, strain_rate=-1e-6)
     assert condition_features(crs) == condition_features(programme_of(crs))
-    assert condition_features(crs)["crs direction"] == "unloading"
+    assert condition_features(crs)["crs direction"] == "negative rate"
