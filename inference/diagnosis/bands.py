@@ -46,9 +46,12 @@ class PredictiveBand:
 
 
 def _mixture_cdf_pdf(u, mean, sd):
-    """CDF and density at u (N,) of the equal-weight mixture of N(mean[s], sd[s]^2), mean and sd (n_s, N)."""
-    z = (u - mean) / sd
-    return special.ndtr(z).mean(axis=0), (np.exp(-0.5 * z * z) / sd).mean(axis=0) / math.sqrt(2 * math.pi)
+    """CDF and density at u (N,) of the equal-weight mixture of N(mean[s], sd[s]^2), mean and sd (n_s, N). A
+    component of (near) zero spread, at a simulated value of zero (the start of a curve), is a point mass: its z is
+    infinite away from it, its CDF 0 or 1 and its density 0 (the overflow there is expected, not reported)."""
+    with np.errstate(over="ignore", divide="ignore"):
+        z = (u - mean) / sd
+        return special.ndtr(z).mean(axis=0), (np.exp(-0.5 * z * z) / sd).mean(axis=0) / math.sqrt(2 * math.pi)
 
 
 def _mixture_quantile(q, mean, sd, tol=1e-9, max_iter=50):
