@@ -257,8 +257,8 @@ def condition_features(spec: TestSpec) -> dict:
         stress = [v for st in stages for v in (st.p, st.sigma_v, st.to_sigma_v) if v is not None]
         rate = [abs(st.strain_rate) for st in stages if st.strain_rate]
         duration = [st.duration for st in stages if st.duration]
-        direction = {st.direction or ("negative rate" if (st.strain_rate or 0.0) < 0 else None)
-                     for st in stages} - {None}
+        direction = ({st.direction for st in stages if st.direction}
+                     | {"negative rate" for st in stages if (st.strain_rate or 0.0) < 0})
         if stress:
             state[f"ln {kind} stress"] = float(np.log(max(stress)))
         if rate:

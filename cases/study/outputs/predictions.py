@@ -82,7 +82,7 @@ def _pooled(rows, label, curve):
 def prediction_lines(rows, model_error, check: list, level=0.95) -> list:
     """The report's Predictions section: the model error (:class:`inference.prediction.ModelError`) and its check
     (``check``: rows of the leave-one-test-out calibrations, :func:`cases.study.routes.held_out.leave_one_out`), one
-    table row per predicted curve (with its distance to the calibrated tests and amplitude when the rows carry them)
+    table row per predicted curve (``distance``: its test's distance to the calibrated tests; ``amplitude``: its a_k)
     and the pooled coverage per quantity, without and with the model-error term."""
     pct = f"{100 * level:g} %"
     lines = ["## Predictions", "",
@@ -113,7 +113,8 @@ def prediction_lines(rows, model_error, check: list, level=0.95) -> list:
     if check:
         lines += ["Check by leave-one-test-out (each calibration test predicted from a calibration on the others, its "
                   "model error from the other left-out tests only, at its own distance d):", "",
-                  "| left-out test | curve | d | coverage noise | coverage + model | a_k used (%) |",
+                  "| left-out test | curve | distance d | coverage noise | coverage + model | "
+                  "model error a_k used (%) |",
                   "|---|---|---|---|---|---|"]
         for c in check:
             model = ("- | -" if c["amplitude"] is None else
@@ -121,12 +122,13 @@ def prediction_lines(rows, model_error, check: list, level=0.95) -> list:
             lines.append(f"| {c['test']} | {c['curve']} | {c['distance']:.2f} | {100 * c['coverage_noise']:.0f} % | "
                          f"{model} |")
         lines.append("")
-    lines += ["| test | curve | points | d | a_k | coverage noise | width noise | coverage + model | width + model | "
-              "interval score + model | CRPS + model | point error |", "|---" * 12 + "|"]
+    lines += ["| test | curve | points | distance d | model error a_k | coverage noise | width noise | "
+              "coverage + model | width + model | interval score + model | CRPS + model | point error |",
+              "|---" * 12 + "|"]
     for r in rows:
         n, m = r["noise"], r["model"]
-        d = f"{r['distance']:.2f}" if "distance" in r else "-"
-        lines.append(f"| {r['test']} | {r['curve']} ({r['unit']}) | {n['n']} | {d} | {100 * r['amplitude']:.2f} % | "
+        lines.append(f"| {r['test']} | {r['curve']} ({r['unit']}) | {n['n']} | {r['distance']:.2f} | "
+                     f"{100 * r['amplitude']:.2f} % | "
                      f"{100 * n['coverage']:.0f} % | "
                      f"{n['mean_width']:.4g} ({100 * n['relative_width']:.2g} %) | {100 * m['coverage']:.0f} % | "
                      f"{m['mean_width']:.4g} ({100 * m['relative_width']:.2g} %) | {m['interval_score']:.4g} | "

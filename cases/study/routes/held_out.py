@@ -68,7 +68,7 @@ def leave_one_out(names, likelihood_of, prior, run, out, seed, n_samples, sample
     check = []
     for k, (name, like_left, post, reach, _) in enumerate(folds):
         others = model_error(folds[:k] + folds[k + 1:])
-        amplitude = amplitudes_at(others, like_left, [name], reach)
+        amplitude = amplitudes_at(others, like_left, {name: reach})
         for r in score_predictions(like_left, post, [name], amplitude):
             known = split_key(r["curve"])[0] in others.excess
             check.append({"test": name, "curve": r["curve"], "distance": reach,
@@ -78,11 +78,11 @@ def leave_one_out(names, likelihood_of, prior, run, out, seed, n_samples, sample
     return model_error(folds), check
 
 
-def amplitudes_at(model_error, like, tests, distance) -> dict:
-    """{(test, curve): a_k} of the curves of ``tests`` in ``like`` (:class:`inference.prediction.ModelError`,
-    quantity k of each curve); ``distance``: the tests' distance to the calibrated tests, one number or {test: d}."""
-    at = distance if isinstance(distance, dict) else dict.fromkeys(tests, distance)
-    return {(t, c): model_error.amplitude(split_key(c)[0], at[t]) for t in tests for c in like.observations[t].curves}
+def amplitudes_at(model_error, like, distance: dict) -> dict:
+    """{(test, curve): a_k} of the curves in ``like`` of the tests of ``distance`` {test: its distance to the
+    calibrated tests} (:class:`inference.prediction.ModelError`, quantity k of each curve)."""
+    return {(t, c): model_error.amplitude(split_key(c)[0], d) for t, d in distance.items()
+            for c in like.observations[t].curves}
 
 
 def predict_held_out(like_all, calibrated, predicted, likelihood_of, prior, post, run, out, seed, n_samples, sampler,
@@ -95,7 +95,7 @@ def predict_held_out(like_all, calibrated, predicted, likelihood_of, prior, post
     space = StateSpace(conditions)
     model_error, check = leave_one_out(calibrated, likelihood_of, prior, run, out, seed, n_samples, sampler, space)
     distance = {t: space.nearest(t, calibrated) for t in predicted}
-    amplitude = amplitudes_at(model_error, like_all, predicted, distance)
+    amplitude = amplitudes_at(model_error, like_all, distance)
     rows = score_predictions(like_all, post, predicted, amplitude)
     for r in rows:
         r["distance"] = distance[r["test"]]
