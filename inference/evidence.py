@@ -160,11 +160,12 @@ def _derivatives(g, u, h):
             points.append(u + si * h[i] * np.eye(d)[i] + sj * h[j] * np.eye(d)[j])
     v = g(np.array(points))
     f0, plus, minus = v[0], v[1:2 * d + 1:2], v[2:2 * d + 1:2]
-    grad = (plus - minus) / (2.0 * h)
-    H = np.diag((plus - 2.0 * f0 + minus) / h ** 2)
-    for k, (i, j) in enumerate(pairs):
-        pp, pm, mp, mm = v[2 * d + 1 + 4 * k: 2 * d + 5 + 4 * k]
-        H[i, j] = H[j, i] = (pp - pm - mp + mm) / (4.0 * h[i] * h[j])
+    with np.errstate(invalid="ignore"):  # a failed solve (-inf) makes a difference NaN: the flag refuses the stencil
+        grad = (plus - minus) / (2.0 * h)
+        H = np.diag((plus - 2.0 * f0 + minus) / h ** 2)
+        for k, (i, j) in enumerate(pairs):
+            pp, pm, mp, mm = v[2 * d + 1 + 4 * k: 2 * d + 5 + 4 * k]
+            H[i, j] = H[j, i] = (pp - pm - mp + mm) / (4.0 * h[i] * h[j])
     return f0, grad, H, bool(np.all(np.isfinite(v)))
 
 

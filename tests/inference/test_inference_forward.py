@@ -124,3 +124,40 @@ def test_simulated_curves_of_sets_sharing_their_soil_parameters_are_solved_once(
     simulated = Likelihood(_obs(), one).bind(("a", "sigma_eps")).simulated_many(SHARED)
     assert seen == [1.0, 2.0, 1.5]
     np.testing.assert_array_equal(simulated["t", "q"], 10.0 * SHARED[:, :1] * X)
+
+
+def test_a_list_of_results_is_scored_at_once_with_the_bits_and_reasons_of_each_set_alone():
+    """A forward model returning one result per set (a list: a laboratory study's): the usable sets' terms are taken
+    in one batch; each value is the bits of the set's own ``like(theta)`` and each refusal the reason and precedence
+    of the set alone (sigma_eps first, then the forward model's failure, then an unusable curve); with a model-form
+    discrepancy too. Oracle: each set evaluated by itself."""
+    from inference import Discrepancy
+
+    def forward(plist):
+        out = []
+        for p in plist:
+            if p["a"] > 2.5:
+                out.append(ForwardModelError("a refused"))
+            else:
+                q = 10.0 * p["a"] * X * (1.0 + 0.01 * X ** 2)
+                out.append({"t": {"q": np.where(p["a"] > 2.2, np.nan, q)}})
+        return out
+
+    rng = np.random.default_rng(5)
+    a = np.concatenate([rng.uniform(0.9, 1.1, 9), [2.6, 2.3, 1.0, 2.6]])
+    sigma = np.concatenate([rng.uniform(0.01, 0.05, 11), [-0.1, -0.1]])
+    for discrepancy, names, extra in ((None, ("a", "sigma_eps"), []),
+                                      (Discrepancy(), ("a", "sigma_eps", "delta_q", "delta_length"),
+                                       [rng.uniform(0.001, 0.05, a.size), rng.uniform(0.05, 1.0, a.size)])):
+        like = Likelihood(_obs(), forward, batch=True, discrepancy=discrepancy).bind(names)
+        thetas = np.column_stack([a, sigma, *extra])
+        values, reasons = like.evaluate_many(thetas)
+        assert reasons[9] == "ForwardModelError: a refused" and "NaN" in reasons[10]
+        assert reasons[11] == reasons[12] == "ForwardModelError: sigma_eps = -0.1 must be > 0"
+        for i, theta in enumerate(thetas):
+            alone, why = like.evaluate_many(theta[None, :])
+            assert why[0] == reasons[i]
+            if reasons[i] is None:
+                assert values[i] == like(theta) == alone[0]
+            else:
+                assert values[i] == -np.inf
