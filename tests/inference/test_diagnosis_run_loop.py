@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from scipy import integrate, special
-from toy_classes import calibrated_class
+from toy_classes import batched_likelihood, calibrated_class
 
 from inference import Curve, Likelihood, Observations, Test, diagnosis
 from inference.diagnosis import ModelClass, run_loop
@@ -69,7 +69,7 @@ class Polynomial:
         if candidate is not None:
             bounds[ENRICHED[candidate][0]] = ENRICHED[candidate][1]
         simulate = self.forward(candidate)
-        return calibrated_class(Likelihood(self.observations, simulate), simulate, bounds,
+        return calibrated_class(batched_likelihood(self.observations, simulate), simulate, bounds,
                                 "y = a x" if candidate is None else f"y = a x + {candidate}",
                                 "base" if candidate is None else "enriched", candidate, SIGMA_BOUNDS)
 

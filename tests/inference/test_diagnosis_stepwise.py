@@ -5,7 +5,7 @@ Oracles: the generating model (which effects, their values b and k) and the reco
 the second step must find noise and calibrate nothing."""
 import numpy as np
 import pytest
-from toy_classes import calibrated_class
+from toy_classes import batched_likelihood, calibrated_class
 
 from inference import Curve, Likelihood, Observations, Test, diagnosis
 from inference.diagnosis import run_loop
@@ -59,7 +59,7 @@ class TwoEffects:
         terms = self.adopted + ([] if candidate is None else [candidate])
         self.calibrated.append(tuple(terms))
         bounds = {"a": (0.5, 5.0), **{TERMS[k][0]: TERMS[k][1] for k in terms}}
-        return calibrated_class(Likelihood(self.observations, self.forward(terms)), self.forward(terms), bounds,
+        return calibrated_class(batched_likelihood(self.observations, self.forward(terms)), self.forward(terms), bounds,
                                 " + ".join(["y = a x", *terms]), "enriched", candidate)
 
     def covariates(self, base):
