@@ -9,7 +9,7 @@ from inference.diagnosis import ModelClass
 
 def batched_likelihood(observations, simulate) -> Likelihood:
     """The likelihood of ``simulate`` (parameters -> curves) taking a list of parameter sets, so that the sampler's
-    executor hands it batches: the same values as one set at a time (``Likelihood._evaluate_solved``), less Python."""
+    executor hands it batches: the same values as one set at a time, with less Python per set."""
     return Likelihood(observations, lambda sets: [simulate(p) for p in sets], batch=True)
 
 

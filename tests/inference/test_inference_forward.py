@@ -161,3 +161,28 @@ def test_a_list_of_results_is_scored_at_once_with_the_bits_and_reasons_of_each_s
                 assert values[i] == like(theta) == alone[0]
             else:
                 assert values[i] == -np.inf
+
+
+def test_a_batch_whose_terms_raise_is_scored_set_by_set(monkeypatch):
+    """Should the batched terms of a list of results raise (a covariance not positive definite for one set), every
+    set is scored alone from the batch's one forward call (not solved again): the values are each set's own."""
+    calls = []
+
+    def forward(plist):
+        calls.append(len(plist))
+        return [{"t": {"q": 10.0 * p["a"] * X}} for p in plist]
+
+    like = Likelihood(_obs(), forward, batch=True).bind(("a", "sigma_eps"))
+    expected = np.array([like(theta) for theta in THETAS])
+    batched = like._log_likelihood
+
+    def refuse_batches(simulated, sigma, delta=None):
+        if len(sigma) > 1:
+            raise np.linalg.LinAlgError("not positive definite")
+        return batched(simulated, sigma, delta)
+
+    monkeypatch.setattr(like, "_log_likelihood", refuse_batches)
+    calls.clear()
+    values, reasons = like.evaluate_many(THETAS)
+    assert calls == [len(THETAS)] and reasons == [None] * len(THETAS)
+    np.testing.assert_array_equal(values, expected)
