@@ -8,7 +8,8 @@ from .discrepancy import Discrepancy
 from .evidence import EvidenceEstimate, mode_evidence
 from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
 from .forward import ForwardModel, ForwardModelError, ListForward, ParticleForward, distinct_rows
-from .likelihood import Likelihood, goodness_of_fit
+from .goodness import goodness_of_fit
+from .likelihood import Likelihood
 from .observations import Curve, DataError, Observations, Test
 from .priors import Bound, Constraint, LogUniformPrior, Prior, PriorError, UniformPrior
 from .results import Posterior, RunProgress, write_failures
