@@ -24,7 +24,8 @@ class PredictiveBand:
     lower, upper: quantiles (1-level)/2 and (1+level)/2 of U_sim(1 + eps) over posterior samples; mean: its mean
     (the mean simulated curve);
     pit: predictive probability P(U_obs_rep <= recorded value); outside: recorded value outside the band (NaN points
-    below the floor are never outside); coverage: fraction of used points inside the band (expected about `level`).
+    below the floor are never outside); n_used: the number of used points; coverage: fraction of them inside the
+    band (expected about `level`).
     """
 
     test: str
@@ -36,6 +37,7 @@ class PredictiveBand:
     upper: np.ndarray
     pit: np.ndarray
     outside: np.ndarray
+    n_used: int
     coverage: float
     level: float
 
@@ -121,5 +123,5 @@ def predictive_bands(likelihood, sample_simulated: dict, sample_sigma, level=0.9
         y = likelihood.observations[t].curves[c].y
         outside = used & ((y < lower) | (y > upper))
         out[t, c] = PredictiveBand(t, c, likelihood.observations[t].curves[c].x, y, lower, mean_all[sl], upper, pit[sl],
-                                   outside, float(1.0 - outside.sum() / used.sum()), float(level))
+                                   outside, int(used.sum()), float(1.0 - outside.sum() / used.sum()), float(level))
     return out

@@ -12,6 +12,7 @@ from cases.study.forward.study import StudyForward
 from cases.study.loop.covariates import programme_covariates
 from cases.study.loop.problem import CASE, LoopProblem
 from cases.study.outputs.figures.dense import dense_curves, with_mean_stress
+from cases.study.outputs.figures.panels import curve_panels, stage_axes
 from cases.study.outputs.report import plot_loop, write_outputs
 from cases.study.programme import programme_of
 from cases.study.reading.presets import FE_FIELDS
@@ -139,4 +140,5 @@ class StudyProblem(LoopProblem):
                       map_curves, dense, self.figures)
 
     def plot(self, path, like, classes, diag, label):
-        plot_loop(path, like, classes, diag, label, self.synthetic, self.figures)
+        plot_loop(path, like, classes, diag, label, self.synthetic, self.figures,
+                  curve_panels(like.observations, stage_axes(self.study.tests)))

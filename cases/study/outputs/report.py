@@ -11,7 +11,8 @@ import numpy as np
 from cases.study.outputs.calibration_warnings import calibration_warnings
 from cases.study.outputs.figures.canvas import draw, pyplot
 from cases.study.outputs.figures.curves import curves_figure, stress_path_panels, stress_paths_figure
-from cases.study.outputs.figures.labels import abscissa_label, panel_title, quantity_label
+from cases.study.outputs.figures.labels import abscissa_label, quantity_label
+from cases.study.outputs.figures.panels import curve_panels, stage_axes
 from cases.study.outputs.figures.posterior import write_posterior_figures
 from cases.study.outputs.glossary import glossary_lines
 from cases.study.runner import method_name
@@ -81,7 +82,8 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     tag = "SYNTHETIC recordings" if synthetic else "recordings"
     bands = diagnosis.predictive_bands(like, cls["sample_simulated"], cls["sample_sigma"])
     title = f"{study.name}: {cls['name']}, {method_name(method)} ({tag})"
-    draw(curves_figure, (like.observations, cls["map_simulated"], bands, dense), out / "curves.png", title)
+    panels = curve_panels(like.observations, stage_axes(study.tests))
+    draw(curves_figure, (like.observations, cls["map_simulated"], bands, dense, panels), out / "curves.png", title)
     drained = {(t.name, s.name if t.staged and len(t.stages) > 1 else None): s.drainage == "drained"
                for t in study.tests for s in (t.stages if t.staged else [t])}
     paths = bool(stress_path_panels(like.observations, map_raw, dense))
@@ -123,21 +125,22 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     (out / "report.md").write_text("\n".join(lines))
 
 
-def plot_loop(path, like, classes, diag, label, synthetic, draw=draw):
+def plot_loop(path, like, classes, diag, label, synthetic, draw=draw, panels=None):
     """The loop's figure (:func:`loop_figure`) at ``path``, titled with the data's kind, ``label`` and the verdict;
     ``draw`` draws it (:func:`cases.study.outputs.figures.canvas.draw`: now, or a ``FigureQueue`` that keeps it)."""
     tag = "SYNTHETIC data" if synthetic else "recordings"
-    draw(loop_figure, (like, classes, diag), path,
+    draw(loop_figure, (like, classes, diag, panels), path,
          f"{tag} ({label}): {diag.verdict}; omitted physics: {diag.omitted_physics}", 100)
 
 
-def loop_figure(like, classes, diag):
-    """Per recorded curve: data with the base (dashed) and enriched (solid) MAP, and below it the base class's
-    relative residual with the mismatch regions shaded. The enriched class drawn is the confirmed one, else the one
-    of largest ln Z. ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis.
-    Returns the figure."""
+def loop_figure(like, classes, diag, panels=None):
+    """Per recorded curve, or per group of a stage programme's curves drawn end to end (``panels``,
+    :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve): data with the base (dashed)
+    and enriched (solid) MAP, and below it the base class's relative residual with the mismatch regions shaded. The
+    enriched class drawn is the confirmed one, else the one of largest ln Z. ``classes``: the loop's [ModelClass], the
+    base class first; ``diag``: its final Diagnosis. Returns the figure."""
     plt = pyplot()
-    panels = [(t.name, c) for t in like.observations for c in t.curves]
+    panels = panels or curve_panels(like.observations)
     ncol = min(4, len(panels))
     nrow = -(-len(panels) // ncol)
     fig, axes = plt.subplots(2 * nrow, ncol, figsize=(4.2 * ncol, 5.6 * nrow), squeeze=False)
@@ -148,20 +151,28 @@ def loop_figure(like, classes, diag):
     if len(classes) > 1:
         confirmed = [c for c in classes[1:] if c.candidate == diag.omitted_physics]
         enriched = confirmed[0] if confirmed else max(classes[1:], key=lambda c: c.log_evidence)
-    for j, (t, c) in enumerate(panels):
-        row, col = 2 * (j // ncol), j % ncol
-        curve, top, bottom = like.observations[t].curves[c], axes[row, col], axes[row + 1, col]
-        top.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
-        top.plot(curve.x, base.map_simulated[t, c], "k--", lw=1, label="base MAP")
-        if enriched is not None:
-            top.plot(curve.x, enriched.map_simulated[t, c], "C0-", lw=1.3, label=f"{enriched.candidate} MAP")
-        top.set_title(panel_title(t, c), fontsize=9)
-        top.set_ylabel(quantity_label(c, curve.y_unit))
+    for j, panel in enumerate(panels):
+        row, col, t = 2 * (j // ncol), j % ncol, panel.test
+        top, bottom = axes[row, col], axes[row + 1, col]
+        for k, (c, offset) in enumerate(panel.members):
+            curve, first = like.observations[t].curves[c], k == 0
+            x = curve.x + offset
+            top.plot(x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded" if first else None)
+            top.plot(x, base.map_simulated[t, c], "k--", lw=1, label="base MAP" if first else None)
+            if enriched is not None:
+                top.plot(x, enriched.map_simulated[t, c], "C0-", lw=1.3,
+                         label=f"{enriched.candidate} MAP" if first else None)
+            bottom.plot(x, 100 * (curve.y / base.map_simulated[t, c] - 1.0), "o-", ms=3, lw=0.6, color="C3")
+            for reg in diag.mismatch_regions:
+                if reg.test == t and reg.curve == c:
+                    bottom.axvspan(reg.x_start + offset, reg.x_end + offset, color="C3", alpha=0.15)
+            if not first:
+                for ax in (top, bottom):
+                    ax.axvline(offset, color="0.75", lw=0.5, zorder=0)
+        curve = like.observations[t].curves[panel.keys[0]]
+        top.set_title(panel.title, fontsize=9)
+        top.set_ylabel(quantity_label(panel.keys[0], curve.y_unit))
         top.legend(fontsize=7)
-        bottom.plot(curve.x, 100 * (curve.y / base.map_simulated[t, c] - 1.0), "o-", ms=3, lw=0.6, color="C3")
-        for reg in diag.mismatch_regions:
-            if reg.test == t and reg.curve == c:
-                bottom.axvspan(reg.x_start, reg.x_end, color="C3", alpha=0.15)
         bottom.axhline(0, color="k", lw=0.6)
         bottom.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
         bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")

@@ -6,7 +6,10 @@ from __future__ import annotations
 
 from cases.study.stages import KINDS
 
-__all__ = ["stage_times", "stage_spans", "check_sequence", "check_sbp_stages"]
+__all__ = ["stage_times", "stage_spans", "record_axes", "check_sequence", "check_sbp_stages"]
+
+#: abscissae whose values are the test's own whatever the stage: an effective stress (kPa) or a cavity strain (%)
+TEST_ABSCISSAE = ("p", "sigma_v", "cavity_strain")
 
 
 def stage_times(spec) -> list:
@@ -62,6 +65,34 @@ def stage_spans(spec) -> list:
                     spans[q] = (stress[q], after[q], f"its target {q} {after[q]:g} kPa")
         out.append(spans)
         strain, cavity, stress = kind.strain_after(s, strain), kind.cavity_after(s, cavity), after
+    return out
+
+
+def record_axes(spec) -> list:
+    """[{abscissa: (axis, offset)}] of each stage of a programme: a record's abscissa plus ``offset`` (the records'
+    units) lies on one axis, named ``axis``, with the records of every other stage on that axis, so that the stages of
+    one test can be drawn as one curve. An effective stress (p, sigma_v), a cavity strain and a crs stage's total axial
+    strain are the test's own (offset 0). A shear stage's own axial strain (%, zeroed at its start) continues that of
+    the shear stages just before it: the offset is their strains, signed by their direction; the axis ends at any other
+    stage and at a shear stage whose end follows from the material (no ``to_axial_strain``). The time since a stage's
+    start lies on no shared axis (absent)."""
+    out, axis, offset = [], None, 0.0
+    for k, s in enumerate(spec.stages):
+        kind = s.procedure
+        axes = {a: (a, 0.0) for a in kind.abscissae if a in TEST_ABSCISSAE}
+        if kind.shearing:
+            if axis is None:
+                axis, offset = f"axial_strain of the shear from stage {k}", 0.0
+            axes["axial_strain"] = (axis, offset)
+            if s.to_strain is None:
+                axis = None
+            else:
+                offset += (-100.0 if s.direction == "extension" else 100.0) * abs(s.to_strain)
+        else:
+            axis = None
+            if "axial_strain" in kind.abscissae:
+                axes["axial_strain"] = ("axial_strain", 0.0)
+        out.append(axes)
     return out
 
 

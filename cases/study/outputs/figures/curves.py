@@ -10,39 +10,62 @@ from __future__ import annotations
 import numpy as np
 
 from cases.study.outputs.figures.canvas import panel_grid
-from cases.study.outputs.figures.labels import abscissa_label, panel_title, quantity_label
+from cases.study.outputs.figures.labels import abscissa_label, quantity_label
+from cases.study.outputs.figures.panels import Panel, curve_panels
 from cases.study.programme import split_key
 
 __all__ = ["curves_figure", "model_at_records", "recorded_mean_stress", "stress_path_panels",
            "stress_paths_figure"]
 
 
-def _draw_map(ax, line, x, y):
-    """The MAP of one panel: a line through ``line`` (x, y) when the model was evaluated between the records, else
-    (None) markers at the records (``x``, ``y``)."""
+def _draw_map(ax, line, x, y, label=True):
+    """The MAP of one curve: a line through ``line`` (x, y) when the model was evaluated between the records, else
+    (None) markers at the records (``x``, ``y``); labelled for the legend when ``label``."""
     if line is not None:
-        ax.plot(*line, "C0-", lw=1.5, label="MAP")
+        ax.plot(*line, "C0-", lw=1.5, label="MAP" if label else None)
     else:
-        ax.plot(x, y, "C0x", ms=5, label="MAP (at the records)")
+        ax.plot(x, y, "C0x", ms=5, label="MAP (at the records)" if label else None)
 
 
-def curves_figure(observations, map_simulated, bands, dense=None):
-    """One panel per recorded curve, at most four side by side: the records, the MAP and the 95 % posterior
-    predictive band (``bands`` {(test, curve): inference.diagnosis PredictiveBand}) with the share of the records
-    inside it; a time axis spanning more than two decades is logarithmic. Returns the figure."""
+def _shifted(line, offset):
+    """A dense MAP line (x, y) moved by ``offset`` along x; None stays None."""
+    return None if line is None else (np.asarray(line[0]) + offset, line[1])
+
+
+def _coverage(bands):
+    """The share of the used records inside their bands, pooled over ``bands``."""
+    if len(bands) == 1:
+        return bands[0].coverage
+    return 1.0 - sum(int(b.outside.sum()) for b in bands) / sum(b.n_used for b in bands)
+
+
+def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
+    """One panel per recorded curve, or per group of a stage programme's curves drawn end to end (``panels``,
+    :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve), at most four side by side: the
+    records, the MAP and the 95 % posterior predictive band (``bands`` {(test, curve): inference.diagnosis
+    PredictiveBand}) with the share of the records inside it, a faint line where a stage starts; a time axis spanning
+    more than two decades is logarithmic. Returns the figure."""
     dense = dense or {}
-    panels = [(t.name, key, curve) for t in observations for key, curve in t.curves.items()]
+    panels = panels or curve_panels(observations)
     fig, axes = panel_grid(len(panels))
-    for ax, (test, key, curve) in zip(axes, panels):
-        band = bands[test, key]
-        ax.fill_between(curve.x, band.lower, band.upper, color="C0", alpha=0.25, lw=0, label="95 % predictive")
-        _draw_map(ax, dense.get((test, key)), curve.x, map_simulated[test, key])
-        ax.plot(curve.x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded")
-        ax.text(0.98, 0.03, f"{100 * band.coverage:.0f} % of the records in the band", transform=ax.transAxes,
+    for ax, panel in zip(axes, panels):
+        test = panel.test
+        for j, (key, offset) in enumerate(panel.members):
+            curve, band, first = observations[test].curves[key], bands[test, key], j == 0
+            x = curve.x + offset
+            ax.fill_between(x, band.lower, band.upper, color="C0", alpha=0.25, lw=0,
+                            label="95 % predictive" if first else None)
+            _draw_map(ax, _shifted(dense.get((test, key)), offset), x, map_simulated[test, key], first)
+            ax.plot(x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded" if first else None)
+            if not first:
+                ax.axvline(offset, color="0.75", lw=0.5, zorder=0)
+        coverage = _coverage([bands[test, key] for key in panel.keys])
+        ax.text(0.98, 0.03, f"{100 * coverage:.0f} % of the records in the band", transform=ax.transAxes,
                 ha="right", va="bottom", fontsize=7, color="0.3")
+        curve = observations[test].curves[panel.keys[0]]
         ax.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
-        ax.set_ylabel(quantity_label(key, curve.y_unit))
-        ax.set_title(panel_title(test, key), fontsize=9)
+        ax.set_ylabel(quantity_label(panel.keys[0], curve.y_unit))
+        ax.set_title(panel.title, fontsize=9)
         if curve.x_name in ("time", "stage_time") and curve.x.min() > 0 and curve.x.max() > 100 * curve.x.min():
             ax.set_xscale("log")   # creep, relaxation, consolidation: records logged at growing intervals
     axes[0].legend(fontsize=7)
@@ -92,43 +115,49 @@ def recorded_mean_stress(recorded, key, model, drained: bool):
 
 
 def stress_path_panels(observations, map_raw, dense=None) -> list:
-    """The panels of :func:`stress_paths_figure`: (recorded test, q curve key, the MAP at its records
-    (:func:`model_at_records`)) of each q curve whose MAP gives p'."""
+    """The panels of :func:`stress_paths_figure`, one per test: (recorded test, [(q curve key, the MAP at its records
+    (:func:`model_at_records`))]) of the test's q curves (its stages') whose MAP gives p'."""
     dense = dense or {}
     panels = []
     for t in observations:
-        for key in t.curves:
-            if split_key(key)[0] == "q":
-                model = model_at_records(t, key, map_raw.get(t.name, {}), dense)
-                if model is not None:
-                    panels.append((t, key, model))
+        paths = [(key, model) for key in t.curves if split_key(key)[0] == "q"
+                 for model in [model_at_records(t, key, map_raw.get(t.name, {}), dense)] if model is not None]
+        if paths:
+            panels.append((t, paths))
     return panels
 
 
 def stress_paths_figure(observations, map_raw, drained, dense=None):
-    """The q-p' paths of the triaxial tests and stages of ``observations`` (the records) whose MAP gives p'
-    (:func:`model_at_records`: ``map_raw`` {test: {key: values at the records}}, ``dense`` {(test, key): (x, y)}):
-    the MAP (a line where ``dense`` has it) and the records (:func:`recorded_mean_stress`; ``drained`` {(test, stage
-    name or None): bool}); a panel per q curve, at most four side by side. Returns the figure, or None when no curve
-    has a path."""
+    """The q-p' paths of the triaxial tests of ``observations`` (the records), every stage whose MAP gives p'
+    (:func:`model_at_records`: ``map_raw`` {test: {key: values at the records}}, ``dense`` {(test, key): (x, y)}) in
+    its test's panel: the MAP (a line where ``dense`` has it) and the records (:func:`recorded_mean_stress`;
+    ``drained`` {(test, stage name or None): bool}); at most four panels side by side. Returns the figure, or None
+    when no curve has a path."""
     dense = dense or {}
     panels = stress_path_panels(observations, map_raw, dense)
     if not panels:
         return None
     fig, axes = panel_grid(len(panels), 4.0, 3.6)
-    for ax, (t, key, model) in zip(axes, panels):
-        stage = split_key(key)[1]
-        p_key = "mean_stress" if stage is None else f"mean_stress@{stage}"
-        line = ((dense[t.name, p_key][1], dense[t.name, key][1])
-                if (t.name, p_key) in dense and (t.name, key) in dense else None)
-        _draw_map(ax, line, model["mean_stress"], model["q"])
-        p_rec = recorded_mean_stress(t, key, model, drained.get((t.name, stage), False))
-        if p_rec is not None:
-            ax.plot(p_rec, t.curves[key].y, "o", ms=3, mfc="none", color="C3", label="recorded")
-        else:
-            ax.plot([], [], " ", label="recorded p' unknown (no p' or u recorded)")
+    for ax, (t, paths) in zip(axes, panels):
+        unknown, labelled = [], False
+        for j, (key, model) in enumerate(paths):
+            stage = split_key(key)[1]
+            p_key = "mean_stress" if stage is None else f"mean_stress@{stage}"
+            line = ((dense[t.name, p_key][1], dense[t.name, key][1])
+                    if (t.name, p_key) in dense and (t.name, key) in dense else None)
+            _draw_map(ax, line, model["mean_stress"], model["q"], j == 0)
+            p_rec = recorded_mean_stress(t, key, model, drained.get((t.name, stage), False))
+            if p_rec is not None:
+                ax.plot(p_rec, t.curves[key].y, "o", ms=3, mfc="none", color="C3",
+                        label=None if labelled else "recorded")
+                labelled = True
+            else:
+                unknown.append(stage)
+        if unknown:
+            where = "" if unknown == [None] else f" in {len(unknown)} of {len(paths)} stages"
+            ax.plot([], [], " ", label=f"recorded p' unknown{where} (no p' or u recorded)")
         ax.set_xlabel(quantity_label("mean_stress"))
         ax.set_ylabel(quantity_label("q"))
-        ax.set_title(panel_title(t.name, key), fontsize=9)
+        ax.set_title(Panel(t.name, tuple((key, 0.0) for key, _ in paths)).title, fontsize=9)
         ax.legend(fontsize=7)
     return fig

@@ -17,7 +17,10 @@ from cases.study.outputs.figures.curves import (
 )
 from cases.study.outputs.figures.dense import dense_curves, densified, with_mean_stress
 from cases.study.outputs.figures.labels import abscissa_label, panel_title, parameter_label, quantity_label
+from cases.study.outputs.figures.panels import curve_panels, stage_axes
 from cases.study.outputs.figures.posterior import marginals_figure, pairs_figure, write_posterior_figures
+from cases.study.outputs.report import loop_figure
+from cases.study.programme import InitialState, Stage, TestSpec
 from inference import Curve, Observations, Test
 
 plt = pyplot()
@@ -250,3 +253,88 @@ def test_dense_curves_are_the_model_at_the_dense_abscissae():
     np.testing.assert_allclose(y, np.sqrt(x))
     np.testing.assert_allclose(out["CIU", "mean_stress"][1], 100.0 - x)
     assert dense_curves(lambda observations: RuntimeError("diverged"), _records()) == {}
+
+
+def _staged():
+    """A CIU programme as a laboratory reports it: a consolidation against p', two undrained shear stages each zeroed
+    at its start (to 1 and 2 %), a creep stage against its own time; and a flat test."""
+    tests = [TestSpec(name="P", type="programme", apparatus="triaxial", initial=InitialState(p0=50.0, e0=1.0),
+                      stages=(Stage("consolidation", "c", p=100.0, duration=600.0),
+                              Stage("shear", "fast", drainage="undrained", strain_rate=1e-5, to_strain=0.01),
+                              Stage("shear", "slow", drainage="undrained", strain_rate=1e-6, to_strain=0.02),
+                              Stage("creep", "hold", drainage="undrained", duration=1e4))),
+             TestSpec(name="F", type="triaxial")]
+    observations = Observations([
+        Test("P", {"void_ratio@c": Curve([60.0, 100.0], [0.98, 0.95], "p", "void_ratio", "kPa"),
+                   "q@fast": Curve([0.5, 1.0], [40.0, 50.0], "axial_strain", "q", "%", "kPa"),
+                   "excess_pore_pressure@fast": Curve([0.5, 1.0], [20.0, 25.0], "axial_strain",
+                                                      "excess_pore_pressure", "%", "kPa"),
+                   "q@slow": Curve([1.0, 2.0], [48.0, 52.0], "axial_strain", "q", "%", "kPa"),
+                   "excess_pore_pressure@slow": Curve([1.0, 2.0], [26.0, 27.0], "axial_strain",
+                                                      "excess_pore_pressure", "%", "kPa"),
+                   "axial_strain@hold": Curve([10.0, 1e4], [3.0, 3.2], "time", "axial_strain", "s", "%")}),
+        Test("F", {"q": Curve([1.0, 2.0], [10.0, 20.0], "axial_strain", "q", "%", "kPa")})])
+    return tests, observations
+
+
+def test_a_programmes_stages_of_one_quantity_share_a_panel_end_to_end():
+    tests, observations = _staged()
+    panels = curve_panels(observations, stage_axes(tests))
+    assert [(p.test, p.members) for p in panels] == [
+        ("P", (("void_ratio@c", 0.0),)),
+        ("P", (("q@fast", 0.0), ("q@slow", 1.0))),
+        ("P", (("excess_pore_pressure@fast", 0.0), ("excess_pore_pressure@slow", 1.0))),
+        ("P", (("axial_strain@hold", 0.0),)),
+        ("F", (("q", 0.0),))]
+    assert [p.title for p in panels] == ["P, stage c", "P, stages fast to slow (2)", "P, stages fast to slow (2)",
+                                         "P, stage hold", "F"]
+    assert len(curve_panels(observations)) == 7   # without the study's stages: a panel per curve
+
+
+def test_joined_stages_are_drawn_on_the_running_strain_with_the_pooled_coverage():
+    tests, observations = _staged()
+    panels = curve_panels(observations, stage_axes(tests))
+    map_simulated = {(t.name, c): curve.y * 1.01 for t in observations for c, curve in t.curves.items()}
+    bands = {(t.name, c): SimpleNamespace(lower=curve.y * 0.9, upper=curve.y * 1.1, coverage=1.0,
+                                          outside=np.zeros(curve.y.size, bool), n_used=curve.y.size)
+             for t in observations for c, curve in t.curves.items()}
+    bands["P", "q@slow"] = SimpleNamespace(lower=bands["P", "q@slow"].lower, upper=bands["P", "q@slow"].upper,
+                                           coverage=0.5, outside=np.array([True, False]), n_used=2)
+    fig = curves_figure(observations, map_simulated, bands, None, panels)
+    ax_q = fig.axes[1]
+    recorded = [line for line in ax_q.get_lines() if line.get_marker() == "o"]
+    np.testing.assert_array_equal(np.concatenate([line.get_xdata() for line in recorded]), [0.5, 1.0, 2.0, 3.0])
+    assert [v.get_xdata()[0] for v in ax_q.get_lines() if v.get_linestyle() == "-"] == [1.0]   # where "slow" starts
+    assert "75 % of the records in the band" in [t.get_text() for t in ax_q.texts]   # 1 of 4 outside
+    assert len(fig.axes) == 5
+
+
+def test_the_stress_path_of_a_programme_is_one_panel_with_every_stage():
+    tests, observations = _staged()
+    raw = {"P": {"q@fast": np.array([41.0, 49.0]), "mean_stress@fast": np.array([95.0, 92.0]),
+                 "excess_pore_pressure@fast": np.array([19.0, 24.0]), "q@slow": np.array([47.0, 53.0]),
+                 "mean_stress@slow": np.array([91.0, 90.0]), "excess_pore_pressure@slow": np.array([25.0, 28.0])}}
+    fig = stress_paths_figure(Observations([observations["P"]]), raw, {("P", "fast"): False, ("P", "slow"): False})
+    (ax,) = [a for a in fig.axes if a.axison]
+    assert ax.get_title() == "P, stages fast to slow (2)"
+    recorded = [line for line in ax.get_lines() if line.get_marker() == "o"]
+    assert len(recorded) == 2
+    np.testing.assert_allclose(recorded[1].get_xdata(), raw["P"]["mean_stress@slow"]
+                               + (np.array([48.0, 52.0]) - raw["P"]["q@slow"]) / 3
+                               - (np.array([26.0, 27.0]) - raw["P"]["excess_pore_pressure@slow"]))
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["MAP (at the records)", "recorded"]
+
+
+def test_the_loop_figure_shades_a_stages_mismatch_where_the_stage_lies_on_the_joined_axis():
+    tests, observations = _staged()
+    panels = curve_panels(observations, stage_axes(tests))
+    sims = {(t.name, c): curve.y * 1.02 for t in observations for c, curve in t.curves.items()}
+    base = SimpleNamespace(map_simulated=sims, candidate=None, log_evidence=0.0)
+    region = SimpleNamespace(test="P", curve="q@slow", x_start=1.2, x_end=1.8)
+    diag = SimpleNamespace(omitted_physics=None, mismatch_regions=[region])
+    fig = loop_figure(SimpleNamespace(observations=observations), [base], diag, panels)
+    residual_q = fig.axes[4 + 1]   # the second panel's residual: the second subplot row, second column
+    (span,) = residual_q.patches
+    extent = span.get_path().transformed(span.get_patch_transform()).vertices[:, 0]
+    np.testing.assert_allclose([extent.min(), extent.max()], [2.2, 2.8])
+    assert fig.axes[1].get_title() == "P, stages fast to slow (2)"

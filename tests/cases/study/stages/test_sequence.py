@@ -6,7 +6,7 @@ import pytest
 
 from cases.study.checks import Checker, StudyError
 from cases.study.programme import InitialState, Stage, TestSpec
-from cases.study.stages.sequence import check_sbp_stages, check_sequence, stage_times
+from cases.study.stages.sequence import check_sbp_stages, check_sequence, record_axes, stage_times
 
 
 def programme(apparatus, *stages):
@@ -49,3 +49,30 @@ def test_a_pressuremeter_programme_opens_with_an_expansion():
         check_sbp_stages(Checker("study.toml"), (Stage("expansion", "e", strain_rate=1e-3, to_strain=0.05),
                                                  Stage("hold", "h", duration=1.0, abscissa="cavity_strain")),
                          "tests[0]", "T")
+
+
+def test_the_stages_of_one_shear_lie_end_to_end_on_its_axial_strain():
+    """By hand: three compression stages to 2, 3 and 0.5 % (the third ends where the material says: its successor
+    starts a new axis), a fourth from 0, then a reconsolidation (stress axis p) and two extension stages to 2 and
+    1 %: offsets 0, 2, 5 | 0 | - | 0, -2 (%); a time since the stage start lies on no shared axis."""
+    triax = programme("triaxial",
+                      Stage("consolidation", "c1", p=100.0, duration=600.0),
+                      Stage("shear", "s1", drainage="undrained", strain_rate=1e-6, to_strain=0.02),
+                      Stage("shear", "s2", drainage="undrained", strain_rate=1e-7, to_strain=0.03),
+                      Stage("shear", "s3", drainage="undrained", strain_rate=1e-6),
+                      Stage("shear", "s4", drainage="undrained", strain_rate=1e-6, to_strain=0.01),
+                      Stage("consolidation", "c2", p=150.0, duration=600.0),
+                      Stage("shear", "e1", drainage="undrained", direction="extension", strain_rate=1e-6,
+                            to_strain=0.02),
+                      Stage("shear", "e2", drainage="undrained", direction="extension", strain_rate=1e-7,
+                            to_strain=0.01))
+    axes = record_axes(triax)
+    assert axes[0] == {"p": ("p", 0.0), "sigma_v": ("sigma_v", 0.0)} == axes[5]
+    strain = [a["axial_strain"] for a in axes[1:5] + axes[6:]]
+    assert [offset for _, offset in strain] == pytest.approx([0.0, 2.0, 5.0, 0.0, 0.0, -2.0])
+    runs = [axis for axis, _ in strain]
+    assert runs[0] == runs[1] == runs[2] and len({runs[0], runs[3], runs[4]}) == 3 and runs[4] == runs[5]
+    assert all("time" not in a for a in axes)
+    oed = programme("oedometer", Stage("crs", "up", strain_rate=1e-5, to_strain=0.1),
+                    Stage("relaxation", "r", duration=60.0), Stage("crs", "down", strain_rate=-1e-5, to_strain=0.05))
+    assert record_axes(oed) == [{"axial_strain": ("axial_strain", 0.0)}, {}, {"axial_strain": ("axial_strain", 0.0)}]
