@@ -113,7 +113,7 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
             f"{n} {'yes' if lo <= truth[n] <= hi else 'NO'}" for n in names for lo, hi in [post.credible_interval(n)]))
         lines.append("")
     lines += ["Predictive coverage of the records (95 % band): " + ", ".join(
-        f"{t} {c} {100 * b.coverage:.0f} %" for (t, c), b in bands.items()), ""]
+        f"{panel.label} {100 * panel.coverage(bands):.0f} %" for panel in panels), ""]
     warnings = cls["warnings"] if "warnings" in cls else calibration_warnings(post, like, cls["map_simulated"])
     for text in warnings:
         print(f"warning: {text}", flush=True)
@@ -137,7 +137,8 @@ def loop_figure(like, classes, diag, panels=None):
     """Per recorded curve, or per group of a stage programme's curves drawn end to end (``panels``,
     :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve): data with the base (dashed)
     and enriched (solid) MAP, and below it the base class's relative residual with the mismatch regions shaded. The
-    enriched class drawn is the confirmed one, else the one of largest ln Z. ``classes``: the loop's [ModelClass], the
+    enriched class drawn is the confirmed one, else the physics class (not the model-form class) of largest ln Z.
+    ``classes``: the loop's [ModelClass], the
     base class first; ``diag``: its final Diagnosis. Returns the figure."""
     plt = pyplot()
     panels = panels or curve_panels(like.observations)
@@ -148,9 +149,10 @@ def loop_figure(like, classes, diag, panels=None):
         axes[2 * (j // ncol), j % ncol].axis("off")
         axes[2 * (j // ncol) + 1, j % ncol].axis("off")
     base, enriched = classes[0], None
-    if len(classes) > 1:
-        confirmed = [c for c in classes[1:] if c.candidate == diag.omitted_physics]
-        enriched = confirmed[0] if confirmed else max(classes[1:], key=lambda c: c.log_evidence)
+    physics = [c for c in classes[1:] if c.role == "enriched"]
+    if physics:
+        confirmed = [c for c in physics if c.candidate == diag.omitted_physics]
+        enriched = confirmed[0] if confirmed else max(physics, key=lambda c: c.log_evidence)
     for j, panel in enumerate(panels):
         row, col, t = 2 * (j // ncol), j % ncol, panel.test
         top, bottom = axes[row, col], axes[row + 1, col]

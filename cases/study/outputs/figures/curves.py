@@ -32,13 +32,6 @@ def _shifted(line, offset):
     return None if line is None else (np.asarray(line[0]) + offset, line[1])
 
 
-def _coverage(bands):
-    """The share of the used records inside their bands, pooled over ``bands``."""
-    if len(bands) == 1:
-        return bands[0].coverage
-    return 1.0 - sum(int(b.outside.sum()) for b in bands) / sum(b.n_used for b in bands)
-
-
 def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
     """One panel per recorded curve, or per group of a stage programme's curves drawn end to end (``panels``,
     :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve), at most four side by side: the
@@ -59,8 +52,7 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
             ax.plot(x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded" if first else None)
             if not first:
                 ax.axvline(offset, color="0.75", lw=0.5, zorder=0)
-        coverage = _coverage([bands[test, key] for key in panel.keys])
-        ax.text(0.98, 0.03, f"{100 * coverage:.0f} % of the records in the band", transform=ax.transAxes,
+        ax.text(0.98, 0.03, f"{100 * panel.coverage(bands):.0f} % of the records in the band", transform=ax.transAxes,
                 ha="right", va="bottom", fontsize=7, color="0.3")
         curve = observations[test].curves[panel.keys[0]]
         ax.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))

@@ -29,6 +29,23 @@ class Panel:
     def keys(self) -> tuple:
         return tuple(key for key, _ in self.members)
 
+    def coverage(self, bands) -> float:
+        """The share of the used records of the panel's curves inside their 95 % bands (``bands`` {(test, curve):
+        inference.diagnosis PredictiveBand}), pooled over the curves."""
+        mine = [bands[self.test, key] for key in self.keys]
+        if len(mine) == 1:
+            return mine[0].coverage
+        return 1.0 - sum(int(b.outside.sum()) for b in mine) / sum(b.n_used for b in mine)
+
+    @property
+    def label(self) -> str:
+        """The panel's curves in words: the test and the curve (``T1 q@shear``), or the test, the quantity and the
+        first and last stages of curves drawn end to end."""
+        if len(self.members) == 1:
+            return f"{self.test} {self.keys[0]}"
+        (quantity, first), last = split_key(self.keys[0]), split_key(self.keys[-1])[1]
+        return f"{self.test} {quantity} (stages {first} to {last})"
+
     @property
     def title(self) -> str:
         """The test, and the stage (or the first and last stages) the panel draws."""

@@ -288,6 +288,7 @@ def test_a_programmes_stages_of_one_quantity_share_a_panel_end_to_end():
         ("F", (("q", 0.0),))]
     assert [p.title for p in panels] == ["P, stage c", "P, stages fast to slow (2)", "P, stages fast to slow (2)",
                                          "P, stage hold", "F"]
+    assert [p.label for p in panels[:2]] == ["P void_ratio@c", "P q (stages fast to slow)"]
     assert len(curve_panels(observations)) == 7   # without the study's stages: a panel per curve
 
 
@@ -329,10 +330,14 @@ def test_the_loop_figure_shades_a_stages_mismatch_where_the_stage_lies_on_the_jo
     tests, observations = _staged()
     panels = curve_panels(observations, stage_axes(tests))
     sims = {(t.name, c): curve.y * 1.02 for t in observations for c, curve in t.curves.items()}
-    base = SimpleNamespace(map_simulated=sims, candidate=None, log_evidence=0.0)
+    base = SimpleNamespace(map_simulated=sims, role="base", candidate=None, log_evidence=0.0)
+    model_form = SimpleNamespace(map_simulated=sims, role="model form", candidate=None, log_evidence=30.0)
+    viscous = SimpleNamespace(map_simulated=sims, role="enriched", candidate="viscosity", log_evidence=10.0)
     region = SimpleNamespace(test="P", curve="q@slow", x_start=1.2, x_end=1.8)
-    diag = SimpleNamespace(omitted_physics=None, mismatch_regions=[region])
-    fig = loop_figure(SimpleNamespace(observations=observations), [base], diag, panels)
+    diag = SimpleNamespace(omitted_physics="none", mismatch_regions=[region])
+    fig = loop_figure(SimpleNamespace(observations=observations), [base, model_form, viscous], diag, panels)
+    # the physics class of largest ln Z is drawn beside the base, not the model-form class
+    assert [t.get_text() for t in fig.axes[1].get_legend().get_texts()] == ["recorded", "base MAP", "viscosity MAP"]
     residual_q = fig.axes[4 + 1]   # the second panel's residual: the second subplot row, second column
     (span,) = residual_q.patches
     extent = span.get_path().transformed(span.get_patch_transform()).vertices[:, 0]
