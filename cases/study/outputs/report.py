@@ -168,7 +168,7 @@ def loop_figure(like, classes, diag, panels=None):
             for reg in diag.mismatch_regions:
                 if reg.test == t and reg.curve == c:
                     bottom.axvspan(reg.x_start + offset, reg.x_end + offset, color="C3", alpha=0.15)
-            if not first:
+            if offset:   # where a stage continues the one before on a shifted axis
                 for ax in (top, bottom):
                     ax.axvline(offset, color="0.75", lw=0.5, zorder=0)
         curve = like.observations[t].curves[panel.keys[0]]

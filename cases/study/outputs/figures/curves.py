@@ -36,8 +36,9 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
     """One panel per recorded curve, or per group of a stage programme's curves drawn end to end (``panels``,
     :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve), at most four side by side: the
     records, the MAP and the 95 % posterior predictive band (``bands`` {(test, curve): inference.diagnosis
-    PredictiveBand}) with the share of the records inside it, a faint line where a stage starts; a time axis spanning
-    more than two decades is logarithmic. Returns the figure."""
+    PredictiveBand}) with the share of the records inside it, a faint line where a stage continues the one before
+    it on the axial strain of its shear; a time axis spanning more than two decades is logarithmic. Returns the
+    figure."""
     dense = dense or {}
     panels = panels or curve_panels(observations)
     fig, axes = panel_grid(len(panels))
@@ -50,7 +51,7 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
                             label="95 % predictive" if first else None)
             _draw_map(ax, _shifted(dense.get((test, key)), offset), x, map_simulated[test, key], first)
             ax.plot(x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded" if first else None)
-            if not first:
+            if offset:   # where a stage continues the one before on a shifted axis
                 ax.axvline(offset, color="0.75", lw=0.5, zorder=0)
         ax.text(0.98, 0.03, f"{100 * panel.coverage(bands):.0f} % of the records in the band", transform=ax.transAxes,
                 ha="right", va="bottom", fontsize=7, color="0.3")
