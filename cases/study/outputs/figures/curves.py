@@ -1,5 +1,6 @@
-"""Figures of the recorded curves against the calibrated model: one panel per curve (records, the MAP, the 95 %
-posterior predictive band) in a wrapped grid, and the stress paths q-p' of the triaxial tests.
+"""Figures of the recorded curves against the calibrated model: one panel per curve, or per group of a stage
+programme's curves drawn end to end (:mod:`cases.study.outputs.figures.panels`), with the records, the MAP and the
+95 % posterior predictive band, in a wrapped grid; and the stress paths q-p' of the triaxial tests, a panel per test.
 
 ``observations`` are the records (``inference.Observations``); ``map_simulated``
 {(test, curve): MAP values at the recorded abscissae}; ``dense`` {(test, key): (x, y)} the MAP between the records

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from cases.study.outputs.figures.labels import panel_title
 from cases.study.programme import split_key
 from cases.study.stages.sequence import record_axes
 
@@ -49,11 +50,9 @@ class Panel:
     @property
     def title(self) -> str:
         """The test, and the stage (or the first and last stages) the panel draws."""
+        if len(self.members) == 1:
+            return panel_title(self.test, self.keys[0])
         stages = [split_key(key)[1] for key in self.keys]
-        if stages[0] is None:
-            return self.test
-        if len(stages) == 1:
-            return f"{self.test}, stage {stages[0]}"
         return f"{self.test}, stages {stages[0]} to {stages[-1]} ({len(stages)})"
 
 
