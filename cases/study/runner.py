@@ -29,7 +29,7 @@ import inference
 from inference.executors import mpi_world
 
 __all__ = ["PROPOSALS", "RunSettings", "OutputLocked", "LOCK_FILE", "is_root", "method_name", "run_directories",
-           "out_lock", "kernel_files", "announce_compilation", "evaluate_once", "calibrate", "run_all",
+           "out_lock", "kernel_files", "uncached", "announce_compilation", "evaluate_once", "calibrate", "run_all",
            "pointwise_terms", "write_summary", "throughput", "POINTWISE_BUDGET_S"]
 
 #: command-line method -> inference.tmcmc proposal
@@ -189,24 +189,31 @@ def kernel_files(model_class, fe=False) -> list:
     return [f for f in files if f.is_file()]
 
 
+def uncached(kernels) -> list:
+    """The kernel source files of ``kernels`` (:func:`kernel_files`) with no numba cache index (``<module>.*.nbi``
+    under NUMBA_CACHE_DIR when it is set, where numba then keeps its cache, else in their ``__pycache__``): those a
+    solve would compile first."""
+    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
+
+    def cached(module):
+        place = Path(cache_dir) if cache_dir else module.parent / "__pycache__"
+        return place.is_dir() and any(place.rglob(f"{module.stem}.*.nbi"))
+
+    return [Path(m) for m in kernels if not cached(Path(m))]
+
+
 def announce_compilation(kernels, warm_up):
     """On rank 0, when one of the kernel source files ``kernels`` (:func:`kernel_files`) not yet seen by this process
-    has no cache index (numba's ``<module>.*.nbi`` in its ``__pycache__`` or under NUMBA_CACHE_DIR): say that the
-    kernels are being compiled, run ``warm_up()`` (one forward evaluation, :func:`evaluate_once`, which compiles
-    them and writes the cache) and say how long it took (s, the evaluation included). Each file is looked at once
+    has no cache index (:func:`uncached`): say that the kernels are being compiled, run ``warm_up()`` (one forward
+    evaluation, :func:`evaluate_once`, which compiles them and writes the cache) and say how long it took (s, the
+    evaluation included). Each file is looked at once
     per process: the diagnosis loop's enriched classes announce the kernels of their own model (ANICREEP, delayed
     swelling) when they are first needed."""
     if not is_root():
         return
-    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
     fresh = [Path(m) for m in kernels if Path(m) not in _announced]
     _announced.update(fresh)
-
-    def cached(module):
-        places = [module.parent / "__pycache__"] + ([Path(cache_dir)] if cache_dir else [])
-        return any(any(p.rglob(f"{module.stem}.*.nbi")) for p in places if p.is_dir())
-
-    cold = [m.name for m in fresh if not cached(m)]
+    cold = [m.name for m in uncached(fresh)]
     if cold:
         print(f"compiling the constitutive kernels ({', '.join(cold)}; first run only, cached afterwards)...",
               file=sys.stderr, flush=True)

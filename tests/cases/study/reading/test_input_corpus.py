@@ -426,6 +426,13 @@ def test_the_compile_message_is_said_once_when_a_kernel_cache_is_cold(tmp_path, 
     assert capsys.readouterr().err.splitlines()[0] == ("compiling the constitutive kernels (_other_steps.py; first "
                                                       "run only, cached afterwards)...")
     assert len(warm_ups) == 2
+    # with NUMBA_CACHE_DIR set, numba keeps its cache there alone: an index beside the source does not count
+    elsewhere = tmp_path / "numba_cache"
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(elsewhere))
+    assert runner.uncached([tmp_path / "_warm_kernel.py"]) == [tmp_path / "_warm_kernel.py"]
+    (elsewhere / "tmp_abc").mkdir(parents=True)
+    (elsewhere / "tmp_abc" / "_warm_kernel.f-1.py311.nbi").write_bytes(b"")
+    assert runner.uncached([tmp_path / "_warm_kernel.py", cold]) == [cold]
 
 
 # ------------------------------------------------------------------------------------------------ valid variants
