@@ -138,8 +138,8 @@ def loop_figure(like, classes, diag, panels=None):
     :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve): data with the base (dashed)
     and enriched (solid) MAP, and below it the base class's relative residual with the mismatch regions shaded. The
     enriched class drawn is the confirmed one, else the physics class (not the model-form class) of largest ln Z.
-    ``classes``: the loop's [ModelClass], the
-    base class first; ``diag``: its final Diagnosis. Returns the figure."""
+    ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis. Returns the
+    figure."""
     plt = pyplot()
     panels = panels or curve_panels(like.observations)
     ncol = min(4, len(panels))
