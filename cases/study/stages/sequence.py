@@ -1,5 +1,6 @@
-"""What follows from the order of a programme's stages: the stage times (:func:`stage_times`), the checks that span
-stages of a laboratory programme (:func:`check_sequence`) and of a pressuremeter programme
+"""What follows from the order of a programme's stages: the stage times (:func:`stage_times`), the range of each
+stage's records (:func:`stage_spans`), where each stage's records lie on its test's axes (:func:`record_axes`), the
+checks that span stages of a laboratory programme (:func:`check_sequence`) and of a pressuremeter programme
 (:func:`check_sbp_stages`). Units: s, strains as fractions (% in the messages, as in the study file), 1/s.
 """
 from __future__ import annotations
