@@ -36,7 +36,10 @@ class Panel:
         mine = [bands[self.test, key] for key in self.keys]
         if len(mine) == 1:
             return mine[0].coverage
-        return 1.0 - sum(int(b.outside.sum()) for b in mine) / sum(b.n_used for b in mine)
+        used = sum(b.n_used for b in mine)
+        if used == 0:   # no record used (all below the floor): NaN, as for one such curve
+            return float("nan")
+        return 1.0 - sum(int(b.outside.sum()) for b in mine) / used
 
     @property
     def label(self) -> str:

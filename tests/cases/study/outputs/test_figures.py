@@ -307,6 +307,8 @@ def test_joined_stages_are_drawn_on_the_running_strain_with_the_pooled_coverage(
     np.testing.assert_array_equal(np.concatenate([line.get_xdata() for line in recorded]), [0.5, 1.0, 2.0, 3.0])
     assert [v.get_xdata()[0] for v in ax_q.get_lines() if v.get_linestyle() == "-"] == [1.0]   # where "slow" starts
     assert "75 % of the records in the band" in [t.get_text() for t in ax_q.texts]   # 1 of 4 outside
+    unused = {k: SimpleNamespace(coverage=float("nan"), outside=np.zeros(2, bool), n_used=0) for k in bands}
+    assert np.isnan(panels[1].coverage(unused))   # every record below the floor: no share, no division by zero
     assert len(fig.axes) == 5
 
 
