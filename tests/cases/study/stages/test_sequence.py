@@ -52,9 +52,9 @@ def test_a_pressuremeter_programme_opens_with_an_expansion():
 
 
 def test_the_stages_of_one_shear_lie_end_to_end_on_its_axial_strain():
-    """By hand: three compression stages to 2, 3 and 0.5 % (the third ends where the material says: its successor
-    starts a new axis), a fourth from 0, then a reconsolidation (stress axis p) and two extension stages to 2 and
-    1 %: offsets 0, 2, 5 | 0 | - | 0, -2 (%); a time since the stage start lies on no shared axis."""
+    """By hand: compression stages to 2 and 3 %, a third without an end (where the material says: its successor
+    starts a new axis) and a fourth, then a reconsolidation (stress axis p) and two extension stages to 2 and 1 %:
+    offsets 0, 2, 5 | 0 | - | 0, -2 (%); a time since the stage start lies on no shared axis."""
     triax = programme("triaxial",
                       Stage("consolidation", "c1", p=100.0, duration=600.0),
                       Stage("shear", "s1", drainage="undrained", strain_rate=1e-6, to_strain=0.02),
