@@ -13,7 +13,9 @@
   exceeds ``POOR_FIT_RATIO`` (3) times the median over the curves of their error parameter at the MAP (under the
   error model of Eq. (1), docs/reference.md section 1, the RMS is about sigma_eps); the line names the test, the
   curve and the abscissa range of ``WINDOW`` (a fifth of the points, at least 3) consecutive points with the largest
-  mean squared residual.
+  mean squared residual. For a model-form class (the base plus a smooth discrepancy, ``inference.Discrepancy``) the
+  residual is taken net of the discrepancy's posterior mean at the MAP: its sigma_eps is the noise left after the
+  discrepancy, and the physics' own misfit is what the discrepancy is there to carry.
 """
 from __future__ import annotations
 
@@ -104,17 +106,21 @@ def _worst_window(x, r2):
     return x[i], x[i + w - 1], slice(i, i + w)
 
 
-def fit_warnings(like, map_simulated: dict, curve_sigma: dict, ratio=POOR_FIT_RATIO) -> list:
+def fit_warnings(like, map_simulated: dict, curve_sigma: dict, ratio=POOR_FIT_RATIO, discrepancy=None) -> list:
     """Curves whose RMS relative residual at the MAP exceeds ``ratio`` times the median of ``curve_sigma`` (each
     curve's error parameter at the MAP, {(test, curve): sigma}), worst first. ``map_simulated``: {(test, curve):
-    simulated values at the recorded abscissae}."""
+    simulated values at the recorded abscissae}; ``discrepancy``: {(test, curve): the discrepancy's posterior mean at
+    the recorded points (``Likelihood.discrepancy_mean``)}, subtracted from the residuals when given."""
     reference = float(np.median(list(curve_sigma.values())))
+    net = " net of the discrepancy" if discrepancy else ""
     found = []
     for t in like.observations:
         for c, curve in t.curves.items():
             used = like.masks[t.name, c]
             sim = np.asarray(map_simulated[t.name, c], dtype=float)
             r = ((curve.y - sim) / curve.y)[used]
+            if discrepancy:
+                r = r - discrepancy[t.name, c][used]
             x = curve.x[used]
             if not np.isfinite(r).all():
                 found.append((np.inf, f"poor fit: test {t.name}, curve {c}: the MAP simulation is not finite"))
@@ -122,7 +128,7 @@ def fit_warnings(like, map_simulated: dict, curve_sigma: dict, ratio=POOR_FIT_RA
             rms = float(np.sqrt(np.mean(r * r)))
             if rms > ratio * reference:
                 lo, hi, window = _worst_window(x, r * r)
-                found.append((rms, f"poor fit: test {t.name}, curve {c}: RMS relative residual {100 * rms:.3g} % "
+                found.append((rms, f"poor fit: test {t.name}, curve {c}: RMS relative residual{net} {100 * rms:.3g} % "
                                    f"({rms / reference:.1f} x the median sigma_eps {100 * reference:.3g} %), worst "
                                    f"for {curve.x_name} {lo:.4g} to {hi:.4g} (mean residual "
                                    f"{100 * float(np.mean(r[window])):+.3g} %)"))
@@ -133,9 +139,11 @@ def calibration_warnings(post, like, map_simulated: dict) -> list:
     """Every warning of a finished calibration (module docstring): bounds, error parameters at their ceiling, failed
     solves, poor fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order). A model-form
     discrepancy's parameters get no bound warning: its amplitude at the floor is the base class's fit, and its
-    prior bounds are a choice of the diagnosis, not of the study."""
+    prior bounds are a choice of the diagnosis, not of the study; the poor fits of a model-form class are judged net
+    of its discrepancy (one more forward solve, at the MAP)."""
     sigma = like.curve_sigmas(post.map_theta)[0]
     sigma = np.broadcast_to(sigma, (len(like.curve_keys),))
+    discrepancy = like.discrepancy_mean(post.map_theta) if like.discrepancy_names else None
     return (bound_warnings(post, lower_only=like.sigma_names, skip=like.discrepancy_names)
             + sigma_warnings(post, like.sigma_names) + failure_warnings(post)
-            + fit_warnings(like, map_simulated, dict(zip(like.curve_keys, sigma.tolist()))))
+            + fit_warnings(like, map_simulated, dict(zip(like.curve_keys, sigma.tolist())), discrepancy=discrepancy))
