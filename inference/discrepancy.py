@@ -161,13 +161,14 @@ class CurveDiscrepancy:
         return k @ np.linalg.solve(c, np.asarray(residuals, dtype=float))
 
 
-def where_it_lies(likelihood, theta, top=None) -> list:
+def where_it_lies(likelihood, theta, top=None, simulated=None) -> list:
     """Where the discrepancy of a model-form class lies at ``theta``: per curve, the RMS and the largest |delta| of
     its posterior mean (relative, as the residuals: 0.03 is 3 %) and the range of the abscissa (x_name, in the
     curve's unit) where |delta| is at least half its largest value; the curves by decreasing RMS (the first ``top``).
-    ``likelihood``: an :class:`inference.Likelihood` with a discrepancy."""
+    ``likelihood``: an :class:`inference.Likelihood` with a discrepancy; ``simulated``: the curves at ``theta`` when
+    at hand ({(test, curve): values at the records}; else solved)."""
     out = []
-    for (test, curve), mean in likelihood.discrepancy_mean(theta).items():
+    for (test, curve), mean in likelihood.discrepancy_mean(theta, simulated).items():
         used = np.isfinite(mean)
         if not used.any():
             continue

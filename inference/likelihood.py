@@ -384,12 +384,13 @@ class Likelihood:
         column = {g: k for k, g in enumerate(self.groups)}
         return [sigma[:, column[self.group_of[key]]] for key in self.curve_keys]
 
-    def discrepancy_mean(self, theta) -> dict:
+    def discrepancy_mean(self, theta, simulated=None) -> dict:
         """The posterior mean of the discrepancy delta (relative, as the residuals) per (test, curve) at theta, at the
-        recorded points (excluded points NaN); {} without a discrepancy."""
+        recorded points (excluded points NaN); {} without a discrepancy. ``simulated``: the curves at theta when at
+        hand (:meth:`residuals`)."""
         if self.discrepancy is None:
             return {}
-        residuals = self.residuals(theta)
+        residuals = self.residuals(theta, simulated)
         sigmas = self.curve_sigmas_from(self.sigma_arrays(theta))
         amplitudes, length = self.discrepancy_arrays(theta)
         out = {}
@@ -560,9 +561,10 @@ class Likelihood:
         return values, reasons
 
     # ----------------------------------------------------------------- diagnostics
-    def residuals(self, theta) -> dict:
-        """Relative residuals (U_obs - U_num)/U_obs per (test, curve) at theta (excluded points as NaN)."""
-        sim = self.simulated_at_observations(self._forward_one(theta))
+    def residuals(self, theta, simulated=None) -> dict:
+        """Relative residuals (U_obs - U_num)/U_obs per (test, curve) at theta (excluded points as NaN); ``simulated``
+        {(test, curve): values at the recorded abscissae} the curves at theta when at hand (else solved)."""
+        sim = self.simulated_at_observations(self._forward_one(theta)) if simulated is None else simulated
         out = {}
         for t in self.observations:
             for c, curve in t.curves.items():

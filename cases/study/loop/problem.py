@@ -275,11 +275,11 @@ class LoopProblem:
             n_forward_solves=summary["n_forward_solves"] + (0 if evidence is None else evidence.n_solves),
             extra={"map_curves": map_raw, "map_theta": [float(v) for v in map_theta],
                    "log_evidence_tmcmc": float(post.log_evidence)},
-            warnings=calibration_warnings(post, like, map_simulated),
+            warnings=calibration_warnings(post, like, map_simulated, map_theta),
             sampler_log_evidence=None if evidence is None else float(post.log_evidence),
             evidence=None if evidence is None else evidence.to_dict(),
             priors={} if prior is None else {b.name: [b.lower, b.upper, b.kind] for b in prior.bounds},
-            discrepancy=[] if like.discrepancy is None else where_it_lies(like, map_theta))
+            discrepancy=[] if like.discrepancy is None else where_it_lies(like, map_theta, simulated=map_simulated))
 
     # ---------------------------------------------------------------------------------------- the loop's protocol
     def start(self, observations, run, out, seed: int, settings: Settings, label: str):

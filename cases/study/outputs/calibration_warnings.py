@@ -14,7 +14,7 @@
   error model of Eq. (1), docs/reference.md section 1, the RMS is about sigma_eps); the line names the test, the
   curve and the abscissa range of ``WINDOW`` (a fifth of the points, at least 3) consecutive points with the largest
   mean squared residual. For a model-form class (the base plus a smooth discrepancy, ``inference.Discrepancy``) the
-  residual is taken net of the discrepancy's posterior mean at the MAP: its sigma_eps is the noise left after the
+  residual is taken net of the discrepancy's posterior mean at the same point: its sigma_eps is the noise left after the
   discrepancy, and the physics' own misfit is what the discrepancy is there to carry.
 """
 from __future__ import annotations
@@ -135,15 +135,18 @@ def fit_warnings(like, map_simulated: dict, curve_sigma: dict, ratio=POOR_FIT_RA
     return [text for _, text in sorted(found, key=lambda f: -f[0])]
 
 
-def calibration_warnings(post, like, map_simulated: dict) -> list:
+def calibration_warnings(post, like, map_simulated: dict, theta=None) -> list:
     """Every warning of a finished calibration (module docstring): bounds, error parameters at their ceiling, failed
-    solves, poor fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order). A model-form
-    discrepancy's parameters get no bound warning: its amplitude at the floor is the base class's fit, and its
-    prior bounds are a choice of the diagnosis, not of the study; the poor fits of a model-form class are judged net
-    of its discrepancy (one more forward solve, at the MAP)."""
-    sigma = like.curve_sigmas(post.map_theta)[0]
+    solves, poor fits. ``like``: the calibration's ``inference.Likelihood`` (bound to the prior's order);
+    ``map_simulated`` the curves at ``theta`` (default the posterior's MAP; a refined mode where the class is
+    recorded at it), whose error parameters the poor fits are judged against. A model-form discrepancy's parameters
+    get no bound warning: its amplitude at the floor is the base class's fit, and its prior bounds are a choice of
+    the diagnosis, not of the study; the poor fits of a model-form class are judged net of its discrepancy's
+    posterior mean at ``theta``."""
+    theta = post.map_theta if theta is None else theta
+    sigma = like.curve_sigmas(theta)[0]
     sigma = np.broadcast_to(sigma, (len(like.curve_keys),))
-    discrepancy = like.discrepancy_mean(post.map_theta) if like.discrepancy_names else None
+    discrepancy = like.discrepancy_mean(theta, map_simulated) if like.discrepancy_names else None
     return (bound_warnings(post, lower_only=like.sigma_names, skip=like.discrepancy_names)
             + sigma_warnings(post, like.sigma_names) + failure_warnings(post)
             + fit_warnings(like, map_simulated, dict(zip(like.curve_keys, sigma.tolist())), discrepancy=discrepancy))
