@@ -303,7 +303,8 @@ class DiagnosedCandidate(CandidateScore):
 class ClassSummary:
     """A model class as the diagnosis reports it: name, role, candidate, log_evidence (ln Z), J_g per test,
     parameters, sigma_eps, wall_s (s), warnings (from `ModelClass`), log_bayes_vs_base (ln B; 0 for the base, None
-    for an enriched class not compared) and structure (`report` residual-structure statistics of its screening)."""
+    for an enriched class not compared), structure (`report` residual-structure statistics of its screening) and
+    evidence_method (how its refined ln Z was estimated, ``inference.mode_evidence``'s method; None without one)."""
 
     name: str
     role: str
@@ -316,6 +317,7 @@ class ClassSummary:
     warnings: list | None
     log_bayes_vs_base: float | None
     structure: dict
+    evidence_method: str | None = None
 
 
 @dataclass(frozen=True)

@@ -97,7 +97,7 @@ def diagnose(likelihood, classes: list, covariates: dict, candidates: list, desc
                                    verdict.log_bayes.get(cl.name, 0.0 if cl.role == "base" else
                                                          (verdict.model_form or {}).get("log_bayes")
                                                          if cl.role == "model form" else None),
-                                   structure[cl.name]) for cl in classes)
+                                   structure[cl.name], (cl.evidence or {}).get("method")) for cl in classes)
     regions = tuple(MismatchRegion(**vars(r), x_unit=likelihood.observations[r.test].curves[r.curve].x_unit)
                     for r in base_screen.regions)
     form = verdict.model_form
@@ -275,7 +275,8 @@ def markdown(d: Diagnosis) -> str:
     for c in d.classes:
         s = c.structure
         jg = ", ".join(f"{t} {v:.3g}" for t, v in (c.J_g or {}).items() if isinstance(v, float))
-        lines.append(f"| {c.name} | {c.role} | {_fmt(c.log_evidence, '.2f')} | "
+        bound = " (95 % lower bound)" if c.evidence_method == "lower bound" else ""
+        lines.append(f"| {c.name} | {c.role} | {_fmt(c.log_evidence, '.2f')}{bound} | "
                      f"{_fmt(c.log_bayes_vs_base, '+.2f')} | {jg} | {_fmt(c.sigma_eps, '.4f')} | {s['verdict']} | "
                      f"{s['structured_curves']}/{s['curves']} | {s['regions']} | {s['mean_lag1']:+.2f} | "
                      f"{_fmt(None if s['coverage'] is None else 100 * s['coverage'], '.0f')} % |")

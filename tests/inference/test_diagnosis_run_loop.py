@@ -181,6 +181,25 @@ def test_in_memory_diagnosis_equals_the_run_directory_route(curved, tmp_path):
     assert diagnosis.markdown(result.final) == text
 
 
+def test_a_class_whose_ln_z_is_its_lower_bound_says_so_in_the_report(curved):
+    """The report's class table marks an ln Z that is the importance batches' 95 % lower bound (the Laplace value
+    fell below it: ``inference.mode_evidence``), and the mark survives the JSON record; the other classes' ln Z are
+    plain numbers."""
+    problem, result = curved
+    enriched = result.classes[1]
+    bound = {**(enriched.evidence or {}), "method": "lower bound", "log_evidence": enriched.log_evidence}
+    classes = [result.classes[0], replace(enriched, evidence=bound), *result.classes[2:]]
+    d = diagnosis.diagnose(problem.likelihood, classes, result.covariates, CANDIDATES, problem.description,
+                           **result.settings)
+    rows = {c.name: line for c in d.classes for line in diagnosis.markdown(d).splitlines()
+            if line.startswith(f"| {c.name} |")}
+    assert f"{enriched.log_evidence:.2f} (95 % lower bound) |" in rows[enriched.name]
+    assert all("lower bound" not in row for name, row in rows.items() if name != enriched.name)
+    again = diagnosis.Diagnosis.from_json(d.to_json())
+    assert [c.evidence_method for c in again.classes] == [c.evidence_method for c in d.classes]
+    assert again.classes[1].evidence_method == "lower bound"
+
+
 def test_run_loop_writes_no_files_and_needs_no_also_enrich(tmp_path, monkeypatch):
     class Minimal:
         """The protocol without the optional also_enrich."""
