@@ -261,6 +261,14 @@ def test_a_lower_bound_that_clears_the_base_and_the_model_form_class_checks_the_
     short = replace(enriched, evidence={**ev, "log_lower": 258.0})
     d = diagnosis.conclude(_ranked("A"), [base, form, short], rule)
     assert d.omitted_physics == "none" and "its 95 % lower bound 258.0 falls short of 259.7" in d.candidates[0].decision
+    # the bound as the class's ln Z (its Laplace value below it: inference.mode_evidence): confirmed where the bound
+    # clears the model-form class, refused with the importance check's shortfall where it does not
+    bound = {**ev, "log_evidence": 261.67, "method": "lower bound", "log_lower": 261.67}
+    d = diagnosis.conclude(_ranked("A"), [base, form, replace(enriched, log_evidence=261.67, evidence=bound)], rule)
+    assert d.omitted_physics == "A" and "1.96 over the model-form class" in d.candidates[0].decision
+    low = {**bound, "log_evidence": 258.0, "log_lower": 258.0}
+    d = diagnosis.conclude(_ranked("A"), [base, form, replace(enriched, log_evidence=258.0, evidence=low)], rule)
+    assert d.omitted_physics == "none" and "effective sample size of 17 of 1024 draws" in d.candidates[0].decision
 
 
 def test_a_leader_that_leaves_its_misfit_is_tentative_not_confirmed():
