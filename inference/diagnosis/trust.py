@@ -103,7 +103,7 @@ def evidence_trusted(cls: ModelClass, rule: DecisionRule, floor: float | None = 
     if evidence_check(cls, rule, floor):
         return ""
     ev, sampler = cls.evidence, cls.sampler_log_evidence
-    if ev.get("method") in ("importance sampling", "lower bound"):
+    if ev.get("method") in ("importance sampling", "lower bound") and ev.get("n_draws"):
         why = (f"its importance-sampling estimate has an effective sample size of {ev.get('ess', 0.0):.0f} of "
                f"{ev['n_draws']} draws (needs {100 * rule.ess_fraction:.0f} %)")
     else:
