@@ -52,6 +52,10 @@ LOST_DIMENSION_FRACTION = 1e-4
 #: the forward model's discretisation error is comparable with the located misfit when it reaches this fraction of it
 #: (median over the regions; `trust.numerics_comparable`)
 NUMERICAL_FRACTION = 0.5
+#: the ``evidence`` of a class whose ln Z was to be refined at its mode and could not be (``inference.mode_evidence``
+#: returned None: no finite-difference stencil around a climb's end inside what the forward model solves): its ln Z
+#: is the sampler's own, unchecked, and cannot confirm (`trust`, check 3)
+NOT_REFINED = "not refined"
 
 
 @dataclass(frozen=True)

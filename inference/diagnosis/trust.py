@@ -19,7 +19,10 @@ A class cannot confirm when
    above it with probability 0.95 whatever the importance proposal's fit, by Markov's inequality) already clears
    what the class must reach to confirm (the base's ln Z plus the threshold, the model-form class's plus its
    margin; for a class whose own estimate had no importance check, the highest of its estimates:
-   `highest_estimate`), or when it agrees within three standard errors and 1 nat with the sampler's own ln Z;
+   `highest_estimate`), or when it agrees within three standard errors and 1 nat with the sampler's own ln Z; a
+   class whose ln Z was to be refined and could not be (``records.NOT_REFINED``: no stencil around its mode inside
+   what the forward model solves) has only the sampler's estimate, which nothing checks: it cannot confirm, nor be
+   a tentative leader;
 4. the sampler's own ln Z favours the base class, while the refined estimates favour the enriched one: two
    estimates that disagree in sign are a warning, not a licence to take the larger one (`sampler_disagrees`). It
    does not apply when both refined estimates passed an importance check (the first three ways of check 3): the
@@ -36,7 +39,7 @@ A class cannot confirm when
 And no class confirms anything when the base's misfit is of the size of its forward model's own discretisation
 error (`numerics_comparable`: the refined-minus-calibrated difference at the base's mode reaches
 ``numerical_fraction`` of the located misfit): the misfit is then not shown to be physics at all.
-Each check gives its reason in words; a check with nothing to check (no refined estimate, no added parameter with
+Each check gives its reason in words; a check with nothing to check (no refinement asked for, no added parameter with
 an inert end) passes.
 """
 from __future__ import annotations
@@ -45,7 +48,7 @@ import math
 
 import numpy as np
 
-from .records import DecisionRule, ModelClass
+from .records import NOT_REFINED, DecisionRule, ModelClass
 
 __all__ = [
     "IMPORTANCE_CHECKS", "confirmation_blocks", "evidence_check", "evidence_trusted", "highest_estimate",
@@ -85,6 +88,8 @@ def evidence_check(cls: ModelClass, rule: DecisionRule, floor: float | None = No
     ev = cls.evidence
     if not ev:
         return "no refined estimate"
+    if ev.get("method") == NOT_REFINED:
+        return ""
     if ev.get("method") == "importance sampling" and ev.get("n_draws") and \
             ev.get("ess", 0.0) >= rule.ess_fraction * ev["n_draws"]:
         return IMPORTANCE_CHECKS[0]
@@ -103,6 +108,9 @@ def evidence_trusted(cls: ModelClass, rule: DecisionRule, floor: float | None = 
     if evidence_check(cls, rule, floor):
         return ""
     ev, sampler = cls.evidence, cls.sampler_log_evidence
+    if ev.get("method") == NOT_REFINED:
+        return ("evidence not trusted: its ln Z could not be refined at its mode (no finite-difference stencil "
+                "inside what the forward model solves), and the sampler's own estimate is not checked")
     if ev.get("method") in ("importance sampling", "lower bound") and ev.get("n_draws"):
         why = (f"its importance-sampling estimate has an effective sample size of {ev.get('ess', 0.0):.0f} of "
                f"{ev['n_draws']} draws (needs {100 * rule.ess_fraction:.0f} %)")

@@ -271,6 +271,25 @@ def test_a_lower_bound_that_clears_the_base_and_the_model_form_class_checks_the_
     assert d.omitted_physics == "none" and "effective sample size of 17 of 1024 draws" in d.candidates[0].decision
 
 
+def test_a_class_whose_ln_z_could_not_be_refined_neither_confirms_nor_leads():
+    """A class whose refinement at the mode was asked for and gave nothing (inference.diagnosis.NOT_REFINED) has the
+    sampler's ln Z alone: far above the base and the model-form class, it is refused, naming why, and is not the
+    tentative leader either; the same class with a checked estimate confirms."""
+    base = _class("base", "base", None, 0.0)
+    form = _class("base + delta", "model form", None, 40.0)
+    lead = _class("base + A", "enriched", "A", 95.0, _params(M=1.2, xi=8.0),
+                  evidence={"method": diagnosis.NOT_REFINED})
+    d = diagnosis.conclude(_ranked("A"), [base, form, lead], RULE)
+    assert d.omitted_physics == "none" and d.tentative is None
+    assert "its ln Z could not be refined at its mode" in d.candidates[0].decision
+    below = replace(lead, log_evidence=35.0)   # below the model-form class: not tentative either
+    d = diagnosis.conclude(_ranked("A"), [base, form, below], RULE)
+    assert d.omitted_physics == "none" and d.tentative is None
+    checked = replace(lead, evidence={"log_evidence": 95.0, "method": "importance sampling", "ess": 80.0,
+                                      "n_draws": 256, "std_error": 0.1})
+    assert diagnosis.conclude(_ranked("A"), [base, form, checked], RULE).omitted_physics == "A"
+
+
 def test_a_leader_that_leaves_its_misfit_is_tentative_not_confirmed():
     """Two effects at once: the leading class passes every check but leaves the located misfit (the other effect's):
     nothing is confirmed and it is the tentative candidate the stepwise loop tries next; below the threshold it is

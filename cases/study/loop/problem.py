@@ -204,7 +204,8 @@ class LoopProblem:
                         settings: Settings, discrepancy=None, **sampler) -> tuple:
         """Calibrate one model class in ``out`` (``discrepancy``: an ``inference.Discrepancy`` whose parameters join
         the prior, log-uniform; ``sampler``: further inference.tmcmc settings); returns (ModelClass, Posterior,
-        Likelihood)."""
+        Likelihood). A class whose ln Z cannot be refined at its mode (:meth:`refined_evidence` None) keeps the
+        sampler's and is marked ``inference.diagnosis.NOT_REFINED``: it cannot confirm."""
         t0 = time.perf_counter()
         like = self.make_likelihood(observations, switches, discrepancy)
         if discrepancy is not None:
@@ -221,6 +222,8 @@ class LoopProblem:
         t2 = time.perf_counter()
         cls, _ = self.finish_class(post, like, name, switches, run, out, seed, settings.predictive_draws,
                                    t2 - t0, evidence, prior)
+        if evidence is None:   # the refinement was asked for and gave nothing: the sampler's ln Z alone, unchecked
+            cls = replace(cls, evidence={"method": diagnosis.NOT_REFINED})
         # where the class's time went (s): the sampler, the refined evidence, the record and outputs (in the loop its
         # figures are kept and drawn at the end, :func:`run_loop`)
         cls.extra["phases_s"] = {"sampler": t1 - t0, "evidence": t2 - t1, "record_and_outputs":
