@@ -109,8 +109,9 @@ def evidence_trusted(cls: ModelClass, rule: DecisionRule, floor: float | None = 
         return ""
     ev, sampler = cls.evidence, cls.sampler_log_evidence
     if ev.get("method") == NOT_REFINED:
-        return ("evidence not trusted: its ln Z could not be refined at its mode (no finite-difference stencil "
-                "inside what the forward model solves), and the sampler's own estimate is not checked")
+        return ("evidence not trusted: its ln Z could not be refined at its mode (the forward model fails around its "
+                "best-fitting parameters, so no curvature could be taken there), and the sampler's own estimate is not "
+                "checked")
     if ev.get("method") in ("importance sampling", "lower bound") and ev.get("n_draws"):
         why = (f"its importance-sampling estimate has an effective sample size of {ev.get('ess', 0.0):.0f} of "
                f"{ev['n_draws']} draws (needs {100 * rule.ess_fraction:.0f} %)")

@@ -191,8 +191,8 @@ def test_a_class_whose_ln_z_is_its_lower_bound_says_so_in_the_report(curved):
     classes = [result.classes[0], replace(enriched, evidence=bound), *result.classes[2:]]
     d = diagnosis.diagnose(problem.likelihood, classes, result.covariates, CANDIDATES, problem.description,
                            **result.settings)
-    rows = {c.name: line for c in d.classes for line in diagnosis.markdown(d).splitlines()
-            if line.startswith(f"| {c.name} |")}
+    text = diagnosis.markdown(d).splitlines()
+    rows = {c.name: line for c in d.classes for line in text if line.startswith(f"| {c.name} |")}
     assert f"{enriched.log_evidence:.2f} (95 % lower bound) |" in rows[enriched.name]
     assert all("lower bound" not in row for name, row in rows.items() if name != enriched.name)
     again = diagnosis.Diagnosis.from_json(d.to_json())

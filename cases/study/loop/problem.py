@@ -205,7 +205,7 @@ class LoopProblem:
         """Calibrate one model class in ``out`` (``discrepancy``: an ``inference.Discrepancy`` whose parameters join
         the prior, log-uniform; ``sampler``: further inference.tmcmc settings); returns (ModelClass, Posterior,
         Likelihood). A class whose ln Z cannot be refined at its mode (:meth:`refined_evidence` None) keeps the
-        sampler's and is marked ``inference.diagnosis.NOT_REFINED``: it cannot confirm."""
+        sampler's ln Z and is marked ``inference.diagnosis.NOT_REFINED``: it cannot confirm."""
         t0 = time.perf_counter()
         like = self.make_likelihood(observations, switches, discrepancy)
         if discrepancy is not None:
