@@ -38,19 +38,21 @@ p' alpha_k):
 
 (the dalpha_k/dsigma'_k of R_alpha). ``reduce=False`` in ``update_points`` integrates all 6 (the tests' oracle).
 
-Compilation: every helper is inlined into ``_update_point``, itself inlined into ``update_points`` and into
-``_anicreep_steps.point_update`` (the step loops' form) (``jit(inline="always")``), so the loop over points is one
-compiled body, without calls and without the reference counting (atomic increments and decrements) that numba
-does for every array view it creates or passes to a function: about 210 such operations per point update when the
-helpers were separate functions. Inlining does not reorder floating-point operations: the same results to the bit;
-the cold compile takes about twice as long (once, then cached).
+Compilation: every helper is inlined into ``_update_point``, itself inlined into ``update_points``, and into
+``_update_point_lab``, inlined into ``_anicreep_steps.point_update`` (the step loops' form)
+(``jit(inline="always")``), so the loop over points is one compiled body, without calls and without the reference
+counting (atomic increments and decrements) that numba does for every array view it creates or passes to a
+function: about 210 such operations per point update when the helpers were separate functions. Inlining does not
+reorder floating-point operations: the same results to the bit; the cold compile takes about twice as long (once,
+then cached).
 
-Specialization: ``_update_point`` inlines ``_local_solve`` twice, once with the literal nc = 4 (the axisymmetric
-FE's points) and once for the other points (nc = 3 or 6 at run time). With a constant nc every
+Specialization: ``_update_point`` (the FE's) inlines ``_local_solve`` twice, once with the literal nc = 4 (the
+axisymmetric FE's points) and once for the other points (nc = 3 or 6 at run time). With a constant nc every
 loop over the components and over the 9 local unknowns, the 9 x 9 LU included, has constant bounds and is unrolled
 by the compiler: the same operations in the same order (results bit-identical to the generic copy), about a fifth
 less time per FE point update (measured on a replay of the fem.bench expansion's updates), at the price of a
-longer cold compile (once, then cached).
+longer cold compile (once, then cached). ``_update_point_lab`` (the laboratory step loops', whose points carry no
+shear) has the run-time copy alone: its cold compile is about half.
 """
 from __future__ import annotations
 
@@ -495,63 +497,75 @@ def _tangent(gk, c, g, X, dlam, prm, pm_n, nc, J, LU, piv, rhs, tan_o):
     return _all_finite(tan_o)
 
 
-@jit(inline="always")
-def _update_point(sig, alp, pm, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth, reduce, want_tangent,
-                  stress_out, alpha_out, dvp_out, tan_out, work):
-    """Integrate one increment ``deps`` (6,) over ``dt`` of one point (stress ``sig``, fabric ``alp`` (6,), p'_m^r
-    ``pm``, bonding ``chi``; ``prm`` its PARAMETER_COLUMNS row). With ``reduce`` in the components in play
-    (``components_in_play``), otherwise in all 6; ``tan_out`` (6, 6) filled only with ``want_tangent`` (the
-    consistent tangent of the last sub-step). A sub-step that fails is split into halves (depth-first bisection,
-    ``max_depth`` levels). Fills stress_out, alpha_out and dvp_out (the viscoplastic strain increment); returns
-    (converged, p'_m^r, chi, p'_m^d/p'_m^r at the end, eps_d^vp = sqrt(2/3 e^vp:e^vp) of the increment).
-    ``work``: the scratch arrays (ws (38, MAX_NX), X, Xn, dX, R, rhs (MAX_NX,), J, LU (MAX_NX, MAX_NX), piv
-    (MAX_NX,) int, and four (6,))."""
-    ws, X, Xn, dX, R, rhs, J, LU, piv, sig_c, alp_c, dvp_c, sub_deps = work
-    nc = components_in_play(sig, alp, deps) if reduce else 6
-    for k in range(6):
-        sig_c[k] = sig[k]
-        alp_c[k] = alp[k]
-        dvp_out[k] = 0.0
-    pm_c = pm
-    chi_c = chi
-    ratio = 0.0
-    units = 1 << max_depth
-    pos = 0
-    level = 0
-    while pos < units:
-        frac = 1.0 / (1 << level)
+def _point_integrator(axisymmetric_copy):
+    """The update of one point, compiled with the copy of the local solve for the literal nc = 4 (the axisymmetric
+    FE's points: module docstring, Specialization) when ``axisymmetric_copy``, without it otherwise (the laboratory
+    step loops, whose points carry no shear: nc = 3). The flag is a constant of the closure, so the branch not taken
+    is removed before compilation (numba's dead-branch pruning): the laboratory loops compile one copy of the local
+    solve, not two. The arithmetic of a point is the same either way (the copies are bit-identical)."""
+
+    @jit(inline="always")
+    def update_point(sig, alp, pm, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth, reduce, want_tangent,
+                     stress_out, alpha_out, dvp_out, tan_out, work):
+        """Integrate one increment ``deps`` (6,) over ``dt`` of one point (stress ``sig``, fabric ``alp`` (6,), p'_m^r
+        ``pm``, bonding ``chi``; ``prm`` its PARAMETER_COLUMNS row). With ``reduce`` in the components in play
+        (``components_in_play``), otherwise in all 6; ``tan_out`` (6, 6) filled only with ``want_tangent`` (the
+        consistent tangent of the last sub-step). A sub-step that fails is split into halves (depth-first bisection,
+        ``max_depth`` levels). Fills stress_out, alpha_out and dvp_out (the viscoplastic strain increment); returns
+        (converged, p'_m^r, chi, p'_m^d/p'_m^r at the end, eps_d^vp = sqrt(2/3 e^vp:e^vp) of the increment).
+        ``work``: the scratch arrays (ws (38, MAX_NX), X, Xn, dX, R, rhs (MAX_NX,), J, LU (MAX_NX, MAX_NX), piv
+        (MAX_NX,) int, and four (6,))."""
+        ws, X, Xn, dX, R, rhs, J, LU, piv, sig_c, alp_c, dvp_c, sub_deps = work
+        nc = components_in_play(sig, alp, deps) if reduce else 6
         for k in range(6):
-            sub_deps[k] = deps[k] * frac
-        if nc == 4:     # the axisymmetric FE's points: a copy compiled for the constant nc (docstring)
-            ok, pm_new, ratio_new, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm,
-                                                          viscous, tol, max_it, max_dz, 4, want_tangent, stress_out,
-                                                          alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv,
-                                                          rhs)
-        else:
-            ok, pm_new, ratio_new, chi_new = _local_solve(sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm,
-                                                          viscous, tol, max_it, max_dz, nc, want_tangent, stress_out,
-                                                          alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv,
-                                                          rhs)
-        if not ok:
-            if level >= max_depth:
-                return False, pm_c, chi_c, ratio, 0.0
-            level += 1
-            continue
-        for k in range(6):
-            sig_c[k] = stress_out[k]
-            alp_c[k] = alpha_out[k]
-        pm_c = pm_new
-        chi_c = chi_new
-        ratio = ratio_new
-        for k in range(6):
-            dvp_out[k] += dvp_c[k]
-        pos, level = next_substep(pos, level, units)
-    dv = (dvp_out[0] + dvp_out[1] + dvp_out[2]) / 3.0
-    e2 = 0.0
-    for k in range(6):  # eps_d^vp increment sqrt(2/3 e:e) of the whole increment (engineering shear: weight 1/2)
-        e = dvp_out[k] - dv * _I[k]
-        e2 += e * e / _W[k]
-    return True, pm_c, chi_c, ratio, math.sqrt(2.0 / 3.0 * e2)
+            sig_c[k] = sig[k]
+            alp_c[k] = alp[k]
+            dvp_out[k] = 0.0
+        pm_c = pm
+        chi_c = chi
+        ratio = 0.0
+        units = 1 << max_depth
+        pos = 0
+        level = 0
+        while pos < units:
+            frac = 1.0 / (1 << level)
+            for k in range(6):
+                sub_deps[k] = deps[k] * frac
+            if axisymmetric_copy and nc == 4:     # the FE's points: a copy for the constant nc (docstring)
+                ok, pm_new, ratio_new, chi_new = _local_solve(
+                    sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm, viscous, tol, max_it, max_dz, 4,
+                    want_tangent, stress_out, alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv, rhs)
+            else:
+                ok, pm_new, ratio_new, chi_new = _local_solve(
+                    sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm, viscous, tol, max_it, max_dz, nc,
+                    want_tangent, stress_out, alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv, rhs)
+            if not ok:
+                if level >= max_depth:
+                    return False, pm_c, chi_c, ratio, 0.0
+                level += 1
+                continue
+            for k in range(6):
+                sig_c[k] = stress_out[k]
+                alp_c[k] = alpha_out[k]
+            pm_c = pm_new
+            chi_c = chi_new
+            ratio = ratio_new
+            for k in range(6):
+                dvp_out[k] += dvp_c[k]
+            pos, level = next_substep(pos, level, units)
+        dv = (dvp_out[0] + dvp_out[1] + dvp_out[2]) / 3.0
+        e2 = 0.0
+        for k in range(6):  # eps_d^vp increment sqrt(2/3 e:e) of the whole increment (engineering shear: weight 1/2)
+            e = dvp_out[k] - dv * _I[k]
+            e2 += e * e / _W[k]
+        return True, pm_c, chi_c, ratio, math.sqrt(2.0 / 3.0 * e2)
+
+    return update_point
+
+
+#: the FE's update of one point (``update_points``) and the laboratory step loops' (``_anicreep_steps``)
+_update_point = _point_integrator(True)
+_update_point_lab = _point_integrator(False)
 
 
 @jit(inline="always")

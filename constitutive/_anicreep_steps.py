@@ -1,12 +1,12 @@
 """ANICREEP's update of one point in the form of the compiled step loops (:mod:`constitutive._step_loops`), and
 the loops with it (``drive``: ``mixed_control``, ``adapt``: ``adaptive_control``); the integration is
-:mod:`constitutive._anicreep_kernel`'s ``_update_point``, inlined. Compression positive, kPa, s.
+:mod:`constitutive._anicreep_kernel`'s ``_update_point_lab``, inlined. Compression positive, kPa, s.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ._anicreep_kernel import LOCAL_NEWTON_FAILED, PARAMETER_COLUMNS, _scratch, _update_point
+from ._anicreep_kernel import LOCAL_NEWTON_FAILED, PARAMETER_COLUMNS, _scratch, _update_point_lab
 from ._step_loops import adapt_points, drive_points
 from .jit import jit
 
@@ -38,7 +38,7 @@ def point_update(stress, state, deps, dt, prm, settings, stress_out, state_out, 
             row[INVERSE_VOLUME_COLUMN] = prm[INVERSE_VOLUME_COLUMN] / v
     else:
         v = prm[row.size]
-    ok, pm, chi, ratio, vp_shear = _update_point(
+    ok, pm, chi, ratio, vp_shear = _update_point_lab(
         stress, state[0:6], state[6], state[16], deps, dt, row, viscous, settings[2], int(settings[3]), settings[4],
         int(settings[5]), settings[6] != 0.0, True, stress_out, state_out[0:6], state_out[8:14], tangent_out,
         work[:13])

@@ -191,6 +191,20 @@ def test_anicreep_loading_creep_and_shear(switches, predictor):
     assert not a["failed"].any()
 
 
+@pytest.mark.parametrize("switches", ANICREEP_CLASSES.values(), ids=ANICREEP_CLASSES.keys())
+def test_anicreep_points_with_a_shear_component(switches):
+    """Simple shear at constant volume (every strain prescribed, gamma_12 growing at 0.05 % a minute): each point
+    carries one shear component (nc = 4), which the laboratory loops integrate in the local solve's run-time copy
+    and the Python driver (``ANICREEP.update``, the FE's update) in the copy compiled for the literal nc = 4; the
+    same histories."""
+    model, stress, state = anicreep_batch(**switches)
+    inc = np.zeros((120, 6))
+    inc[:, 3] = 0.0005
+    a, b = both(model, stress, state, lt.ALL_STRAIN, inc, np.full(120, 60.0))
+    assert_same_history(a, b)
+    assert not a["failed"].any() and np.all(np.abs(a["stress"][:, -1, 3]) > 10.0)
+
+
 def test_anicreep_failure_reason():
     """A local Newton allowed one iteration and no sub-steps fails on the first plastic step, with the model's
     reason (the step's strain increment, time step and start stress), the same from both drivers."""
