@@ -38,21 +38,19 @@ p' alpha_k):
 
 (the dalpha_k/dsigma'_k of R_alpha). ``reduce=False`` in ``update_points`` integrates all 6 (the tests' oracle).
 
-Compilation: every helper is inlined into ``_update_point``, itself inlined into ``update_points``, and into
-``_update_point_lab``, inlined into ``_anicreep_steps.point_update`` (the step loops' form)
-(``jit(inline="always")``), so the loop over points is one compiled body, without calls and without the reference
-counting (atomic increments and decrements) that numba does for every array view it creates or passes to a
-function: about 210 such operations per point update when the helpers were separate functions. Inlining does not
-reorder floating-point operations: the same results to the bit; the cold compile takes about twice as long (once,
-then cached).
+Compilation: every helper is inlined (``jit(inline="always")``) into ``_update_point``, itself inlined into
+``update_points``, and into ``_update_point_lab``, inlined into ``_anicreep_steps.point_update``, so the loop over
+points is one compiled body, without calls and without numba's reference counting (atomic operations) of every array
+view passed to a function: about 210 per point update when the helpers were separate functions. Inlining does not
+reorder floating-point operations (the same results to the bit); it doubles the cold compile (once, then cached).
 
-Specialization: ``_update_point`` (the FE's) inlines ``_local_solve`` twice, once with the literal nc = 4 (the
-axisymmetric FE's points) and once for the other points (nc = 3 or 6 at run time). With a constant nc every
-loop over the components and over the 9 local unknowns, the 9 x 9 LU included, has constant bounds and is unrolled
-by the compiler: the same operations in the same order (results bit-identical to the generic copy), about a fifth
-less time per FE point update (measured on a replay of the fem.bench expansion's updates), at the price of a
-longer cold compile (once, then cached). ``_update_point_lab`` (the laboratory step loops', whose points carry no
-shear) has the run-time copy alone: its cold compile is about half.
+Specialization: ``_update_point`` (the FE's) inlines ``_local_solve`` twice, with the literal nc = 4 of the
+axisymmetric FE's points and with nc at run time (3 or 6). With a constant nc every loop over the components and the
+local unknowns, the LU included, has constant bounds and is unrolled: the same operations in the same order, about
+a fifth less time per FE point update. ``_update_point_lab`` (the laboratory loops') inlines the copy for the
+literal nc = 3 of triaxial and oedometer points (a quarter less time per laboratory forward solve) and calls
+``_local_solve_called`` for any other point: a second inlined copy would double the cold compile (numba's inlining
+costs grow faster than the code inlined).
 """
 from __future__ import annotations
 
@@ -497,12 +495,11 @@ def _tangent(gk, c, g, X, dlam, prm, pm_n, nc, J, LU, piv, rhs, tan_o):
     return _all_finite(tan_o)
 
 
-def _point_integrator(axisymmetric_copy):
-    """The update of one point, compiled with the copy of the local solve for the literal nc = 4 (the axisymmetric
-    FE's points: module docstring, Specialization) when ``axisymmetric_copy``, without it otherwise (the laboratory
-    step loops, whose points carry no shear: nc = 3). The flag is a constant of the closure, so the branch not taken
-    is removed before compilation (numba's dead-branch pruning): the laboratory loops compile one copy of the local
-    solve, not two. The arithmetic of a point is the same either way (the copies are bit-identical)."""
+def _point_integrator(literal_nc, inline_others):
+    """The update of one point (inlined where it is called) with the local solve for the constant nc =
+    ``literal_nc`` and, for other points, for nc at run time: inlined when ``inline_others``, else a call of
+    :func:`_local_solve_called` (module docstring, Specialization). The arguments are constants of the closure, which
+    numba's dead-branch pruning resolves before compiling: a variant compiles only what it uses."""
 
     @jit(inline="always")
     def update_point(sig, alp, pm, chi, deps, dt, prm, viscous, tol, max_it, max_dz, max_depth, reduce, want_tangent,
@@ -531,12 +528,16 @@ def _point_integrator(axisymmetric_copy):
             frac = 1.0 / (1 << level)
             for k in range(6):
                 sub_deps[k] = deps[k] * frac
-            if axisymmetric_copy and nc == 4:     # the FE's points: a copy for the constant nc (docstring)
+            if nc == literal_nc:
                 ok, pm_new, ratio_new, chi_new = _local_solve(
-                    sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm, viscous, tol, max_it, max_dz, 4,
+                    sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm, viscous, tol, max_it, max_dz, literal_nc,
+                    want_tangent, stress_out, alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv, rhs)
+            elif inline_others:
+                ok, pm_new, ratio_new, chi_new = _local_solve(
+                    sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm, viscous, tol, max_it, max_dz, nc,
                     want_tangent, stress_out, alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv, rhs)
             else:
-                ok, pm_new, ratio_new, chi_new = _local_solve(
+                ok, pm_new, ratio_new, chi_new = _local_solve_called(
                     sig_c, alp_c, pm_c, chi_c, sub_deps, dt * frac, prm, viscous, tol, max_it, max_dz, nc,
                     want_tangent, stress_out, alpha_out, dvp_c, tan_out, ws, X, Xn, dX, R, J, LU, piv, rhs)
             if not ok:
@@ -563,9 +564,19 @@ def _point_integrator(axisymmetric_copy):
     return update_point
 
 
-#: the FE's update of one point (``update_points``) and the laboratory step loops' (``_anicreep_steps``)
-_update_point = _point_integrator(True)
-_update_point_lab = _point_integrator(False)
+@jit
+def _local_solve_called(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it, max_dz, nc, want_tangent,
+                        sig_o, alp_o, dvp_o, tan_o, ws, X, Xn, dX, R, J, LU, piv, rhs):
+    """:func:`_local_solve` (the same arguments and results) as a function of its own: called, not inlined, by the
+    laboratory loops for their rare points with shear."""
+    return _local_solve(sig_n, alp_n, pm_n, chi_n, deps, dt, prm, viscous, tol, max_it, max_dz, nc, want_tangent,
+                        sig_o, alp_o, dvp_o, tan_o, ws, X, Xn, dX, R, J, LU, piv, rhs)
+
+
+#: the FE's update of one point (``update_points``: its points carry the shear stress sigma_rz, nc = 4) and the
+#: laboratory step loops' (``_anicreep_steps``: triaxial and oedometer points carry no shear, nc = 3)
+_update_point = _point_integrator(4, True)
+_update_point_lab = _point_integrator(3, False)
 
 
 @jit(inline="always")

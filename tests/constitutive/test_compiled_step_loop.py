@@ -194,9 +194,9 @@ def test_anicreep_loading_creep_and_shear(switches, predictor):
 @pytest.mark.parametrize("switches", ANICREEP_CLASSES.values(), ids=ANICREEP_CLASSES.keys())
 def test_anicreep_points_with_a_shear_component(switches):
     """Simple shear at constant volume (every strain prescribed, gamma_12 growing at 0.05 % a minute): each point
-    carries one shear component (nc = 4), which the laboratory loops integrate in the local solve's run-time copy
-    and the Python driver (``ANICREEP.update``, the FE's update) in the copy compiled for the literal nc = 4; the
-    same histories."""
+    carries one shear component (nc = 4), which the laboratory loops (inlined for nc = 3 only) integrate by the
+    called local solve for nc at run time, and the Python driver (``ANICREEP.update``, the FE's update) by its copy
+    for the literal nc = 4; the same histories."""
     model, stress, state = anicreep_batch(**switches)
     inc = np.zeros((120, 6))
     inc[:, 3] = 0.0005
