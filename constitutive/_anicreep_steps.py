@@ -1,12 +1,13 @@
 """ANICREEP's update of one point in the form of the compiled step loops (:mod:`constitutive._step_loops`), and
 the loops with it (``drive``: ``mixed_control``, ``adapt``: ``adaptive_control``); the integration is
-:mod:`constitutive._anicreep_kernel`'s ``_update_point_lab``, inlined. Compression positive, kPa, s.
+:mod:`constitutive._anicreep_points`' ``_update_point_lab``, inlined. Compression positive, kPa, s.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ._anicreep_kernel import LOCAL_NEWTON_FAILED, PARAMETER_COLUMNS, _scratch, _update_point_lab
+from ._anicreep_kernel import LOCAL_NEWTON_FAILED, PARAMETER_COLUMNS
+from ._anicreep_points import _scratch, _update_point_lab
 from ._step_loops import adapt_points, drive_points
 from .jit import jit
 

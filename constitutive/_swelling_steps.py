@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from . import _anicreep_kernel, _anicreep_steps, _mcc_kernel
+from . import _anicreep_kernel, _anicreep_points, _anicreep_steps, _mcc_kernel
 from ._step_loops import adapt_points, drive_points
 from ._swelling_kernel import _np_max, _np_min
 from .jit import jit
@@ -165,7 +165,7 @@ def mcc_adapt(prm, settings, stress0, state0, control, undrained, path, segments
 @jit(inline="always")
 def _anicreep_work():
     """The work of ANICREEP's own loops (``_anicreep_steps.drive``)."""
-    return (*_anicreep_kernel._scratch(), np.zeros(len(_anicreep_kernel.PARAMETER_COLUMNS)))
+    return (*_anicreep_points._scratch(), np.zeros(len(_anicreep_kernel.PARAMETER_COLUMNS)))
 
 
 @jit

@@ -67,7 +67,8 @@ factor v written (1 + e0) above in (E), (H), mu of (V) and omega of (K) is
   The option is a constructor option (``option_names``), so a model rebuilt with other parameters
   (``MaterialModel.replaced``) keeps it.
 
-Integration of one increment (backward Euler, per point, compiled: :mod:`constitutive._anicreep_kernel`):
+Integration of one increment (backward Euler, per point, compiled: :mod:`constitutive._anicreep_kernel` and
+:mod:`constitutive._anicreep_points`):
   unknowns X = (sigma'_{n+1} (6), alpha_d,{n+1} (6), z), the viscoplastic multiplier d lambda = d lambda_ref exp(z),
   d eps^vp = d lambda g(sigma'_{n+1}, alpha_{n+1}); d lambda_ref = mu dt (viscous) or 1 (rate independent);
   residuals  R_sigma = (sigma' - sigma'_E(d eps - d eps^vp))/p'_m,n^r   (E)
@@ -90,6 +91,8 @@ be sub-stepped it is the consistent tangent of the last sub-step (an approximati
 """
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 
 from .base import (
@@ -109,15 +112,16 @@ __all__ = ["ANICREEP", "SPECIFIC_VOLUMES", "anisotropy_constants"]
 _NO_TANGENT = np.empty((1, 6, 6))  # tangent_out of a call without the tangent (row 0 only, never written)
 
 
-_KERNEL = []
+_COMPILED = {}
 
 
-def _kernel():
-    """The compiled integrator, imported on first use (keeps ``import constitutive`` free of numba)."""
-    if not _KERNEL:
-        from . import _anicreep_kernel
-        _KERNEL.append(_anicreep_kernel)
-    return _KERNEL[0]
+def _kernel(module="_anicreep_kernel"):
+    """A module of the compiled integrator (``_anicreep_kernel``: the local solve of one increment;
+    ``_anicreep_points``: the integration of points), imported on first use (keeps ``import constitutive`` free of
+    numba)."""
+    if module not in _COMPILED:
+        _COMPILED[module] = importlib.import_module(f".{module}", __package__)
+    return _COMPILED[module]
 
 
 #: default reference time tau of sigma'_p0 (s): 24 h, the duration of a standard oedometer load stage
@@ -438,7 +442,7 @@ class ANICREEP(MaterialModel):
             prm = self._current_volume_parameters(v, n, points)
         else:
             v, prm = 1.0 + point_rows(self.e0, points), self.kernel_rows(n, points)
-        failed = _kernel().update_points(
+        failed = _kernel("_anicreep_points").update_points(
             np.ascontiguousarray(stress), np.ascontiguousarray(state["alpha"], dtype=float),
             np.ascontiguousarray(state["pm_ref"], dtype=float), np.ascontiguousarray(state["chi"], dtype=float),
             np.ascontiguousarray(dstrain), dt, prm, self.viscous, self.tolerance,

@@ -15,8 +15,8 @@ constitutive and of fem (``fem._residual_kernel``); importing it imports numba.
     helpers and constants of this module, and ``simsand_constants.E_MAX_STIFFNESS`` read by ``_simsand_kernel``,
     are frozen into the cached kernels of the other files, and so are the step loops of ``_step_loops``
     into each model's ``drive`` and ``adapt`` (``_mcc_kernel``, ``_anicreep_steps``, ``_swelling_steps``),
-    ANICREEP's ``_update_point_lab`` into ``_anicreep_steps``, and the base models' point updates into
-    ``_swelling_steps``. After editing one of them, delete
+    ANICREEP's local solve (``_anicreep_kernel``) into ``_anicreep_points`` and both into ``_anicreep_steps``, and
+    the base models' point updates into ``_swelling_steps``. After editing one of them, delete
     the kernels' cache files (``constitutive/__pycache__/*.nbi`` and ``*.nbc``, ``fem/__pycache__/*.nbi`` and
     ``*.nbc``, or those under ``NUMBA_CACHE_DIR``) or touch the kernel modules; otherwise a process keeps running
     the old code.
