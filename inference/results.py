@@ -104,11 +104,13 @@ class Posterior:
             "settings": {k: v for k, v in self.settings.items()}, "prior": self.prior,
         }
 
-    def save(self, out_dir, extra: dict | None = None, observations=None, map_simulated=None, pointwise=None) -> Path:
-        """Write posterior.npz, posterior.nc (:meth:`to_arviz` with ``observations``, ``map_simulated`` and
-        ``pointwise``),
-        summary.json (with ``extra`` merged at the top level) and failed_solves.jsonl (empty when nothing failed) into
-        out_dir; a progress.json left by an earlier stopped session is removed."""
+    def save(self, out_dir, extra: dict | None = None, observations=None, map_simulated=None, pointwise=None,
+             later=None) -> Path:
+        """Write posterior.npz, posterior.nc (:meth:`write_netcdf` with ``observations``, ``map_simulated`` and
+        ``pointwise``; ``later``: a callable ``later(write, *args)`` that keeps that writer to be called later, e.g.
+        a loop's queue of outputs that nothing reads before its end; None: now), summary.json (with ``extra`` merged
+        at the top level) and failed_solves.jsonl (empty when nothing failed) into out_dir; a progress.json left by an
+        earlier stopped session is removed."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(
@@ -116,15 +118,19 @@ class Posterior:
             map_theta=self.map_theta, beta=np.array([r["beta"] for r in self.stages]),
             log_S=np.array([r["log_S"] for r in self.stages]),
             stage_samples=np.stack(self.stage_samples), stage_log_like=np.stack(self.stage_log_like))
-        tmp = out / "posterior.nc.tmp"
-        self.to_arviz(observations, map_simulated, pointwise).to_netcdf(str(tmp))
-        tmp.replace(out / "posterior.nc")
+        (later or _now)(self.write_netcdf, out, observations, map_simulated, pointwise)
         summary = self.summary()
         summary.update(extra or {})
         _write_text(out / "summary.json", json.dumps(summary, indent=2, default=_json_default))
         write_failures(out, self.failures)
         (out / PROGRESS_FILE).unlink(missing_ok=True)
         return out
+
+    def write_netcdf(self, out_dir, observations=None, map_simulated=None, pointwise=None):
+        """posterior.nc in out_dir: :meth:`to_arviz`, written whole or not at all (a temporary file renamed)."""
+        tmp = Path(out_dir) / "posterior.nc.tmp"
+        self.to_arviz(observations, map_simulated, pointwise).to_netcdf(str(tmp))
+        tmp.replace(Path(out_dir) / "posterior.nc")
 
     def to_arviz(self, observations=None, map_simulated=None, pointwise=None):
         """The run as an ArviZ InferenceData (written as posterior.nc by :meth:`save`). Groups:
@@ -176,6 +182,10 @@ class Posterior:
                     {key: np.atleast_2d(v) for key, v in map_simulated.items()},
                     attrs={"draws": "the MAP (Eq. (7)) only, without the error term"})
         return az.InferenceData(attrs={"log_evidence": self.log_evidence, "sampler": "TMCMC"}, **groups)
+
+
+def _now(write, *args):
+    write(*args)
 
 
 def _curve_variable(test: str, curve: str) -> str:

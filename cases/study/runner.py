@@ -300,11 +300,12 @@ def pointwise_terms(like, post, map_wall_s):
         return None
 
 
-def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) -> dict:
+def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None, later=None) -> dict:
     """post.save(out) with the summary fields every case writes (case, method, seed, quick, J_g at MAP,
     sigma_eps) and, in posterior.nc, the records, the MAP's curves at them and, where cheap
     (:func:`pointwise_terms`), each draw's log-likelihood per point; the MAP's curves (for J_g, Eq. (5)) cost one
-    forward solve. The checkpoint of the finished run is removed."""
+    forward solve; ``later``: how posterior.nc is written (``inference.Posterior.save``). The checkpoint of the
+    finished run is removed."""
     t0 = time.perf_counter()
     try:
         map_simulated = {key: values[0] for key, values in like.simulated_many(post.map_theta).items()}
@@ -325,7 +326,8 @@ def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None) 
     elif like.sigma_names:  # error groups: {group: ...}
         fields["sigma_eps"] = {g: sigma_fields(n) for g, n in zip(like.groups, like.sigma_names)}
     fields.update(extra or {})
-    post.save(out, extra=fields, observations=like.observations, map_simulated=map_simulated, pointwise=pointwise)
+    post.save(out, extra=fields, observations=like.observations, map_simulated=map_simulated, pointwise=pointwise,
+              later=later)
     checkpoint = Path(out) / "run.ckpt"
     if checkpoint.exists():  # the run finished: its answer is in posterior.npz / summary.json
         checkpoint.unlink()

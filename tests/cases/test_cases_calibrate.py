@@ -516,6 +516,13 @@ def test_diagnose_on_the_tiny_run_writes_diagnosis_json(tiny_study):
     assert d["omitted_physics"] == "none"
     assert (out / "summary.json").is_file() and (out / "diagnosis.md").is_file() and (out / "loop.json").is_file()
     assert json.loads((out / "summary.json").read_text())["model_class"] == "ModifiedCamClay()"
+    # the class's posterior.nc, kept to the loop's end and written with its figures: the npz's final stage
+    import arviz as az
+    npz = np.load(out / "posterior.npz")
+    idata = az.from_netcdf(out / "posterior.nc")
+    for k, name in enumerate(npz["names"]):
+        assert idata.posterior[str(name)].values.ravel() == pytest.approx(npz["samples"][:, k])
+    assert not list(out.glob("*.tmp"))
 
 
 @pytest.mark.slow

@@ -5,9 +5,9 @@ of a Modified Cam Clay base and the sand programme of a SIMSAND base); prints a 
 
 Each run is ``python -m cases.calibrate STUDY --quick --diagnose`` in its own process (compiled kernels cached, so the
 first run of a fresh clone also pays the compilation: run once before timing). Phases, from DIR/loop.json: per model
-class the sampler, the refined evidence, and the record and outputs (summary, posterior.nc, report.md); the
-conventions compared; the screenings and diagnoses; the whole loop; the figures, drawn at its end; and the process's
-wall time. Medians over ``--repeat`` runs.
+class the sampler, the refined evidence, and the record and outputs (summary, report.md); the
+conventions compared; the screenings and diagnoses; the whole loop; the figures, drawn at its end with the classes'
+posterior.nc; and the process's wall time. Medians over ``--repeat`` runs.
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ DEFAULT_STUDIES = (EXAMPLES / "ciu_ocr.toml", EXAMPLES / "sand_lab.toml")
 def phases(loop: dict) -> dict:
     """{phase: s} of one loop.json: "<class>: sampler|evidence|record and outputs" per calibrated class, "conventions
     not adopted", "screening and diagnosis", "loop", the "figures drawn at the end" (the classes' and the loop's
-    figures, side by side on the pool) and the "loop and its figures"."""
+    figures and the classes' posterior.nc, side by side on the pool) and the "loop and its figures"."""
     out = {}
     for name, ph in (loop.get("phases_s") or {}).items():
         for k, v in (ph or {}).items():

@@ -103,7 +103,8 @@ class LoopProblem:
     #: the posterior.
     failure_fraction = 0.9
     #: how a class's figures are drawn (:meth:`outputs`, :meth:`plot`): now, outside the loop; in the loop
-    #: (:meth:`start`) kept in a ``FigureQueue`` that :func:`run_loop` draws at its end, side by side on the pool
+    #: (:meth:`start`) kept in a ``FigureQueue`` that :func:`run_loop` draws at its end, side by side on the pool,
+    #: with each class's posterior.nc (:meth:`finish_class`)
     figures = staticmethod(draw)
 
     # ---------------------------------------------------------------------------------------- what a study supplies
@@ -239,10 +240,12 @@ class LoopProblem:
                      prior=None, extra=None) -> tuple:
         """After one class's calibration: summary.json (with the class, its switches, ``wall_s``, the refined
         evidence, :meth:`refined_evidence`, and ``extra``), the class record (:meth:`class_record`, with the
-        ``prior``'s ranges) and the study's outputs. Returns (ModelClass, summary)."""
+        ``prior``'s ranges) and the study's outputs (in the loop its posterior.nc and figures are kept,
+        :attr:`figures`). Returns (ModelClass, summary)."""
         summary = runner.write_summary(out, self.case, run, seed, post, like, extra={
             "model_class": name, "switches": switches, **self.summary_extra(switches), "calibration_wall_s": wall_s,
-            **({"evidence": evidence.to_dict()} if evidence is not None else {}), **(extra or {})})
+            **({"evidence": evidence.to_dict()} if evidence is not None else {}), **(extra or {})},
+            later=getattr(self.figures, "keep", None))
         cls = self.class_record(post, like, name, switches, seed, draws, summary, evidence, prior)
         self.outputs(run, seed, out, post, like, cls.to_dict(), cls.extra["map_curves"], summary, switches)
         return cls, summary

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from cases.study.outputs.calibration_warnings import calibration_warnings
-from cases.study.outputs.figures.canvas import draw, pyplot
+from cases.study.outputs.figures.canvas import draw, panel_grid
 from cases.study.outputs.figures.curves import curves_figure, stress_path_panels, stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.panels import curve_panels, stage_axes
@@ -140,22 +140,15 @@ def loop_figure(like, classes, diag, panels=None):
     enriched class drawn is the confirmed one, else the physics class (not the model-form class) of largest ln Z.
     ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis. Returns the
     figure."""
-    plt = pyplot()
     panels = panels or curve_panels(like.observations)
-    ncol = min(4, len(panels))
-    nrow = -(-len(panels) // ncol)
-    fig, axes = plt.subplots(2 * nrow, ncol, figsize=(4.2 * ncol, 5.6 * nrow), squeeze=False)
-    for j in range(len(panels), nrow * ncol):
-        axes[2 * (j // ncol), j % ncol].axis("off")
-        axes[2 * (j // ncol) + 1, j % ncol].axis("off")
+    fig, axes = panel_grid(len(panels), 4.2, 5.6, stack=2)
     base, enriched = classes[0], None
     physics = [c for c in classes[1:] if c.role == "enriched"]
     if physics:
         confirmed = [c for c in physics if c.candidate == diag.omitted_physics]
         enriched = confirmed[0] if confirmed else max(physics, key=lambda c: c.log_evidence)
-    for j, panel in enumerate(panels):
-        row, col, t = 2 * (j // ncol), j % ncol, panel.test
-        top, bottom = axes[row, col], axes[row + 1, col]
+    for (top, bottom), panel in zip(axes, panels):
+        t = panel.test
         for k, (c, offset) in enumerate(panel.members):
             curve, first = like.observations[t].curves[c], k == 0
             x = curve.x + offset

@@ -34,23 +34,29 @@ TITLE_ROOM = 0.4
 FIXED = "fixed grid"
 
 
-def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int = MAX_COLUMNS):
+def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int = MAX_COLUMNS, stack: int = 1,
+               gap: float = 0.45):
     """A figure of ``n`` panels, each in a cell of ``width`` x ``height`` inches (its axes inside the cell's
     ``PANEL_MARGINS``), in rows of at most ``max_columns``, with ``TITLE_ROOM`` above: (figure, the ``n`` axes in
-    reading order). The panels are placed on this fixed grid, so :func:`save` needs no layout pass."""
+    reading order). ``stack`` > 1 splits each cell's axes into that many axes of equal height, one above the other
+    and ``gap`` inches apart (room for the upper ones' tick labels): each panel is then a tuple of axes, top first.
+    The panels are placed on this fixed grid, so :func:`save` needs no layout pass."""
     plt = pyplot()
     cols = max(1, min(n, max_columns))
     rows = max(1, math.ceil(n / cols))
     fig_w, fig_h = width * cols, height * rows + TITLE_ROOM
     fig = plt.figure(figsize=(fig_w, fig_h), label=FIXED)
     m = PANEL_MARGINS
+    inner_w, inner_h = width - m["left"] - m["right"], height - m["bottom"] - m["top"]
+    each = (inner_h - (stack - 1) * gap) / stack
     axes = []
     for k in range(n):
         row, col = divmod(k, cols)
         left = col * width + m["left"]
         bottom = fig_h - TITLE_ROOM - (row + 1) * height + m["bottom"]
-        axes.append(fig.add_axes((left / fig_w, bottom / fig_h, (width - m["left"] - m["right"]) / fig_w,
-                                  (height - m["bottom"] - m["top"]) / fig_h)))
+        cell = [fig.add_axes((left / fig_w, (bottom + (stack - 1 - i) * (each + gap)) / fig_h, inner_w / fig_w,
+                              each / fig_h)) for i in range(stack)]
+        axes.append(cell[0] if stack == 1 else tuple(cell))
     return fig, axes
 
 
@@ -86,13 +92,15 @@ class _Drawing:
 
     def __call__(self, rows):
         for row in rows:
-            draw(*self.jobs[int(row[0])])
+            write, args = self.jobs[int(row[0])]
+            write(*args)
         return np.zeros(len(rows)), [None] * len(rows)
 
 
 class FigureQueue:
     """Figures kept to be drawn later, side by side. Called as :func:`draw` is, it keeps the figure's maker, its
-    arguments, path, title and resolution; :meth:`draw_all` draws the kept figures on the workers of a local process
+    arguments, path, title and resolution; :meth:`keep` keeps any other file's writer that nothing reads before the
+    end (a class's posterior.nc); :meth:`draw_all` draws and writes what was kept on the workers of a local process
     pool (``inference.PoolExecutor``: forked with the figures' data in memory, one figure a task, workers that die
     with their parent), or here, one after the other, on any other executor. A figure is the same wherever it is
     drawn."""
@@ -101,16 +109,23 @@ class FigureQueue:
         self.jobs = []
 
     def __call__(self, make, args, path, title: str | None = None, dpi: int = 110):
-        self.jobs.append((make, args, path, title, dpi))
+        self.jobs.append((draw, (make, args, path, title, dpi)))
+
+    def keep(self, write, *args):
+        """Keep ``write(*args)`` (a file's writer) to be called with the figures."""
+        self.jobs.append((write, args))
 
     def draw_all(self, executor=None) -> float:
         """Draw the kept figures (on ``executor``'s workers when it is a process pool) and forget them; returns the
-        wall time (s)."""
+        wall time (s). On a pool the last kept is drawn first (a loop keeps its own figures, of every curve, last:
+        the largest start first and the small ones fill in, so the workers finish together), with pyplot imported
+        before the workers are forked."""
         t0 = time.perf_counter()
         jobs, self.jobs = self.jobs, []
         if isinstance(executor, PoolExecutor) and len(jobs) > 1:
-            executor.evaluate(_Drawing(jobs), np.arange(len(jobs), dtype=float)[:, None])
+            pyplot()
+            executor.evaluate(_Drawing(jobs), np.arange(len(jobs) - 1, -1, -1, dtype=float)[:, None])
         else:
-            for job in jobs:
-                draw(*job)
+            for write, args in jobs:
+                write(*args)
         return time.perf_counter() - t0

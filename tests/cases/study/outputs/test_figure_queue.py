@@ -38,6 +38,10 @@ FIGURES = [(_panels, (5, 2.0), "a.png", "SYNTHETIC: five panels", 110), (_laid_o
            (_nothing, (), "c.png", "nothing to draw", 110), (_panels, (1, 1.0), "d.png", "one panel", 120)]
 
 
+def _write(path, text):
+    path.write_text(text)
+
+
 @pytest.mark.parametrize("executor", ["serial", "pool"])
 def test_kept_figures_are_the_figures_drawn_at_once(executor, tmp_path):
     now, later = tmp_path / "now", tmp_path / "later"
@@ -47,10 +51,12 @@ def test_kept_figures_are_the_figures_drawn_at_once(executor, tmp_path):
     for make, args, name, title, dpi in FIGURES:
         draw(make, args, now / name, title, dpi)
         queue(make, args, later / name, title, dpi)
+    queue.keep(_write, later / "e.txt", "a file kept with the figures")
     assert not list(later.iterdir())   # kept, not drawn
     with (inference.PoolExecutor(2) if executor == "pool" else inference.SerialExecutor()) as ex:
         queue.draw_all(ex)
-    assert sorted(p.name for p in later.iterdir()) == ["a.png", "b.png", "d.png"]
+    assert sorted(p.name for p in later.iterdir()) == ["a.png", "b.png", "d.png", "e.txt"]
+    assert (later / "e.txt").read_text() == "a file kept with the figures"
     for name in ("a.png", "b.png", "d.png"):
         assert (later / name).read_bytes() == (now / name).read_bytes()
     assert queue.jobs == []

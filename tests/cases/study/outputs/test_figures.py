@@ -95,6 +95,30 @@ def test_the_fixed_grid_keeps_every_panel_with_its_labels_and_title_apart_and_in
             assert _overlap(box, other) == 0.0
 
 
+def test_a_stacked_grid_keeps_each_panels_axes_apart_with_their_labels(tmp_path):
+    """stack = 2 (the loop's figure: the records above their residual): every axes with its tick labels, the upper
+    one's title and the lower one's axis labels lies inside the figure, below its title, and shares no pixel with
+    any other axes, its own panel's included."""
+    fig, cells = panel_grid(6, 4.2, 5.6, stack=2)
+    assert len(cells) == 6 and all(len(cell) == 2 for cell in cells) and len(fig.axes) == 12
+    for k, (top, bottom) in enumerate(cells):
+        assert top.get_position().y0 > bottom.get_position().y1
+        top.plot([0, 1e4], [-12000.0, 99999.0])
+        top.set_ylabel("sigma'_v (kPa)")
+        top.set_title(f"TEST_{k}, stage relax_ocr1", fontsize=9)
+        bottom.plot([0, 1e4], [-150.0, 600.0])
+        bottom.set_xlabel("axial strain eps_a (%)")
+        bottom.set_ylabel("residual (%)")
+    save(fig, tmp_path / "stacked.png", "SYNTHETIC data: a figure title")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    boxes = [ax.get_tightbbox(renderer) for ax in fig.axes]
+    page = fig.bbox
+    for i, box in enumerate(boxes):
+        assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
+        for other in boxes[i + 1:]:
+            assert _overlap(box, other) == 0.0
+
+
 def test_marginals_are_zoomed_to_the_posterior_with_units_and_a_legend():
     post = _posterior()
     marks = {"generating": {"M": 1.2, "sigma_p0": 400.0}}
@@ -339,9 +363,10 @@ def test_the_loop_figure_shades_a_stages_mismatch_where_the_stage_lies_on_the_jo
     diag = SimpleNamespace(omitted_physics="none", mismatch_regions=[region])
     fig = loop_figure(SimpleNamespace(observations=observations), [base, model_form, viscous], diag, panels)
     # the physics class of largest ln Z is drawn beside the base, not the model-form class
-    assert [t.get_text() for t in fig.axes[1].get_legend().get_texts()] == ["recorded", "base MAP", "viscosity MAP"]
-    residual_q = fig.axes[4 + 1]   # the second panel's residual: the second subplot row, second column
+    # each panel is a pair of axes, the records above their residual: the second panel's are axes 2 and 3
+    assert [t.get_text() for t in fig.axes[2].get_legend().get_texts()] == ["recorded", "base MAP", "viscosity MAP"]
+    residual_q = fig.axes[3]
     (span,) = residual_q.patches
     extent = span.get_path().transformed(span.get_patch_transform()).vertices[:, 0]
     np.testing.assert_allclose([extent.min(), extent.max()], [2.2, 2.8])
-    assert fig.axes[1].get_title() == "P, stages fast to slow (2)"
+    assert fig.axes[2].get_title() == "P, stages fast to slow (2)"
