@@ -505,9 +505,16 @@ def test_tiny_run_report_ends_with_the_glossary_of_its_symbols(tiny_run):
     assert "ln Z = " in report[:report.index("## Glossary")]
 
 
-def test_diagnose_on_the_tiny_run_writes_diagnosis_json(tiny_study):
-    out = tiny_study.parent / "diag"
-    assert cal.main([str(tiny_study), "--quick", "--processes", "1", "--out", str(out), "--diagnose"]) == 0
+@pytest.mark.parametrize("processes", ["1", "2"])
+def test_diagnose_on_the_tiny_run_writes_diagnosis_json(tiny_study, processes):
+    """One process, or a pool with the background drawer of the figures: the same files, no process left."""
+    import multiprocessing
+
+    out = tiny_study.parent / f"diag_{processes}"
+    assert cal.main([str(tiny_study), "--quick", "--processes", processes, "--out", str(out), "--diagnose"]) == 0
+    assert not multiprocessing.active_children()
+    for name in ("curves.png", "marginals.png", "pairs.png", "stages.png", "diagnosis.png"):
+        assert (out / name).is_file(), name
     d = json.loads((out / "diagnosis.json").read_text())
     for key in ("verdict", "omitted_physics", "mismatch_regions", "candidates", "classes", "log_bayes"):
         assert key in d, key

@@ -298,6 +298,9 @@ class LoopProblem:
         self.adopted, self.adopted_switches, self.class_root, self.calibrated = (), {}, self.out, {}
         self.base_name = None
         self.figures = FigureQueue()
+        with self.executor() as executor:   # on a local pool a background drawer takes what the loop leaves idle
+            if isinstance(executor, inference.PoolExecutor):
+                self.figures.start_drawing()
 
     def candidates(self) -> list:
         """The catalog for the base class (with the candidates :meth:`adopt` confirmed in it), an enrichment's added
@@ -459,7 +462,11 @@ def run_loop(problem: LoopProblem, observations, run, out, seed: int, settings: 
     Returns the loop's records (the final `Diagnosis` in ``.final``, the ``timing``)."""
     out = Path(out)
     problem.start(observations, run, out, seed, settings, label)
-    result = diagnosis.run_loop(problem, rule=DECISION_RULE)
+    try:
+        result = diagnosis.run_loop(problem, rule=DECISION_RULE)
+    except BaseException:   # a loop stopped early leaves no drawer behind
+        problem.figures.close()
+        raise
     like, final = problem.likelihood, result.final
     for k, step in enumerate([result, *result.steps], start=1):
         where = out if k == 1 else out / f"step_{k}"

@@ -97,23 +97,135 @@ class _Drawing:
         return np.zeros(len(rows)), [None] * len(rows)
 
 
+def _background_drawer(jobs_in, done_out, parents_ends):
+    """The background drawer's process (:meth:`FigureQueue.start_drawing`): at the lowest priority, draw or write
+    each job (index, writer, args) received on ``jobs_in`` in the order kept, answering ("done", index) or ("failed",
+    index, traceback) on ``done_out``; on None, or when the parent's end of the pipe closes, stop after the job in
+    hand and answer ("stopped",). A thread receives the jobs as they come, so the parent never waits on a send.
+    ``parents_ends``: the parent's ends of the two pipes, closed here (so that the parent's death ends the pipe)."""
+    import os
+    import threading
+    import traceback
+    from collections import deque
+
+    for end in parents_ends:
+        end.close()
+    if hasattr(os, "nice"):
+        os.nice(19)
+    pending, stop, arrived = deque(), threading.Event(), threading.Condition()
+
+    def receive():
+        while True:
+            try:
+                job = jobs_in.recv()
+            except (EOFError, OSError):
+                job = None
+            except Exception:  # noqa: BLE001 - a job that cannot be read here is drawn at the end
+                continue
+            with arrived:
+                if job is None:
+                    stop.set()
+                else:
+                    pending.append(job)
+                arrived.notify()
+            if job is None:
+                return
+
+    threading.Thread(target=receive, daemon=True).start()
+    while True:
+        with arrived:
+            arrived.wait_for(lambda: pending or stop.is_set())
+            if stop.is_set():
+                break
+            index, write, args = pending.popleft()
+        try:
+            write(*args)
+        except Exception:   # the parent raises it with the figure's error
+            done_out.send(("failed", index, traceback.format_exc()))
+        else:
+            done_out.send(("done", index))
+    try:
+        done_out.send(("stopped",))
+    except OSError:   # the parent has gone
+        pass
+
+
 class FigureQueue:
     """Figures kept to be drawn later, side by side. Called as :func:`draw` is, it keeps the figure's maker, its
     arguments, path, title and resolution; :meth:`keep` keeps any other file's writer that nothing reads before the
     end (a class's posterior.nc); :meth:`draw_all` draws and writes what was kept on the workers of a local process
     pool (``inference.PoolExecutor``: forked with the figures' data in memory, one figure a task, workers that die
-    with their parent), or here, one after the other, on any other executor. A figure is the same wherever it is
-    drawn."""
+    with their parent), or here, one after the other, on any other executor; a background drawer
+    (:meth:`start_drawing`) may draw them before, as they are kept. A figure is the same wherever it is drawn."""
 
     def __init__(self):
         self.jobs = []
+        self.drawer = None   # the background drawer: (process, jobs' pipe, answers' pipe)
 
     def __call__(self, make, args, path, title: str | None = None, dpi: int = 110):
-        self.jobs.append((draw, (make, args, path, title, dpi)))
+        self.keep(draw, make, args, path, title, dpi)
 
     def keep(self, write, *args):
-        """Keep ``write(*args)`` (a file's writer) to be called with the figures."""
+        """Keep ``write(*args)`` (a file's writer) to be called with the figures; handed at once to the background
+        drawer when one runs (:meth:`start_drawing`) and the job can be sent (pickled)."""
         self.jobs.append((write, args))
+        if self.drawer is not None:
+            try:
+                self.drawer[1].send((len(self.jobs) - 1, write, args))
+            except Exception:  # noqa: BLE001 - not picklable, or the drawer has gone: drawn at the end
+                pass
+
+    def start_drawing(self):
+        """Start the background drawer: a process at the lowest priority (``os.nice(19)``) that draws the figures
+        and writes the files as they are kept, on the time the loop leaves a core idle (a sampler waiting for its
+        slowest chunk, the parent's own work); :meth:`draw_all` stops it after the job in hand and draws what is
+        left. It ends with the pipe from this process (at :meth:`draw_all`, or when this process dies)."""
+        import multiprocessing as mp
+
+        if "fork" not in mp.get_all_start_methods():   # forked: it starts with pyplot and the modules imported
+            return
+        pyplot()
+        ctx = mp.get_context("fork")
+        jobs_in, jobs_out = ctx.Pipe(duplex=False)
+        done_in, done_out = ctx.Pipe(duplex=False)
+        process = ctx.Process(target=_background_drawer, args=(jobs_in, done_out, (jobs_out, done_in)), daemon=True)
+        process.start()
+        jobs_in.close()
+        done_out.close()
+        self.drawer = (process, jobs_out, done_in)
+
+    def _stop_drawing(self) -> set:
+        """Stop the background drawer after the job in hand; the indices of the jobs it drew or wrote. A job that
+        failed there raises RuntimeError with its error."""
+        process, jobs_out, done_in = self.drawer
+        self.drawer = None
+        done = set()
+        try:
+            jobs_out.send(None)
+            while True:
+                answer = done_in.recv()
+                if answer[0] == "stopped":
+                    break
+                if answer[0] == "failed":
+                    raise RuntimeError(f"a kept figure or file failed in the background drawer:\n{answer[2]}")
+                done.add(answer[1])
+        except (EOFError, OSError):   # it died: whatever it did not say it did is done here
+            pass
+        finally:
+            jobs_out.close()
+            done_in.close()
+            process.join()
+        return done
+
+    def close(self):
+        """Stop the background drawer, if one runs, after the job in hand, and forget what was kept (a loop that
+        stopped early: what the drawer finished stays written)."""
+        if self.drawer is not None:
+            try:
+                self._stop_drawing()
+            except RuntimeError:   # a figure's error: the loop's own error is the one to see
+                pass
+        self.jobs = []
 
     def draw_all(self, executor=None) -> float:
         """Draw the kept figures (on ``executor``'s workers when it is a process pool) and forget them; returns the
@@ -121,7 +233,8 @@ class FigureQueue:
         the largest start first and the small ones fill in, so the workers finish together), with pyplot imported
         before the workers are forked."""
         t0 = time.perf_counter()
-        jobs, self.jobs = self.jobs, []
+        done = self._stop_drawing() if self.drawer is not None else set()
+        jobs, self.jobs = [job for k, job in enumerate(self.jobs) if k not in done], []
         if isinstance(executor, PoolExecutor) and len(jobs) > 1:
             pyplot()
             executor.evaluate(_Drawing(jobs), np.arange(len(jobs) - 1, -1, -1, dtype=float)[:, None])

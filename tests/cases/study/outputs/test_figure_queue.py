@@ -1,6 +1,8 @@
 """Figures kept and drawn later (cases.study.outputs.figures.canvas.FigureQueue): the same files, byte for byte, as
 drawn at once, whether the kept figures are drawn here or side by side on a process pool; nothing is drawn before
 ``draw_all``; a figure that fails stops the drawing with its error."""
+import time
+
 import numpy as np
 import pytest
 
@@ -68,3 +70,55 @@ def test_a_figure_that_fails_on_the_pool_stops_the_drawing_with_its_error(tmp_pa
     queue(_fails, (), tmp_path / "b.png")
     with inference.PoolExecutor(2) as ex, pytest.raises(RuntimeError, match="no such curve"):
         queue.draw_all(ex)
+
+
+@pytest.mark.parametrize("executor", ["serial", "pool"])
+def test_a_background_drawer_draws_as_the_figures_are_kept_and_leaves_nothing_behind(executor, tmp_path):
+    """The background drawer (start_drawing) draws what it is handed while the queue is filled; draw_all stops it
+    and draws the rest: every file as drawn at once, a job that cannot be sent to it (a lambda) drawn at the end, and
+    its process gone afterwards."""
+    now, later = tmp_path / "now", tmp_path / "later"
+    now.mkdir()
+    later.mkdir()
+    queue = FigureQueue()
+    queue.start_drawing()
+    process = queue.drawer[0]
+    assert process.is_alive()
+    for make, args, name, title, dpi in FIGURES:
+        draw(make, args, now / name, title, dpi)
+        queue(make, args, later / name, title, dpi)
+    queue.keep(lambda path: path.write_text("not picklable"), later / "f.txt")
+    deadline = time.monotonic() + 60
+    while not (later / "d.png").exists() and time.monotonic() < deadline:   # drawn in the background
+        time.sleep(0.05)
+    assert (later / "d.png").exists() and not (later / "f.txt").exists()
+    with (inference.PoolExecutor(2) if executor == "pool" else inference.SerialExecutor()) as ex:
+        queue.draw_all(ex)
+    assert sorted(p.name for p in later.iterdir()) == ["a.png", "b.png", "d.png", "f.txt"]
+    for name in ("a.png", "b.png", "d.png"):
+        assert (later / name).read_bytes() == (now / name).read_bytes()
+    assert queue.drawer is None and queue.jobs == [] and not process.is_alive()
+
+
+def test_a_figure_that_fails_in_the_background_stops_the_drawing_with_its_error(tmp_path):
+    queue = FigureQueue()
+    queue.start_drawing()
+    process = queue.drawer[0]
+    queue(_fails, (), tmp_path / "b.png")
+    queue.keep(_write, tmp_path / "after.txt", "drawn in order, after the failed one")
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "after.txt").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    with pytest.raises(RuntimeError, match="no such curve"):
+        queue.draw_all(inference.SerialExecutor())
+    assert not process.is_alive()
+
+
+def test_closing_a_queue_stops_its_drawer_and_forgets_the_rest(tmp_path):
+    queue = FigureQueue()
+    queue.start_drawing()
+    process = queue.drawer[0]
+    queue.keep(lambda path: path.write_text("never"), tmp_path / "x.txt")
+    queue.close()
+    assert queue.drawer is None and queue.jobs == [] and not process.is_alive()
+    assert not (tmp_path / "x.txt").exists()
