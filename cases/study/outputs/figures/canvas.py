@@ -104,13 +104,19 @@ def _background_drawer(jobs_in, done_out, parents_ends):
     hand and answer ("stopped",). A thread receives the jobs as they come, so the parent never waits on a send.
     ``parents_ends``: the parent's ends of the two pipes, closed here (so that the parent's death ends the pipe)."""
     import os
+    import signal
     import threading
     import traceback
     from collections import deque
 
     for end in parents_ends:
         end.close()
-    if hasattr(os, "nice"):
+    for name in ("SIGTERM", "SIGINT", "SIGUSR1"):   # the parent handles them, and stops it through the pipe
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+    if hasattr(os, "SCHED_IDLE"):   # Linux: run only on a core nothing else wants
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    elif hasattr(os, "nice"):
         os.nice(19)
     pending, stop, arrived = deque(), threading.Event(), threading.Condition()
 
