@@ -182,10 +182,11 @@ class FigureQueue:
                 pass
 
     def start_drawing(self):
-        """Start the background drawer: a process at the lowest priority (``os.nice(19)``) that draws the figures
-        and writes the files as they are kept, on the time the loop leaves a core idle (a sampler waiting for its
-        slowest chunk, the parent's own work); :meth:`draw_all` stops it after the job in hand and draws what is
-        left. It ends with the pipe from this process (at :meth:`draw_all`, or when this process dies)."""
+        """Start the background drawer: a process at the lowest priority (Linux ``SCHED_IDLE``, else nice 19) that
+        draws the figures and writes the files as they are kept, on the time the loop leaves a core idle (a sampler
+        waiting for its slowest chunk, the parent's own work); :meth:`draw_all` stops it after the job in hand and
+        draws what is left. It ends with the pipe from this process (at :meth:`draw_all`, or when this process
+        dies)."""
         import multiprocessing as mp
 
         if "fork" not in mp.get_all_start_methods():   # forked: it starts with pyplot and the modules imported
