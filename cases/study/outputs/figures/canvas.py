@@ -114,10 +114,11 @@ def _background_drawer(jobs_in, done_out, parents_ends):
     for name in ("SIGTERM", "SIGINT", "SIGUSR1"):   # the parent handles them, and stops it through the pipe
         if hasattr(signal, name):
             signal.signal(getattr(signal, name), signal.SIG_IGN)
-    if hasattr(os, "SCHED_IDLE"):   # Linux: run only on a core nothing else wants
+    try:   # Linux: run only on a core nothing else wants
         os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
-    elif hasattr(os, "nice"):
-        os.nice(19)
+    except (AttributeError, OSError):   # no such policy here, or a sandbox refuses it
+        if hasattr(os, "nice"):
+            os.nice(19)
     pending, stop, arrived = deque(), threading.Event(), threading.Condition()
 
     def receive():
