@@ -7,7 +7,7 @@ from .anicreep import ANICREEP
 from .base import IntegrationError, MaterialModel, ParameterError
 from .elastic import LinearElastic
 from .mcc import ModifiedCamClay
-from .simsand import SIMSAND
+from .sand.simsand import SIMSAND
 from .von_mises import VonMises
 
 __all__ = ["IntegrationError", "MaterialModel", "ParameterError", "LinearElastic", "VonMises", "ModifiedCamClay",

@@ -12,7 +12,7 @@ constitutive and of fem (``fem._residual_kernel``); importing it imports numba.
     ranks) share that cache; numba writes it atomically. If no cache location is usable, the kernel is compiled
     in memory in every process instead (slower start, same results).
     Numba invalidates a cached function only when its OWN source file changes (a documented numba limitation): the
-    helpers and constants of this module, and ``simsand_constants.E_MAX_STIFFNESS`` read by ``_simsand_kernel``,
+    helpers and constants of this module, and ``sand.constants.E_MAX_STIFFNESS`` read by ``_simsand_kernel``,
     are frozen into the cached kernels of the other files, and so are the step loops of ``_step_loops``
     into each model's ``drive`` and ``adapt`` (``_mcc_kernel``, ``_anicreep_steps``, ``_swelling_steps``),
     ANICREEP's local solve (``_anicreep_kernel``) into ``_anicreep_points`` and both into ``_anicreep_steps``, and

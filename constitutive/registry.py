@@ -26,7 +26,7 @@ from .anicreep import ANICREEP, anisotropy_constants
 from .base import MaterialModel, ParameterError
 from .invariants import deviatoric_stress, mean_stress
 from .mcc import ModifiedCamClay
-from .simsand import SIMSAND
+from .sand.simsand import SIMSAND
 from .swelling import SWELLING_RANGES, SWELLING_SWITCH, DelayedSwelling
 
 __all__ = ["ModelSpec", "MODELS", "SBP_MODELS", "model_spec", "build_model", "class_name", "Family",

@@ -16,7 +16,7 @@ import numpy as np
 from .. import labtests
 from ..anicreep import ANICREEP
 from ..mcc import ModifiedCamClay
-from ..simsand import SIMSAND
+from ..sand.simsand import SIMSAND
 
 
 def _mcc_batch(n, seed=0):

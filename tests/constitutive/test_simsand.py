@@ -6,7 +6,7 @@ from scipy.integrate import solve_ivp
 
 from constitutive import IntegrationError, ParameterError, labtests
 from constitutive.invariants import deviatoric_stress, isotropic_stiffness, lode_sin3theta, mean_stress
-from constitutive.simsand import P_AT, SIMSAND, friction_from_angle, friction_ratio
+from constitutive.sand.simsand import P_AT, SIMSAND, friction_from_angle, friction_ratio
 
 #: synthetic-study true values (docs/reference.md section 5)
 TRUE = dict(nu=0.2, K_0=100.0, n=0.6, e_ref=0.75, lambda_c=0.03, xi=0.6, phi_mu=30.0, k_p=0.003, A_d=1.0, n_p=2.0,

@@ -1,11 +1,11 @@
-"""SIMSAND's physics switches (constitutive/simsand.py module docstring): ``lode_dependence`` and
+"""SIMSAND's physics switches (constitutive/sand/simsand.py module docstring): ``lode_dependence`` and
 ``state_dependent_dilatancy``, against closed forms of docs/reference.md section 3. Compression positive, kPa."""
 import numpy as np
 import pytest
 
 from constitutive import ParameterError, labtests
 from constitutive.invariants import isotropic_stiffness, lode_sin3theta, mean_stress
-from constitutive.simsand import P_AT, SIMSAND
+from constitutive.sand.simsand import P_AT, SIMSAND
 
 #: synthetic-study true values (docs/reference.md section 5)
 TRUE = dict(nu=0.2, K_0=100.0, n=0.6, e_ref=0.75, lambda_c=0.03, xi=0.6, phi_mu=30.0, k_p=0.003, A_d=1.0, n_p=2.0,

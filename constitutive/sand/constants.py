@@ -1,5 +1,5 @@
-"""Constants of SIMSAND shared by the model (:mod:`constitutive.simsand`), its numpy integrator
-(:mod:`constitutive.simsand_substepping`) and its compiled kernel (``constitutive._simsand_kernel``).
+"""Constants of SIMSAND shared by the model (:mod:`constitutive.sand.simsand`), its numpy integrator
+(:mod:`constitutive.sand.substepping`) and its compiled kernel (``constitutive.sand._simsand_kernel``).
 
 Plain Python (no numpy, no numba) so that every one of them can import it without import circles. The compiled
 kernel freezes ``E_MAX_STIFFNESS`` into its cached machine code: after changing it, delete the kernel cache

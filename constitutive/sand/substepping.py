@@ -4,25 +4,26 @@ and consistent drift correction (Sloan, Abbo & Sheng 2001), per-point pseudo-tim
 
 It runs in two stress spaces (:data:`GENERAL`: six components, used by ``SIMSAND.update``; :data:`TRIAXIAL`: the
 axisymmetric triaxial space, the reference (test oracle) of the compiled triaxial integrator of
-``constitutive._simsand_kernel``) over the equations (III)-(VII) compiled once in that kernel (docs/reference.md
-section 3; module docstring of :mod:`constitutive.simsand`). Compression positive, effective stresses in kPa.
+``constitutive.sand._simsand_kernel``) over the equations (III)-(VII) compiled once in that kernel (docs/reference.md
+section 3; module docstring of :mod:`constitutive.sand.simsand`). Compression positive, effective stresses in kPa.
 
-:class:`ModifiedEulerSubstepping` is a mixin of :class:`constitutive.simsand.SIMSAND`: it reads the model's ``p_at``,
-``p_min`` (kPa), ``stol``, ``ftol``, ``_point_params(n)`` and ``failure_reason(code)``.
+:class:`ModifiedEulerSubstepping` is a mixin of :class:`constitutive.sand.simsand.SIMSAND`: it reads the model's
+``p_at``, ``p_min`` (kPa), ``stol``, ``ftol``, ``_point_params(n)`` and ``failure_reason(code)``.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .base import IntegrationError
-from .invariants import IDENTITY, STRESS_WEIGHTS, isotropic_stiffness
-from .simsand_constants import CONTROL_STIFFNESS_RATIO, E_MAX_STIFFNESS, STRESS_ERROR_FLOOR
+from constitutive.base import IntegrationError
+from constitutive.invariants import IDENTITY, STRESS_WEIGHTS, isotropic_stiffness
+
+from .constants import CONTROL_STIFFNESS_RATIO, E_MAX_STIFFNESS, STRESS_ERROR_FLOOR
 
 _SQRT3_HALF3 = 1.5 * np.sqrt(3.0)
 
 
 def simsand_kernel():
-    """The compiled equations and triaxial integrator (``constitutive._simsand_kernel``), imported on first use
+    """The compiled equations and triaxial integrator (``constitutive.sand._simsand_kernel``), imported on first use
     (keeps ``import constitutive`` free of numba)."""
     from . import _simsand_kernel
     return _simsand_kernel
@@ -76,7 +77,7 @@ class TriaxialStress:
     The same equations as :class:`GeneralStress` restricted to diagonal states with two equal lateral components
     (q = |sigma'_a - sigma'_r|, sin 3theta = sign(sigma'_a - sigma'_r)); the Lode gradient vanishes there.
     Used by the numpy integrator only with ``triaxial_integrator="numpy"``: the reference (test oracle) of the
-    compiled triaxial integrator (:mod:`constitutive._simsand_kernel`), which is what the triaxial paths run.
+    compiled triaxial integrator (:mod:`constitutive.sand._simsand_kernel`), which is what the triaxial paths run.
     """
 
     size = 2

@@ -1,5 +1,5 @@
 """Compiled (numba) SIMSAND: the local equations (III)-(VII), shared with the numpy integrator of
-:mod:`constitutive.simsand`, and the per-point integrator of the triaxial space.
+:mod:`constitutive.sand.simsand`, and the per-point integrator of the triaxial space.
 
 Shared equations (``friction_terms``, ``peak_terms``, ``yield_value``, ``material_terms``): elementwise arithmetic that
 numba compiles for floats (the kernel below) and for 1-D arrays (the numpy integrator of ``SIMSAND.update`` calls them
@@ -25,8 +25,9 @@ import math
 
 import numpy as np
 
-from .jit import jit
-from .simsand_constants import E_MAX_STIFFNESS
+from constitutive.jit import jit
+
+from .constants import E_MAX_STIFFNESS
 
 #: rows (numpy integrator) or columns (kernel) of the parameter array ``prm`` (``_lode``: 1.0 with the Lode dependence
 #: of M_p and M_pt, 0.0 without it, see ``lode_argument``)

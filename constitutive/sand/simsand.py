@@ -37,9 +37,9 @@ e = e_0 - (1 + e_0) eps_v (linearised small strain, as the laboratory void ratio
 
 Stress-point integration: explicit modified Euler with local error control and consistent drift correction
 (Sloan, Abbo & Sheng 2001), with per-point pseudo-time and substep size. The scheme exists twice, each over the same
-compiled equations (III)-(VII) of ``constitutive._simsand_kernel`` (one source, numba-compiled for arrays and for
+compiled equations (III)-(VII) of ``constitutive.sand._simsand_kernel`` (one source, numba-compiled for arrays and for
 floats): vectorised numpy over points in the six-component space (``update``, strain control;
-:mod:`constitutive.simsand_substepping`), and a compiled per-point kernel in the triaxial space (``update_triaxial``
+:mod:`constitutive.sand.substepping`), and a compiled per-point kernel in the triaxial space (``update_triaxial``
 and the fast ``triaxial_test``, where prescribed stress components are held at every stage of every substep). The
 numpy integrator also runs in the triaxial space with ``triaxial_integrator="numpy"``: the reference the kernel is
 tested against (the same results bit for bit point by point; in a batch the numpy crossing iteration runs until every
@@ -59,10 +59,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
-from .invariants import IDENTITY, isotropic_stiffness
-from .simsand_constants import CONTROL_STIFFNESS_RATIO, E_MAX_STIFFNESS, FAILURE_REASONS, P_AT, STRESS_ERROR_FLOOR
-from .simsand_substepping import GENERAL, TRIAXIAL, ModifiedEulerSubstepping, simsand_kernel
+from constitutive.base import (
+    IntegrationError,
+    MaterialModel,
+    ParameterError,
+    ParameterRange,
+    as_points,
+    check_parameter,
+)
+from constitutive.invariants import IDENTITY, isotropic_stiffness
+
+from .constants import CONTROL_STIFFNESS_RATIO, E_MAX_STIFFNESS, FAILURE_REASONS, P_AT, STRESS_ERROR_FLOOR
+from .substepping import GENERAL, TRIAXIAL, ModifiedEulerSubstepping, simsand_kernel
 
 __all__ = ["SIMSAND", "P_AT", "E_MAX_STIFFNESS", "FAILURE_REASONS", "friction_ratio", "friction_from_angle"]
 
@@ -111,8 +119,8 @@ class SIMSAND(ModifiedEulerSubstepping, MaterialModel):
     converged ones), ``ftol`` (yield-function drift
     tolerance, default 1e-8), ``max_substeps`` (per increment and point, default 1000), ``triaxial_integrator``
     ("compiled", default: :meth:`update_triaxial` and :meth:`triaxial_test` run the numba kernel of
-    :mod:`constitutive._simsand_kernel`; "numpy": the vectorised numpy integrator in the triaxial space, kept as the
-    reference (test oracle) of the kernel, about ten times slower).
+    :mod:`constitutive.sand._simsand_kernel`; "numpy": the vectorised numpy integrator in the triaxial space, kept as
+    the reference (test oracle) of the kernel, about ten times slower).
 
     State (dict of (n,) arrays): ``void_ratio`` e, ``void_ratio_initial`` e_0 (reference of e = e_0 - (1 + e_0)
     eps_v), ``eps_dp`` accumulated deviatoric plastic strain eps_d^p (>= 0), ``substep`` the last substep size proposed
