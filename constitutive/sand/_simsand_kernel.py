@@ -25,8 +25,7 @@ import math
 
 import numpy as np
 
-from constitutive.jit import jit
-
+from ..jit import jit
 from .constants import E_MAX_STIFFNESS
 
 #: rows (numpy integrator) or columns (kernel) of the parameter array ``prm`` (``_lode``: 1.0 with the Lode dependence

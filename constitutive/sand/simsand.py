@@ -59,16 +59,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from constitutive.base import (
-    IntegrationError,
-    MaterialModel,
-    ParameterError,
-    ParameterRange,
-    as_points,
-    check_parameter,
-)
-from constitutive.invariants import IDENTITY, isotropic_stiffness
-
+from ..base import IntegrationError, MaterialModel, ParameterError, ParameterRange, as_points, check_parameter
+from ..invariants import IDENTITY, isotropic_stiffness
 from .constants import CONTROL_STIFFNESS_RATIO, E_MAX_STIFFNESS, FAILURE_REASONS, P_AT, STRESS_ERROR_FLOOR
 from .substepping import GENERAL, TRIAXIAL, ModifiedEulerSubstepping, simsand_kernel
 

@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from constitutive.base import IntegrationError
-from constitutive.invariants import IDENTITY, STRESS_WEIGHTS, isotropic_stiffness
-
+from ..base import IntegrationError
+from ..invariants import IDENTITY, STRESS_WEIGHTS, isotropic_stiffness
 from .constants import CONTROL_STIFFNESS_RATIO, E_MAX_STIFFNESS, STRESS_ERROR_FLOOR
 
 _SQRT3_HALF3 = 1.5 * np.sqrt(3.0)
