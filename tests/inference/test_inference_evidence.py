@@ -224,3 +224,48 @@ def test_a_failed_solve_in_a_stencil_shrinks_the_steps_without_a_warning():
         warnings.simplefilter("error")
         e = mode_evidence(log_like, problem.prior, start, seed=1)
     assert abs(e.log_laplace - problem.log_evidence) < 0.05
+
+
+def _stencil(h, d=4, seed=0):
+    """The finite-difference derivatives of g(u) = sum_i sin(u_i) + exp(0.3 u_0 u_1) + u_2^2 u_3 at u0 against the
+    analytic gradient and Hessian: (gradient error, Hessian error, points in the batch)."""
+    from inference.evidence import _derivatives
+    u0 = np.random.default_rng(seed).uniform(-0.5, 0.5, d)
+    batches = []
+
+    def g(u):
+        batches.append(len(u))
+        return np.sin(u).sum(axis=1) + np.exp(0.3 * u[:, 0] * u[:, 1]) + u[:, 2] ** 2 * u[:, 3]
+
+    a, b, c, e = u0[:4]
+    x = np.exp(0.3 * a * b)
+    grad = np.cos(u0) + np.array([0.3 * b * x, 0.3 * a * x, 2 * c * e, c * c] + [0.0] * (d - 4))
+    H = np.diag(-np.sin(u0))
+    H[0, 0] += 0.09 * b * b * x
+    H[1, 1] += 0.09 * a * a * x
+    H[0, 1] = H[1, 0] = 0.3 * x + 0.09 * a * b * x
+    H[2, 2] += 2 * e
+    H[2, 3] = H[3, 2] = 2 * c
+    f0, fd_grad, fd_H, ok = _derivatives(g, u0, np.full(d, h))
+    assert ok and f0 == g(u0[None, :])[0]
+    return np.abs(fd_grad - grad).max(), np.abs(fd_H - H).max(), batches[0]
+
+
+def test_the_stencil_is_second_order_and_takes_d_squared_plus_d_plus_one_points():
+    """Central differences converge at O(h^2): halving h quarters the error of the gradient and of the Hessian
+    (diagonal and mixed terms); a quadratic's derivatives are exact; the batch holds d^2 + d + 1 points."""
+    from inference.evidence import _derivatives
+    errors = [_stencil(h) for h in (0.04, 0.02, 0.01)]
+    for k in (0, 1):
+        ratios = [errors[i][k] / errors[i + 1][k] for i in range(2)]
+        assert all(3.6 < r < 4.4 for r in ratios), ratios
+    d = 6
+    assert _stencil(0.01, d=d)[2] == d * d + d + 1
+    rng = np.random.default_rng(2)
+    A = rng.standard_normal((d, d))
+    A = A + A.T
+    b = rng.standard_normal(d)
+    u = rng.standard_normal(d)
+    _, grad, H, _ = _derivatives(lambda x: x @ b + 0.5 * np.einsum("ni,ij,nj->n", x, A, x), u, np.full(d, 0.1))
+    np.testing.assert_allclose(H, A, atol=1e-9)
+    np.testing.assert_allclose(grad, b + A @ u, atol=1e-9)
