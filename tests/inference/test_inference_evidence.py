@@ -269,3 +269,26 @@ def test_the_stencil_is_second_order_and_takes_d_squared_plus_d_plus_one_points(
     _, grad, H, _ = _derivatives(lambda x: x @ b + 0.5 * np.einsum("ni,ij,nj->n", x, A, x), u, np.full(d, 0.1))
     np.testing.assert_allclose(H, A, atol=1e-9)
     np.testing.assert_allclose(grad, b + A @ u, atol=1e-9)
+
+
+def test_an_error_parameter_far_below_the_misfit_is_climbed_to_its_mode():
+    """ln L = -N ln s - N J / (2 s^2), the paper's likelihood in its error parameter s (J = 0.01: the misfit's mode
+    s = 0.1), on a log-uniform prior [1e-6, 1], the sample piled at s ~ 1e-5 (a class started where another class's
+    error parameter was). Newton moves ln s by at most 1/2 a step there, so ten steps of it end short; the steps'
+    multiples reach the mode, and ln Z is the quadrature's."""
+    from scipy import integrate
+    prior = Prior([Bound("s", 1e-6, 1.0, "log-uniform")])
+    n, j = 200, 0.01
+
+    def log_like(theta):
+        s = np.atleast_2d(theta)[:, 0]
+        return -n * np.log(s) - n * j / (2.0 * s * s)
+
+    peak = log_like(np.array([[0.1]]))[0]
+    mass = integrate.quad(lambda x: math.exp(log_like(np.array([[math.exp(x)]]))[0] - peak), math.log(0.05),
+                          math.log(0.2), epsabs=0.0, epsrel=1e-10)[0]
+    exact = peak + math.log(mass / math.log(1e6))
+    sample = np.exp(math.log(1e-5) + 0.1 * np.random.default_rng(5).standard_normal((64, 1)))
+    e = mode_evidence(log_like, prior, sample, seed=6)
+    assert abs(math.log(e.mode[0]) - math.log(0.1)) < 0.02
+    assert abs(e.log_evidence - exact) < 4 * e.std_error + 0.01
