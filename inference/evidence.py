@@ -165,8 +165,8 @@ def _derivatives(g, u, h):
     g at u, at u +- h_i e_i and, for each pair i < j, at u + h_i e_i + h_j e_j and u - h_i e_i - h_j e_j.
     H_ii = (g(+i) - 2 g0 + g(-i)) / h_i^2 and
     H_ij = (g(+i+j) - g(+i) - g(+j) + 2 g0 - g(-i) - g(-j) + g(-i-j)) / (2 h_i h_j),
-    both exact for a quadratic and in error by O(h^2) otherwise (Abramowitz & Stegun 1964, 25.3.27: the mixed
-    difference along the diagonal; the four-corner formula costs 2 d^2 + 1)."""
+    both exact for a quadratic and in error by O(h^2) otherwise (the seven-point mixed difference along the diagonal,
+    Abramowitz & Stegun 1964, section 25.3; the four-corner formula costs 2 d^2 + 1)."""
     d = len(u)
     eye = np.eye(d)
     points = [u]
