@@ -18,7 +18,7 @@ from multiprocessing.connection import wait
 import numpy as np
 
 __all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", "MAX_WORKER_DEATHS", "BATCH_CHUNK",
-           "batch_capable"]
+           "batch_capable", "child_start"]
 
 #: the most parameter sets handed at once to a likelihood whose forward model takes batches (``loglike.batch``):
 #: one call then carries the per-call work (the drivers' set-up, the Python around the compiled loops) for up to this
@@ -109,13 +109,15 @@ _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 _LIVE_POOLS = set()  # pools with workers, kept until closed (at the latest at interpreter exit)
 
 
-def _pool_init(owner_pid, death_signal):
-    """Worker start-up: signals, and death with the pool's owner.
+def child_start(owner_pid, death_signal):
+    """Start-up of a forked helper process (a pool worker, the figures' background drawer): signals, and death with
+    its owner ``owner_pid``.
 
-    The parent handles SIGTERM/SIGINT (checkpoint and exit), so workers ignore them and never die half-way through a
-    task. Because they ignore SIGTERM, a worker must notice by itself that its parent is gone (SIGKILL, a crash):
-    the kernel's death signal (``death_signal``, Linux) and a watchdog thread, see :class:`PoolExecutor`. The check
-    after the request closes the race of an owner that died before the request was made.
+    The parent handles SIGTERM/SIGINT (checkpoint and exit), so helpers ignore them and never die half-way through a
+    task. Because they ignore SIGTERM, a helper must notice by itself that its parent is gone (SIGKILL, a crash):
+    the kernel's death signal (``death_signal``, Linux; ask it only for a helper forked from the main thread) and a
+    watchdog thread, see :class:`PoolExecutor`. The check after the request closes the race of an owner that died
+    before the request was made.
     """
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -149,7 +151,7 @@ def _serve(conn, evaluator, owner_pid, death_signal):
     """A worker's loop: evaluate the (batch, indices, thetas) tasks read from ``conn`` until None or the pipe closes;
     answer (batch, indices, values, reasons, None), or a traceback in place of the results for an error outside
     the forward evaluations (which the evaluator turns into -inf itself)."""
-    _pool_init(owner_pid, death_signal)
+    child_start(owner_pid, death_signal)
     while True:
         try:
             task = conn.recv()

@@ -4,11 +4,14 @@
 from __future__ import annotations
 
 import math
+import os
+import threading
 import time
 
 import numpy as np
 
 from inference import PoolExecutor
+from inference.executors.local import child_start
 
 __all__ = ["FIXED", "MAX_COLUMNS", "PANEL_MARGINS", "TITLE_ROOM", "FigureQueue", "draw", "pyplot", "panel_grid",
            "save"]
@@ -97,23 +100,19 @@ class _Drawing:
         return np.zeros(len(rows)), [None] * len(rows)
 
 
-def _background_drawer(jobs_in, done_out, parents_ends):
+def _background_drawer(jobs_in, done_out, parents_ends, owner_pid, death_signal):
     """The background drawer's process (:meth:`FigureQueue.start_drawing`): at the lowest priority, draw or write
     each job (index, writer, args) received on ``jobs_in`` in the order kept, answering ("done", index) or ("failed",
     index, traceback) on ``done_out``; on None, or when the parent's end of the pipe closes, stop after the job in
     hand and answer ("stopped",). A thread receives the jobs as they come, so the parent never waits on a send.
-    ``parents_ends``: the parent's ends of the two pipes, closed here (so that the parent's death ends the pipe)."""
-    import os
-    import signal
-    import threading
+    ``parents_ends``: the parent's ends of the two pipes, closed here; ``owner_pid``, ``death_signal``: of
+    ``inference.executors.local.child_start`` (signals left to the parent, death with it), as a pool worker."""
     import traceback
     from collections import deque
 
     for end in parents_ends:
         end.close()
-    for name in ("SIGTERM", "SIGINT", "SIGUSR1"):   # the parent handles them, and stops it through the pipe
-        if hasattr(signal, name):
-            signal.signal(getattr(signal, name), signal.SIG_IGN)
+    child_start(owner_pid, death_signal)
     try:   # Linux: run only on a core nothing else wants
         os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
     except (AttributeError, OSError):   # no such policy here, or a sandbox refuses it
@@ -186,8 +185,8 @@ class FigureQueue:
         """Start the background drawer: a process at the lowest priority (Linux ``SCHED_IDLE``, else nice 19) that
         draws the figures and writes the files as they are kept, on the time the loop leaves a core idle (a sampler
         waiting for its slowest chunk, the parent's own work); :meth:`draw_all` stops it after the job in hand and
-        draws what is left. It ends with the pipe from this process (at :meth:`draw_all`, or when this process
-        dies)."""
+        draws what is left. It ends with the pipe from this process (at :meth:`draw_all`), and with this process
+        as a pool worker does (``inference.executors.local.child_start``)."""
         import multiprocessing as mp
 
         if "fork" not in mp.get_all_start_methods():   # forked: it starts with pyplot and the modules imported
@@ -196,7 +195,9 @@ class FigureQueue:
         ctx = mp.get_context("fork")
         jobs_in, jobs_out = ctx.Pipe(duplex=False)
         done_in, done_out = ctx.Pipe(duplex=False)
-        process = ctx.Process(target=_background_drawer, args=(jobs_in, done_out, (jobs_out, done_in)), daemon=True)
+        process = ctx.Process(target=_background_drawer, daemon=True,
+                              args=(jobs_in, done_out, (jobs_out, done_in), os.getpid(),
+                                    threading.current_thread() is threading.main_thread()))
         process.start()
         jobs_in.close()
         done_out.close()
