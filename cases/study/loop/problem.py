@@ -298,9 +298,8 @@ class LoopProblem:
         self.adopted, self.adopted_switches, self.class_root, self.calibrated = (), {}, self.out, {}
         self.base_name = None
         self.figures = FigureQueue()
-        with self.executor() as executor:   # on a local pool a background drawer takes what the loop leaves idle
-            if isinstance(executor, inference.PoolExecutor):
-                self.figures.start_drawing()
+        if isinstance(self.executor(), inference.PoolExecutor):   # a background drawer takes what the loop leaves idle
+            self.figures.start_drawing()
 
     def candidates(self) -> list:
         """The catalog for the base class (with the candidates :meth:`adopt` confirmed in it), an enrichment's added
