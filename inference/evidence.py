@@ -256,10 +256,11 @@ def _importance(t, mode, cov, n_draws, min_ess, rounds, df, rng):
 
 def _negative_definite(H):
     """-H made positive definite, its eigenvalues replaced by their absolute values (at least 1e-8 of the largest;
-    the saddle-free Newton metric, Dauphin et al. 2014): (matrix, its inverse)."""
+    the saddle-free Newton metric, Dauphin et al. 2014): (matrix, its inverse, whether H was negative definite)."""
     w, V = np.linalg.eigh(-0.5 * (H + H.T))
+    concave = bool(w.min() > 0.0)
     w = np.maximum(np.abs(w), 1e-8 * max(np.abs(w).max(), 1e-300))
-    return (V * w) @ V.T, (V / w) @ V.T
+    return (V * w) @ V.T, (V / w) @ V.T, concave
 
 
 def _climb(t, u, h, iterations):
@@ -275,10 +276,10 @@ def _climb(t, u, h, iterations):
         else:
             return None
         f0, grad, H, _ = derivatives
-        _, cov = _negative_definite(H)
+        _, cov, concave = _negative_definite(H)
         h = STEP_FRACTION * np.sqrt(np.diag(cov))
         step = cov @ grad
-        if 0.5 * grad @ step < CONVERGED_GAIN and np.linalg.eigvalsh(0.5 * (H + H.T)).max() < 0.0:
+        if concave and 0.5 * grad @ step < CONVERGED_GAIN:
             break
         step *= min(1.0, MAX_STEP / max(np.abs(step).max(), 1e-300))   # trust region in u
         trial = u + np.outer(TRIAL_MULTIPLES, step)
@@ -323,7 +324,7 @@ def mode_evidence(log_likelihood, prior, samples, log_values=None, starts=None, 
         return None
     u, derivatives = max(ends, key=lambda e: e[1][0])
     f0, _, H, _ = derivatives
-    A, cov = _negative_definite(H)
+    A, cov, _ = _negative_definite(H)
     d = len(u)
     log_laplace = float(f0 + 0.5 * d * np.log(2.0 * np.pi) - 0.5 * np.linalg.slogdet(A)[1])
     log_is, ess, error, drawn, own = _importance(t, u, cov, n_draws, min_ess, adapt_rounds, df,
