@@ -6,7 +6,7 @@ from .checkpoint import CheckpointError
 from .diagnosis import ScreenReport, screen
 from .discrepancy import Discrepancy
 from .evidence import EvidenceEstimate, mode_evidence
-from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExecutor, default_executor
+from .executors import Evaluator, Executor, MPIExecutor, PoolExecutor, SerialExecutor, default_executor, side_by_side
 from .forward import ForwardModel, ForwardModelError, ListForward, ParticleForward, distinct_rows
 from .goodness import goodness_of_fit
 from .likelihood import Likelihood
@@ -17,8 +17,8 @@ from .tmcmc import EXIT_CHECKPOINTED, Checkpointed, RunStopped, SamplerError, TM
 
 __all__ = [
     "CheckpointError", "Discrepancy", "Evaluator", "Executor", "MPIExecutor", "PoolExecutor", "SerialExecutor",
-    "default_executor", "ForwardModel", "ForwardModelError", "ListForward", "ParticleForward", "Likelihood",
-    "distinct_rows",
+    "side_by_side", "default_executor", "ForwardModel", "ForwardModelError", "ListForward", "ParticleForward",
+    "Likelihood", "distinct_rows",
     "goodness_of_fit", "Curve", "DataError", "Observations", "Test",
     "Bound", "Constraint", "LogUniformPrior", "Prior", "PriorError", "UniformPrior", "Posterior", "RunProgress",
     "write_failures",

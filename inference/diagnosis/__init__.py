@@ -20,7 +20,7 @@ from .attribution import KINDS, SCOPES, Attribution, attribute, expand_covariate
 from .bands import PredictiveBand, predictive_bands
 from .chain import chain_markdown, chain_steps, misfit_per_curve
 from .files import diagnose_directory, read_input, recorded_rule, write_diagnosis, write_input
-from .loop import ENRICH, LoopProblem, LoopResult, run_loop
+from .loop import ENRICH, MODEL_FORM, LoopProblem, LoopResult, run_loop
 from .rank import conclude, rank_candidates
 from .records import (
                       NOT_REFINED,
@@ -52,10 +52,10 @@ from .structure import Region, lag1_test, runs_test, scale_test, scan_test, segm
 __all__ = [
     "KINDS", "SCOPES", "Attribution", "attribute", "expand_covariates", "holm", "per_curve", "split_spec",
     "PredictiveBand", "predictive_bands", "chain_markdown", "chain_steps", "misfit_per_curve",
-    "diagnose_directory", "read_input", "recorded_rule", "write_diagnosis", "write_input", "ENRICH", "LoopProblem",
-    "LoopResult", "run_loop", "conclude", "rank_candidates", "NOT_REFINED", "STRONG_LOG_BAYES", "CandidateDecision",
-    "CandidateScore", "ClassSummary", "Conclusion", "DecisionRule", "DiagnosedCandidate", "Diagnosis",
-    "MismatchRegion", "ModelClass", "NextTest", "SignatureItem", "diagnose", "markdown", "POSITION",
+    "diagnose_directory", "read_input", "recorded_rule", "write_diagnosis", "write_input", "ENRICH", "MODEL_FORM",
+    "LoopProblem", "LoopResult", "run_loop", "conclude", "rank_candidates", "NOT_REFINED", "STRONG_LOG_BAYES",
+    "CandidateDecision", "CandidateScore", "ClassSummary", "Conclusion", "DecisionRule", "DiagnosedCandidate",
+    "Diagnosis", "MismatchRegion", "ModelClass", "NextTest", "SignatureItem", "diagnose", "markdown", "POSITION",
     "CurveStatistics", "ScreenReport", "curve_statistics", "relative_residuals", "screen", "simulate_samples",
     "Region", "lag1_test", "runs_test", "scale_test", "scan_test", "segment",
 ]

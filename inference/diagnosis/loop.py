@@ -14,15 +14,17 @@ Steps of `run_loop`:
    the base, whose first diagnosis replaces the own convention's (a convention is never asked for when the base's
    residual is noise: it could only feed a line of the report); when the base's residual is consistent with noise
    the step ends there (nothing is calibrated beside the base); else the model-form class (the base with a discrepancy,
-   ``problem.calibrate_model_form()``, optional) is calibrated and the first diagnosis made with it beside the
-   base;
+   ``problem.calibrate_model_form()``, optional) is calibrated with the enriched classes (step 4) and the first
+   diagnosis made again with it beside the base;
 3. the candidates to enrich, by the problem's ``enrich`` (optional attribute, or `run_loop`'s argument):
    "named": the first candidate in ranked order that is named and has an enrichment (named candidates before it
    without an enrichment are listed as "named without enrichment"); "all" (default): that one, then, when the
    screening finds structure, every other candidate with an enrichment that the base model lacks, named or not, in
    ranked order (`rank.conclude` then decides by the evidence together with the signatures); then the problem's
    ``also_enrich(first)`` names, in their order, not chosen already;
-4. each chosen candidate's enriched class is calibrated (``problem.calibrate(name)``); under "all" a candidate
+4. each chosen candidate's enriched class is calibrated (``problem.calibrate(name)``), together with the model-form
+   class: side by side where the problem can (``problem.calibrate_side_by_side``, optional: the classes do not
+   depend on each other, and the candidates to enrich follow from the base's screening alone); under "all" a candidate
    beyond the first named one whose calibration the problem refuses (ValueError: no enrichment for this forward
    model) is listed in ``LoopResult.not_calibrated`` with the reason, and so is every enriched class whose
    calibration stopped (``SamplerError``: too many failed solves), which the verdict then cannot confirm;
@@ -63,12 +65,14 @@ from .report import diagnose
 from .screening import relative_residuals
 from .trust import highest_estimate
 
-__all__ = ["LoopProblem", "LoopResult", "run_loop", "ENRICH", "MAX_STEPS"]
+__all__ = ["LoopProblem", "LoopResult", "run_loop", "ENRICH", "MAX_STEPS", "MODEL_FORM"]
 
 #: which candidates the loop enriches (module docstring, step 3)
 ENRICH = ("all", "named")
 #: the most steps of the stepwise discovery (module docstring, step 6): the catalog's clay effects are four
 MAX_STEPS = 3
+#: the request for the model-form class among the classes of one step (``LoopProblem.calibrate_side_by_side``)
+MODEL_FORM = "model form"
 
 
 class LoopProblem(Protocol):
@@ -76,8 +80,8 @@ class LoopProblem(Protocol):
 
     likelihood: an inference.Likelihood of the recorded curves (the screening reads its observations and near-zero
     floor); description: one line for the diagnosis report, read after the base class is calibrated.
-    ``compare_conventions``, ``also_enrich``, ``calibrate_model_form``, ``adopt`` and ``enrich`` ("all" or "named",
-    module docstring step 3) are optional.
+    ``compare_conventions``, ``also_enrich``, ``calibrate_model_form``, ``calibrate_side_by_side``, ``adopt`` and
+    ``enrich`` ("all" or "named", module docstring step 3) are optional.
     """
 
     likelihood: object
@@ -100,6 +104,11 @@ class LoopProblem(Protocol):
     def calibrate_model_form(self) -> ModelClass:
         """Calibrate the base class with a model-form discrepancy (``inference.Discrepancy``): the physics-free
         alternative every enrichment must beat (`rank.conclude`)."""
+
+    def calibrate_side_by_side(self, requests: list) -> list:
+        """The classes ``requests`` of one step (:data:`MODEL_FORM`, or a candidate's name for its enriched class)
+        as ``calibrate_model_form()`` and ``calibrate(name)`` give them, but side by side where the problem can
+        (``inference.side_by_side``): [(ModelClass, None) or (None, the error)] in their order."""
 
     def also_enrich(self, first_diagnosis: Diagnosis) -> list:
         """Further candidates (names, in this order) to enrich after the best-ranked named one, from the first
@@ -245,6 +254,22 @@ def _joint(likelihood, step: LoopResult, after: LoopResult, tentative: str, rule
     step.joint = {"tentative": tentative, "with": second, "explained": explained, "alone": alone, "left": left}
 
 
+def _calibrated(problem: LoopProblem, requests: list) -> list:
+    """[(ModelClass, None) or (None, the error)] of the classes ``requests`` (:data:`MODEL_FORM` or a candidate's
+    name), in their order: ``problem.calibrate_side_by_side(requests)`` where the problem has it, else one after the
+    other here, a ValueError or SamplerError kept as the class's outcome (any other error stops the loop)."""
+    side_by_side = getattr(problem, "calibrate_side_by_side", None)
+    if side_by_side is not None:
+        return side_by_side(requests)
+    out = []
+    for name in requests:
+        try:
+            out.append((problem.calibrate_model_form() if name == MODEL_FORM else problem.calibrate(name), None))
+        except (ValueError, SamplerError) as err:
+            out.append((None, err))
+    return out
+
+
 def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str, conventions=None) -> LoopResult:
     """One step of the loop from the calibrated ``base`` class (module docstring, steps 1-5); ``conventions``: the
     problem's ``compare_conventions`` (the first step only)."""
@@ -271,25 +296,32 @@ def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str, c
         return LoopResult(first, first, classes, covariates, first.named, [], {
             "screen_and_rank_s": screen_s, "diagnose_final_s": 0.0, "calibration_s": {base.name: base.wall_s},
             **conventions_s, "loop_s": time.perf_counter() - t_step}, {}, settings, [], candidates)
-    model_form = getattr(problem, "calibrate_model_form", None)
-    if model_form is not None:
-        classes.append(replace(model_form(), role="model form", candidate=None))
-        t0 = time.perf_counter()
-        first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
-        screen_s += time.perf_counter() - t0
+    # the candidates to enrich follow from the base's screening alone (a model-form class names nothing), so the
+    # model-form class and the enriched classes are calibrated together (side by side where the problem can)
     skipped, chosen, n_named_rule = _chosen(first, enrich)
     also = getattr(problem, "also_enrich", None)
     extra = [name for name in (also(first) if also else []) if name not in chosen]
+    model_form = getattr(problem, "calibrate_model_form", None) is not None
+    requests = [MODEL_FORM] * model_form + chosen + extra
+    outcomes = _calibrated(problem, requests)
+    if model_form:
+        cls, err = outcomes.pop(0)
+        if err is not None:
+            raise err
+        classes.append(replace(cls, role="model form", candidate=None))
+        t0 = time.perf_counter()
+        first = diagnose(problem.likelihood, classes, covariates, candidates, problem.description, **settings)
+        screen_s += time.perf_counter() - t0
     refused = {}
-    for k, name in enumerate(chosen + extra):
-        try:
-            classes.append(replace(problem.calibrate(name), role="enriched", candidate=name))
-        except ValueError as err:
-            if k < n_named_rule or name in extra:
-                raise
-            refused[name] = str(err)
-        except SamplerError as err:  # the enriched class's calibration stopped (e.g. too many failed solves)
+    for k, (name, (cls, err)) in enumerate(zip(chosen + extra, outcomes)):
+        if err is None:
+            classes.append(replace(cls, role="enriched", candidate=name))
+        elif isinstance(err, SamplerError):  # the enriched class's calibration stopped (e.g. too many failed solves)
             refused[name] = f"calibration stopped: {err}"
+        elif isinstance(err, ValueError) and k >= n_named_rule and name not in extra:
+            refused[name] = str(err)
+        else:
+            raise err
     final, final_s = first, 0.0
     if len(classes) > 1:
         t0 = time.perf_counter()

@@ -18,7 +18,7 @@ from multiprocessing.connection import wait
 import numpy as np
 
 __all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", "MAX_WORKER_DEATHS", "BATCH_CHUNK",
-           "batch_capable", "child_start"]
+           "batch_capable", "child_start", "how_it_ended"]
 
 #: the most parameter sets handed at once to a likelihood whose forward model takes batches (``loglike.batch``):
 #: one call then carries the per-call work (the drivers' set-up, the Python around the compiled loops) for up to this
@@ -173,7 +173,8 @@ def _close_live_pools():
         pool.close()
 
 
-def _how_it_ended(exitcode):
+def how_it_ended(exitcode) -> str:
+    """How a process ended, in words, from its exit code (a signal's name, or the exit status)."""
     if exitcode is not None and exitcode < 0:
         try:
             return f"killed by signal {-exitcode} ({signal.Signals(-exitcode).name})"
@@ -288,7 +289,7 @@ class PoolExecutor(Executor):
         old.process.join()
         old.conn.close()
         self._workers[rank] = _Worker(self._ctx, self._evaluator)
-        return old.process.pid, _how_it_ended(old.process.exitcode), self._workers[rank].process.pid
+        return old.process.pid, how_it_ended(old.process.exitcode), self._workers[rank].process.pid
 
     def close(self):
         for worker in self._workers:

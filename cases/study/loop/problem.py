@@ -14,6 +14,7 @@ DIR/step_<k>/; DIR/chain.md and DIR/chain.png show the chain, the final class's 
 from __future__ import annotations
 
 import json
+import pickle
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -428,6 +429,51 @@ class LoopProblem:
                                          self.class_root / "model_form", self.seed, self.settings,
                                          discrepancy=self.discrepancy(self.observations))
         return cls
+
+    def calibrate_side_by_side(self, requests: list) -> list:
+        """The classes ``requests`` of one step (``inference.diagnosis.MODEL_FORM``: :meth:`calibrate_model_form`;
+        a candidate: :meth:`calibrate`) side by side on the study's processes when its executor is a local pool
+        (``inference.side_by_side``): each class whole in a child of this process, its evaluations there
+        (``inference.SerialExecutor``), so that no class waits at a sweep for the other worker's chunk. Returns
+        [(ModelClass, None) or (None, the error)] in their order, the classes one after the other would give. A
+        child sends back, with its class, the figures and files it kept (those that cannot travel it writes
+        itself) and the switches of what it calibrated (:attr:`calibrated`, whose likelihood is made again
+        here)."""
+        executor = self.executor()
+        processes = executor.processes if isinstance(executor, inference.PoolExecutor) else 1
+
+        def task(request):
+            if request == diagnosis.MODEL_FORM:
+                return self.calibrate_model_form
+            return lambda: self.calibrate(request)
+
+        def in_child(run):
+            self.executor = inference.SerialExecutor   # this child's evaluations stay in it
+            self.figures, known = FigureQueue(), set(self.calibrated)
+            cls = run()
+            kept = []
+            for write, args in self.figures.jobs:
+                try:
+                    pickle.dumps(args)
+                except Exception:  # noqa: BLE001 - what cannot travel is written here
+                    write(*args)
+                else:
+                    kept.append((write, args))
+            made = {name: (switches, like.discrepancy is not None, like.names)
+                    for name, (like, switches) in self.calibrated.items() if name not in known}
+            return cls, kept, made
+
+        def back(answer):
+            cls, kept, made = answer
+            for write, args in kept:
+                self.figures.keep(write, *args)
+            for name, (switches, model_form, names) in made.items():
+                like = self.make_likelihood(self.observations, switches,
+                                            self.discrepancy(self.observations) if model_form else None)
+                self.calibrated[name] = (like.bind(names), switches)
+            return cls
+
+        return inference.side_by_side([task(r) for r in requests], processes, in_child, back)
 
     def adopt(self, confirmed: ModelClass) -> ModelClass:
         """The stepwise discovery (``inference.diagnosis.run_loop``, step 6): the confirmed enriched class becomes
