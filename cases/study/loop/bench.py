@@ -5,9 +5,10 @@ of a Modified Cam Clay base and the sand programme of a SIMSAND base); prints a 
 
 Each run is ``python -m cases.calibrate STUDY --quick --diagnose`` in its own process (compiled kernels cached, so the
 first run of a fresh clone also pays the compilation: run once before timing). Phases, from DIR/loop.json: per model
-class the sampler, the refined evidence, and the record and outputs (summary, report.md); the
-conventions compared; the screenings and diagnoses; the whole loop; the figures, drawn at its end with the classes'
-posterior.nc; and the process's wall time. Medians over ``--repeat`` runs.
+class the sampler, the refined evidence, and the record and outputs (summary, report.md), each in its own process's
+time (on a pool the classes of one step run side by side, so their phases overlap and add up to more than the
+loop); the conventions compared; the screenings and diagnoses; the whole loop; the figures, drawn at its end with the
+classes' posterior.nc; and the process's wall time. Medians over ``--repeat`` runs.
 """
 from __future__ import annotations
 

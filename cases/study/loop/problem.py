@@ -435,10 +435,10 @@ class LoopProblem:
         a candidate: :meth:`calibrate`) side by side on the study's processes when its executor is a local pool
         (``inference.side_by_side``): each class whole in a child of this process, its evaluations there
         (``inference.SerialExecutor``), so that no class waits at a sweep for the other worker's chunk. Returns
-        [(ModelClass, None) or (None, the error)] in their order, the classes one after the other would give. A
-        child sends back, with its class, the figures and files it kept (those that cannot travel it writes
-        itself) and the switches of what it calibrated (:attr:`calibrated`, whose likelihood is made again
-        here)."""
+        [(ModelClass, None) or (None, the error)] in their order, the classes one after the other would give (the
+        model-form class starts last). A child sends back, with its class, the figures and files it kept (those that
+        cannot travel it writes itself) and the switches of what it calibrated (:attr:`calibrated`, whose likelihood
+        is made again here)."""
         executor = self.executor()
         processes = executor.processes if isinstance(executor, inference.PoolExecutor) else 1
 
@@ -473,7 +473,11 @@ class LoopProblem:
                 self.calibrated[name] = (like.bind(names), switches)
             return cls
 
-        return inference.side_by_side([task(r) for r in requests], processes, in_child, back)
+        # the model-form class, mostly the shortest (the base's solves; its discrepancy marginalized exactly), starts
+        # last and fills in beside the longer ones
+        order = sorted(range(len(requests)), key=lambda k: requests[k] == diagnosis.MODEL_FORM)
+        done = inference.side_by_side([task(requests[k]) for k in order], processes, in_child, back)
+        return [done[order.index(k)] for k in range(len(requests))]
 
     def adopt(self, confirmed: ModelClass) -> ModelClass:
         """The stepwise discovery (``inference.diagnosis.run_loop``, step 6): the confirmed enriched class becomes
