@@ -461,6 +461,20 @@ def _adaptive(model, part, plans, rows, strain_step):
     return hist, [1 + np.arange(len(plan.record_index)) for plan in plans]
 
 
+def _live_start(part, rows):
+    """The stage start {stress, strain, u} of the points ``rows`` of ``part``, a failed point's replaced by the first
+    live point's: a failed point takes no further step, and the steps the points of a stage share (a ramp split as
+    finely as its most demanding point asks) must be those of the live points alone, so that a parameter set gets
+    the same bits in any batch."""
+    start = {k: part[k][rows].copy() for k in ("stress", "strain", "u")}
+    failed = part["failed"][rows]
+    live = np.flatnonzero(~failed)
+    if failed.any() and live.size:
+        for values in start.values():
+            values[failed] = values[live[0]]
+    return start
+
+
 def _take(carried, index):
     """The carried specimen's rows ``index`` (the model state included)."""
     return {k: (_take(v, index) if isinstance(v, dict) else v[index]) for k, v in carried.items()}
@@ -508,8 +522,7 @@ def _simulate_group(prepared, abscissae, n, strain_step=None):
             keys = by_stage[j][stage.name]
             xs = [np.atleast_1d(np.asarray(abscissae[j][k], dtype=float)) for k in keys]
             x_all = np.unique(np.concatenate(xs)) if xs else np.zeros(0)
-            start = {k: part[k][rows_j] for k in ("stress", "strain", "u")}
-            plans.append(StageSteps(specs[j].apparatus, stage, start, x_all, step, timed))
+            plans.append(StageSteps(specs[j].apparatus, stage, _live_start(part, rows_j), x_all, step, timed))
             wanted.append((keys, xs, x_all))
         plan = plans[0]  # control and drainage are the round's (stage_signature)
         u_start = part["u"] if plan.undrained else np.zeros(len(index))
