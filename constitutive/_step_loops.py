@@ -197,8 +197,8 @@ def drive_points(update, prm, settings, work, void_ratio_column, stress0, state0
                             last_deps[c] = total[0][0, c]
                         u[0] += total[1][0]
                         last_du = total[1][0]
-                last_dt = dt[k, i] if kept else 0.0
-                if taking:
+                if taking:  # a step not taken (the point rests) leaves the previous step's predictor as it was
+                    last_dt = dt[k, i] if kept else 0.0
                     t += dt[k, i]
                 if not record[k]:
                     continue

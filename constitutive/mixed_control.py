@@ -196,7 +196,7 @@ def mixed_control(model, stress0, state0, strain_control, increments, dt, undrai
             last_key = key
             last_deps = np.where(keep[:, None], res["deps"], last_deps)
             last_du = np.where(keep, res["du"], last_du)
-            last_dt = np.where(keep, dt[k], 0.0)
+            last_dt = np.where(keep, dt[k], np.where(taking, 0.0, last_dt))  # a point resting keeps its predictor
         if record[k]:
             store()
 

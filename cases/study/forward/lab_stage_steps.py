@@ -80,14 +80,20 @@ NORMAL = labtests.NORMAL
 
 def _linear_knots(points, bound):
     """Knots (K, n) of a linear segment: ``points`` (P, n) the segment start, the records and the end (stage time,
-    each row increasing along axis 0 for every particle), each interval split in the largest number of equal parts
-    that ``bound(a, b)`` (the parts needed per particle for the intervals' starts and ends, (P - 1, n)) asks for
-    over the particles. Returns the knots without the start and the knot index of each point after the start."""
-    parts = np.maximum(1, np.max(bound(points[:-1], points[1:]), axis=1).astype(int))
+    each row increasing along axis 0 for every particle), each interval split into the number of equal parts that
+    ``bound(a, b)`` asks for that particle ((P - 1, n) from the intervals' starts and ends). The particles' intervals
+    are aligned on the largest number of parts among them: a particle that needs fewer has taken its own steps when
+    its interval ends early, and rests there (its knot repeated, the step not taken), so that its steps are those it
+    takes alone. Returns the knots without the start, the knot index of each point after the start, and the steps
+    each particle takes (K, n) bool."""
+    need = np.maximum(1, bound(points[:-1], points[1:]).astype(int))
+    parts = need.max(axis=1)
     last = np.cumsum(parts) - 1
     part = np.arange(last[-1] + 1) - np.repeat(last - parts, parts)  # 1, ..., parts within each interval
     a, b = np.repeat(points[:-1], parts, axis=0), np.repeat(points[1:], parts, axis=0)
-    return a + (b - a) * (part / np.repeat(parts, parts))[:, None], last
+    own = np.repeat(need, parts, axis=0)
+    taken = part[:, None] <= own
+    return a + (b - a) * np.where(taken, part[:, None] / own, 1.0), last, taken
 
 
 def _hold_first(length):
@@ -125,9 +131,9 @@ class StageSteps:
     """The steps of one stage (module docstring) from the specimen at the stage start ``carried`` ({"stress" (n, 6),
     "strain" (n, 6), "u" (n,), ...}), the stage's recorded abscissae ``record_x`` (sorted, unique) and the largest
     strain step; ``timed``: the model is rate dependent (holds sub-stepped in time, module docstring). Attributes:
-    ``control`` (6,), ``undrained``, ``knots`` (K, n) stage times of the steps, ``record_index`` the knot of each
-    record, ``outside`` (n,) particles with a record outside the stage; :meth:`steps` the increments and time
-    steps."""
+    ``control`` (6,), ``undrained``, ``knots`` (K, n) stage times of the steps, ``taken`` (K, n) the steps each
+    particle takes (None: every step), ``record_index`` the knot of each record, ``outside`` (n,) particles with a
+    record outside the stage; :meth:`steps` the increments and time steps."""
 
     def __init__(self, apparatus, stage, carried, record_x, strain_step, timed=True):
         self.stage, self.apparatus = stage, apparatus
@@ -150,6 +156,7 @@ class StageSteps:
             self.start += np.where(~self.control & NORMAL, carried["u"][:, None], 0.0)
         self.x = np.asarray(record_x, dtype=float)
         self.outside = np.zeros(n, dtype=bool)
+        self.taken = None
         #: the sigma'_v a crs stage continues to past its last record (kPa; None: none)
         self.to_sigma_v = None
         kind.plan(self)
@@ -232,7 +239,7 @@ class StageSteps:
             raise ValueError(f"stage {st.name}: a consolidation is recorded against time, p or sigma_v")
         frac = self._tau_records(frac, np.ones(self.n))
         pts, order = self._points(frac, np.ones(self.n))
-        knots, index = _linear_knots(pts, _ln_parts(start, end))
+        knots, index, self.taken = _linear_knots(pts, _ln_parts(start, end))
         self.record_index = self._place_records(index, order)
         self.knots = knots * duration
         self.stress_path = LinearPath.ramp(start, end, np.full(self.n, duration))
@@ -243,7 +250,7 @@ class StageSteps:
         tau_rec = self._tau_records(tau_rec, end_tau)
         pts, order = self._points(tau_rec, end_tau)
         step = self.strain_step
-        knots, index = _linear_knots(pts, lambda a, b: np.ceil(np.abs(rate) * (b - a) / step - 1e-9))
+        knots, index, self.taken = _linear_knots(pts, lambda a, b: np.ceil(np.abs(rate) * (b - a) / step - 1e-9))
         self.knots, self.record_index = knots, self._place_records(index, order)
         self.stress_path = self._held_stress()
         end_strain = np.zeros((self.n, 6))
@@ -309,7 +316,8 @@ class StageSteps:
         in_ramp = t <= ramp
         if ramp > 0:  # the ramp's knots: fractions of the ramp split by ln-stress steps, in stage time
             fractions = np.concatenate([[0.0], np.sort(t[in_ramp]) / ramp, [1.0]])[:, None] + np.zeros((1, self.n))
-            ramp_knots = _linear_knots(fractions, _ln_parts(start, end))[0][:, 0] * ramp
+            knots, _, taken = _linear_knots(fractions, _ln_parts(start, end))
+            ramp_knots = knots[:, np.argmax(taken.sum(axis=0))] * ramp   # the grid of the most demanding particle
         else:
             ramp_knots = np.zeros(0)
         hold = _hold_knots(ramp, duration, t[~in_ramp], self.timed)

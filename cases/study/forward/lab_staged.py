@@ -434,7 +434,8 @@ def _merge(plans, rows, size):
     record = np.zeros(length, dtype=bool)
     record[-1] = True  # the stage's end state is carried on
     for plan, (inc_j, dt_j), rows_j in zip(plans, tables, rows):
-        inc[:len(dt_j), rows_j], dt[:len(dt_j), rows_j], active[:len(dt_j), rows_j] = inc_j, dt_j, True
+        inc[:len(dt_j), rows_j], dt[:len(dt_j), rows_j] = inc_j, dt_j
+        active[:len(dt_j), rows_j] = True if plan.taken is None else plan.taken
         record[plan.record_index] = True
     slot = np.cumsum(record)  # history column of each recorded step (column 0: the stage start)
     return inc, dt, (None if active.all() else active), record, [slot[plan.record_index] for plan in plans]
