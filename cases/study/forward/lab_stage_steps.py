@@ -26,7 +26,9 @@ its stress-controlled components (their effective stress rises by it; ``excess_p
 Stepping: every stage is stepped through its recorded points (values come out AT the records, no interpolation),
 with sub-steps between them: strain-controlled ramps in steps of at most the model's ``max_strain_step`` (0.25 %
 when the model leaves it to its own triaxial integrator), stress ramps in steps of at most ``STRESS_STEP`` in
-ln(stress). The holds of a rate-dependent model (the kinds with ``StageKind.adaptive_hold``: creep, relaxation and
+ln(stress). The particles of a batch are stepped side by side on aligned steps, each taking as many as its own ramp
+asks for and resting through the rest of an interval (``StageSteps.taken``), so that a particle's steps, and its
+curves to the bit, are those it has alone whatever the batch. The holds of a rate-dependent model (the kinds with ``StageKind.adaptive_hold``: creep, relaxation and
 the hold of a load stage, whose ramp keeps its equal ln-stress steps; while ``ADAPTIVE_HOLDS``) are stepped
 adaptively, per particle, by ``constitutive.labtests.adaptive_control``: from a first step of ``HOLD_FIRST`` s, each
 step at most the fraction ``HOLD_RATE_CHANGE`` of the time over which the particle's rates change, changing no strain or
