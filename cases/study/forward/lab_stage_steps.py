@@ -28,18 +28,21 @@ with sub-steps between them: strain-controlled ramps in steps of at most the mod
 when the model leaves it to its own triaxial integrator), stress ramps in steps of at most ``STRESS_STEP`` in
 ln(stress). The particles of a batch are stepped side by side on aligned steps, each taking as many as its own ramp
 asks for and resting through the rest of an interval (``StageSteps.taken``), so that a particle's steps, and its
-curves to the bit, are those it has alone whatever the batch. The holds of a rate-dependent model (the kinds with ``StageKind.adaptive_hold``: creep, relaxation and
-the hold of a load stage, whose ramp keeps its equal ln-stress steps; while ``ADAPTIVE_HOLDS``) are stepped
-adaptively, per particle, by ``constitutive.labtests.adaptive_control``: from a first step of ``HOLD_FIRST`` s, each
-step at most the fraction ``HOLD_RATE_CHANGE`` of the time over which the particle's rates change, changing no strain or
-stress by more than that fraction of its change since the hold start (beyond a floor of 1e-4 strain, 1 % of the stress)
-and no strain by more than the strain step. A hold thus takes few steps where nothing moves yet (the early decades of a
-hold after a slow ramp) and about the steps of the geometric grid below where it moves (about 20 per decade of time
-where it creeps as 1/t; as accurate as that grid, measured at the independent programmes' prior corners); the
-step table (:meth:`StageSteps.steps`) instead places them at times since the hold start growing geometrically
-from ``HOLD_FIRST`` s, ``HOLD_STEPS_PER_DECADE`` per decade (and the recorded times). A rate-independent model
-(``timed=False``) takes a hold at its recorded times only: nothing changes in it but what the first step brings
-(the dissipation of an excess pore pressure), so sub-steps would repeat the same state.
+curves to the bit, are those it has alone whatever the batch (the one exception: the ramp of a load stage of a
+rate-independent model takes the grid of its most demanding particle, which differs from the others' only where
+their stage starts at different sigma'_v: after a crs or relaxation stage). The holds of a rate-dependent model (the
+kinds with ``StageKind.adaptive_hold``: creep, relaxation and the hold of a load stage, whose ramp keeps its equal
+ln-stress steps; while ``ADAPTIVE_HOLDS``) are stepped adaptively, per particle, by
+``constitutive.labtests.adaptive_control``: from a first step of ``HOLD_FIRST`` s, each step at most the fraction
+``HOLD_RATE_CHANGE`` of the time over which the particle's rates change, changing no strain or stress by more than
+that fraction of its change since the hold start (beyond a floor of 1e-4 strain, 1 % of the stress) and no strain by
+more than the strain step. A hold thus takes few steps where nothing moves yet (the early decades of a hold after a
+slow ramp) and about the steps of the geometric grid below where it moves (about 20 per decade of time where it
+creeps as 1/t; as accurate as that grid, measured at the independent programmes' prior corners); the step table
+(:meth:`StageSteps.steps`) instead places them at times since the hold start growing geometrically from
+``HOLD_FIRST`` s, ``HOLD_STEPS_PER_DECADE`` per decade (and the recorded times). A rate-independent model
+(``timed=False``) takes a hold at its recorded times only: nothing changes in it but what the first step brings (the
+dissipation of an excess pore pressure), so sub-steps would repeat the same state.
 
 Abscissa of a stage's records (``Stage.abscissa``): ``time`` (s since the stage start, every kind), ``axial_strain``
 (shear: the stage's own axial strain, magnitude or signed; crs: the total axial strain of the test), ``p`` or

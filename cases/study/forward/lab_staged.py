@@ -464,9 +464,9 @@ def _adaptive(model, part, plans, rows, strain_step):
 
 def _live_start(part, rows):
     """The stage start {stress, strain, u} of the points ``rows`` of ``part``, a failed point's replaced by the first
-    live point's: a failed point takes no further step, and the steps the points of a stage share (a ramp split as
-    finely as its most demanding point asks) must be those of the live points alone, so that a parameter set gets
-    the same bits in any batch."""
+    live point's: a failed point takes no further step, and what the points of a stage share (its intervals aligned
+    on the point needing the most steps, a load ramp's grid) must come from the live points alone, so that a
+    parameter set gets the same bits in any batch."""
     start = {k: part[k][rows].copy() for k in ("stress", "strain", "u")}
     failed = part["failed"][rows]
     live = np.flatnonzero(~failed)

@@ -454,7 +454,7 @@ class LoopProblem:
             kept = []
             for write, args in self.figures.jobs:
                 try:
-                    pickle.dumps(args)
+                    pickle.dumps((write, args))
                 except Exception:  # noqa: BLE001 - what cannot travel is written here
                     write(*args)
                 else:
