@@ -305,7 +305,8 @@ def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None, 
     sigma_eps) and, in posterior.nc, the records, the MAP's curves at them and, where cheap
     (:func:`pointwise_terms`), each draw's log-likelihood per point; the MAP's curves (for J_g, Eq. (5)) cost one
     forward solve; ``later``: how posterior.nc is written (``inference.Posterior.save``). The checkpoint of the
-    finished run is removed."""
+    finished run is kept: resumed, it gives the run's answer without sampling again (the diagnosis loop resumed after
+    a stop redoes none of its finished classes' samplers)."""
     t0 = time.perf_counter()
     try:
         map_simulated = {key: values[0] for key, values in like.simulated_many(post.map_theta).items()}
@@ -328,9 +329,6 @@ def write_summary(out: Path, case: str, run, seed: int, post, like, extra=None, 
     fields.update(extra or {})
     post.save(out, extra=fields, observations=like.observations, map_simulated=map_simulated, pointwise=pointwise,
               later=later)
-    checkpoint = Path(out) / "run.ckpt"
-    if checkpoint.exists():  # the run finished: its answer is in posterior.npz / summary.json
-        checkpoint.unlink()
     return json.loads((Path(out) / "summary.json").read_text())
 
 

@@ -447,6 +447,22 @@ def test_tiny_quick_calibration_writes_the_design_summary_and_moves_toward_the_g
     assert list(samples["names"]) == ["M", "sigma_eps", "ocr"]
 
 
+def test_a_finished_run_resumed_gives_its_answer_without_sampling_again(tiny_run, tmp_path):
+    """The finished run keeps its checkpoint; --resume on a copy of its folder returns the same posterior (samples,
+    ln Z) with no forward solve of the sampler in the new session."""
+    assert (tiny_run / "run.ckpt").is_file()
+    out = tmp_path / "again"
+    shutil.copytree(tiny_run, out)
+    before = json.loads((out / "summary.json").read_text())
+    assert cal.main([str(tiny_run.parent / "tiny.toml"), "--quick", "--processes", "1", "--out", str(out),
+                     "--resume"]) == 0
+    after = json.loads((out / "summary.json").read_text())
+    assert after["log_evidence"] == before["log_evidence"] and after["n_forward_solves"] == before["n_forward_solves"]
+    np.testing.assert_array_equal(np.load(out / "posterior.npz")["samples"],
+                                  np.load(tiny_run / "posterior.npz")["samples"])
+    assert "resuming from" in (out / "progress.log").read_text() and "phase done" in (out / "progress.log").read_text()
+
+
 def test_tiny_run_posterior_nc_has_the_groups_and_the_npz_posterior(tiny_run):
     """posterior.nc reads back with arviz: its posterior is the npz's final-stage sample (same mean), observed_data the
     recorded curves of the study's CSVs, posterior_predictive the MAP's curves at them, sample_stats the schedule,
