@@ -302,7 +302,7 @@ def _step(problem: LoopProblem, base: ModelClass, settings: dict, enrich: str, c
     also = getattr(problem, "also_enrich", None)
     extra = [name for name in (also(first) if also else []) if name not in chosen]
     model_form = getattr(problem, "calibrate_model_form", None) is not None
-    requests = [MODEL_FORM] * model_form + chosen + extra
+    requests = ([MODEL_FORM] if model_form else []) + chosen + extra
     outcomes = _calibrated(problem, requests)
     if model_form:
         cls, err = outcomes.pop(0)

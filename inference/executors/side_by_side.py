@@ -52,7 +52,7 @@ def _here(task) -> tuple:
         return None, err
 
 
-def side_by_side(tasks, processes: int, in_child=None, back=None, note=None) -> list:
+def side_by_side(tasks, processes: int, in_child=None, back=None, note=None, names=None) -> list:
     """Run the zero-argument callables ``tasks``, at most ``processes`` at once, each in a child process forked from
     this one (it starts with everything in memory); returns [(value, error)] in the tasks' order: the task's value
     and None, or None and the exception it raised.
@@ -64,7 +64,8 @@ def side_by_side(tasks, processes: int, in_child=None, back=None, note=None) -> 
 
     The tasks start in their order; the children start with this process's output flushed and flush their own.
     A child that dies without answering (killed, out of memory, a crash in compiled code) has its task run again
-    here once the others are done, and says so in one line (``note(line)``, else stderr). Where fork is not
+    here once the others are done, and says so in one line (``note(line)``, else stderr; the task named by
+    ``names``, else by its number). Where fork is not
     available, with one process or with one task, the tasks run here one after the other. Children ignore
     SIGTERM/SIGINT and die with this process (``local.child_start``); should this process stop while it waits (an
     exception, Ctrl-C), the children are killed and waited for before it goes on.
@@ -96,8 +97,9 @@ def side_by_side(tasks, processes: int, in_child=None, back=None, note=None) -> 
                 conn.close()
                 child.join()
                 if answer is None:
-                    line = (f"side-by-side task {k + 1} of {len(tasks)}: its process {child.pid} "
-                            f"{how_it_ended(child.exitcode)} without answering; run again here")
+                    what = names[k] if names else f"side-by-side task {k + 1} of {len(tasks)}"
+                    line = (f"{what}: its process {child.pid} {how_it_ended(child.exitcode)} without answering; "
+                            "run again in the main process")
                     if note is None:
                         print(line, file=sys.stderr, flush=True)
                     else:

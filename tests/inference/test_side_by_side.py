@@ -86,6 +86,8 @@ def test_a_child_that_dies_is_redone_here_and_said_once():
     results = side_by_side([_stamp(0, 0.01), dies_in_a_child], 2, note=lines.append)
     assert results[1] == ("done here", None) and results[0][0][0] == 0
     assert len(lines) == 1 and "task 2 of 2" in lines[0] and "killed by signal 9" in lines[0]
+    side_by_side([_stamp(0, 0.01), dies_in_a_child], 2, note=lines.append, names=["first", "the class of viscosity"])
+    assert lines[1].startswith("the class of viscosity: its process") and "main process" in lines[1]
     assert not multiprocessing.active_children()
 
 

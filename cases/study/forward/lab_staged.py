@@ -467,12 +467,11 @@ def _live_start(part, rows):
     live point's: a failed point takes no further step, and what the points of a stage share (its intervals aligned
     on the point needing the most steps, a load ramp's grid) must come from the live points alone, so that a
     parameter set gets the same bits in any batch."""
-    start = {k: part[k][rows].copy() for k in ("stress", "strain", "u")}
+    start = {k: part[k][rows] for k in ("stress", "strain", "u")}
     failed = part["failed"][rows]
     live = np.flatnonzero(~failed)
     if failed.any() and live.size:
-        for values in start.values():
-            values[failed] = values[live[0]]
+        start = {k: np.where(failed.reshape((-1,) + (1,) * (v.ndim - 1)), v[live[0]], v) for k, v in start.items()}
     return start
 
 

@@ -451,21 +451,20 @@ class LoopProblem:
             self.executor = inference.SerialExecutor   # this child's evaluations stay in it
             self.figures, known = FigureQueue(), set(self.calibrated)
             cls = run()
-            kept = []
+            kept = []   # each job pickled once, here: what cannot travel is written here
             for write, args in self.figures.jobs:
                 try:
-                    pickle.dumps((write, args))
-                except Exception:  # noqa: BLE001 - what cannot travel is written here
+                    kept.append(pickle.dumps((write, args)))
+                except Exception:  # noqa: BLE001 - a job that does not pickle
                     write(*args)
-                else:
-                    kept.append((write, args))
             made = {name: (switches, like.discrepancy is not None, like.names)
                     for name, (like, switches) in self.calibrated.items() if name not in known}
             return cls, kept, made
 
         def back(answer):
             cls, kept, made = answer
-            for write, args in kept:
+            for job in kept:
+                write, args = pickle.loads(job)
                 self.figures.keep(write, *args)
             for name, (switches, model_form, names) in made.items():
                 like = self.make_likelihood(self.observations, switches,
@@ -476,7 +475,10 @@ class LoopProblem:
         # the model-form class, mostly the shortest (the base's solves; its discrepancy marginalized exactly), starts
         # last and fills in beside the longer ones
         order = sorted(range(len(requests)), key=lambda k: requests[k] == diagnosis.MODEL_FORM)
-        done = inference.side_by_side([task(requests[k]) for k in order], processes, in_child, back)
+        names = [f"the calibration of the {'model-form class' if r == diagnosis.MODEL_FORM else 'class of ' + r}"
+                 for r in requests]
+        done = inference.side_by_side([task(requests[k]) for k in order], processes, in_child, back,
+                                      names=[names[k] for k in order])
         return [done[order.index(k)] for k in range(len(requests))]
 
     def adopt(self, confirmed: ModelClass) -> ModelClass:

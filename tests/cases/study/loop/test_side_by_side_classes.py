@@ -29,8 +29,12 @@ def _step(out, processes):
     problem = StudyProblem(study, observations, times, quick=True, processes=processes)
     settings = replace(study.settings(True, None), n_samples=16, max_steps=2, predictive_draws=4)
     problem.start(observations, run_settings(arguments("", ["--quick"])), out, 1, settings, "test")
-    base = problem.calibrate(None)
-    return problem, base, problem.calibrate_side_by_side(REQUESTS)
+    try:
+        base = problem.calibrate(None)
+        return problem, base, problem.calibrate_side_by_side(REQUESTS)
+    except BaseException:   # no background drawer left to hold the interpreter's exit
+        problem.figures.close()
+        raise
 
 
 def _compare(one, two, base1, base2, both):
@@ -55,12 +59,12 @@ def test_side_by_side_gives_the_classes_one_after_the_other_gives(tmp_path, monk
     children = tmp_path / "children"
     plain = inference.side_by_side
 
-    def recorded(tasks, processes, in_child, back):   # each child writes its process id (in_child runs there)
+    def recorded(tasks, processes, in_child, back, **options):   # each child writes its process id there
         def marked(task):
             with children.open("a") as f:
                 f.write(f"{os.getpid()}\n")
             return in_child(task)
-        return plain(tasks, processes, marked, back)
+        return plain(tasks, processes, marked, back, **options)
 
     monkeypatch.setattr(inference, "side_by_side", recorded)
     both, base2, two = _step(tmp_path / "two", 2)
