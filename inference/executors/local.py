@@ -18,7 +18,7 @@ from multiprocessing.connection import wait
 import numpy as np
 
 __all__ = ["Executor", "SerialExecutor", "PoolExecutor", "WATCHDOG_INTERVAL_S", "MAX_WORKER_DEATHS", "BATCH_CHUNK",
-           "batch_capable", "child_start", "how_it_ended"]
+           "batch_capable", "child_start", "close_at_exit", "closed", "how_it_ended"]
 
 #: the most parameter sets handed at once to a likelihood whose forward model takes batches (``loglike.batch``):
 #: one call then carries the per-call work (the drivers' set-up, the Python around the compiled loops) for up to this
@@ -106,7 +106,7 @@ MAX_WORKER_DEATHS = 3
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
-_LIVE_POOLS = set()  # pools with workers, kept until closed (at the latest at interpreter exit)
+_LIVE_OWNERS = set()  # owners of live helper processes (pools, a figure drawer), kept until closed
 
 
 def child_start(owner_pid, death_signal):
@@ -168,9 +168,26 @@ def _serve(conn, evaluator, owner_pid, death_signal):
             conn.send((batch, idx, values, reasons, None))
 
 
-def _close_live_pools():
-    for pool in list(_LIVE_POOLS):
-        pool.close()
+def close_at_exit(owner):
+    """Have ``owner.close()`` called at interpreter exit unless :func:`closed` says it was closed before. ``owner``
+    holds helper processes started with :func:`child_start`: they ignore SIGTERM, so multiprocessing's own exit
+    handler, which sends SIGTERM to its daemonic children and then joins every child, would wait for them forever.
+    This handler is registered after multiprocessing's (it is registered anew whenever the first owner of a round
+    comes), so it runs first (atexit runs the last registered first)."""
+    if not _LIVE_OWNERS:
+        atexit.unregister(_close_live_owners)
+        atexit.register(_close_live_owners)
+    _LIVE_OWNERS.add(owner)
+
+
+def closed(owner):
+    """``owner`` has closed its helper processes (:func:`close_at_exit`)."""
+    _LIVE_OWNERS.discard(owner)
+
+
+def _close_live_owners():
+    for owner in list(_LIVE_OWNERS):
+        owner.close()
 
 
 def how_it_ended(exitcode) -> str:
@@ -259,10 +276,7 @@ class PoolExecutor(Executor):
         self._ctx = mp.get_context(method)
         self._evaluator = evaluator
         self._workers = [_Worker(self._ctx, evaluator) for _ in range(self.processes)]
-        if not _LIVE_POOLS:  # (re-)registered after multiprocessing's exit handler, which would wait for the workers
-            atexit.unregister(_close_live_pools)
-            atexit.register(_close_live_pools)
-        _LIVE_POOLS.add(self)
+        close_at_exit(self)
 
     def evaluate(self, evaluator, thetas, callback=None, stop=None, note=None):
         self._ensure(evaluator)
@@ -301,7 +315,7 @@ class PoolExecutor(Executor):
             worker.end()
         self._workers = []
         self._evaluator = None
-        _LIVE_POOLS.discard(self)
+        closed(self)
 
 
 class _Batch:

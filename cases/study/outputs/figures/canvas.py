@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 from inference import PoolExecutor
-from inference.executors.local import child_start
+from inference.executors.local import child_start, close_at_exit, closed
 
 __all__ = ["FIXED", "MAX_COLUMNS", "PANEL_MARGINS", "TITLE_ROOM", "FigureQueue", "draw", "pyplot", "panel_grid",
            "save"]
@@ -185,8 +185,9 @@ class FigureQueue:
         """Start the background drawer: a process at the lowest priority (Linux ``SCHED_IDLE``, else nice 19) that
         draws the figures and writes the files as they are kept, on the time the loop leaves a core idle (a sampler
         waiting for its slowest chunk, the parent's own work); :meth:`draw_all` stops it after the job in hand and
-        draws what is left. It ends with the pipe from this process (at :meth:`draw_all`), and with this process
-        as a pool worker does (``inference.executors.local.child_start``)."""
+        draws what is left. It ends with the pipe from this process (at :meth:`draw_all` or :meth:`close`, at the
+        latest when the interpreter ends), and with this process as a pool worker does
+        (``inference.executors.local.child_start``)."""
         import multiprocessing as mp
 
         if "fork" not in mp.get_all_start_methods():   # forked: it starts with pyplot and the modules imported
@@ -202,6 +203,7 @@ class FigureQueue:
         jobs_in.close()
         done_out.close()
         self.drawer = (process, jobs_out, done_in)
+        close_at_exit(self)   # a drawer ignores SIGTERM: an interpreter that ends without draw_all or close stops it
 
     def _stop_drawing(self) -> set:
         """Stop the background drawer after the job in hand; the indices of the jobs it drew or wrote. A job that
@@ -224,6 +226,7 @@ class FigureQueue:
             jobs_out.close()
             done_in.close()
             process.join()
+            closed(self)
         return done
 
     def close(self):

@@ -1,7 +1,11 @@
 """Figures kept and drawn later (cases.study.outputs.figures.canvas.FigureQueue): the same files, byte for byte, as
 drawn at once, whether the kept figures are drawn here or side by side on a process pool; nothing is drawn before
 ``draw_all``; a figure that fails stops the drawing with its error."""
+import subprocess
+import sys
+import textwrap
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -124,3 +128,43 @@ def test_closing_a_queue_stops_its_drawer_and_forgets_the_rest(tmp_path):
     assert queue.drawer is None and queue.jobs == [] and not process.is_alive()
     queue.draw_all(inference.SerialExecutor())   # nothing kept is left to draw
     assert not (tmp_path / "x.txt").exists()
+
+
+def test_an_interpreter_that_ends_with_its_drawer_running_stops_it(tmp_path):
+    """A program that ends (an error after the loop started, a test that fails) without draw_all or close: the
+    drawer ignores SIGTERM, so multiprocessing's exit handler alone would wait for it forever. The interpreter ends,
+    the figure in hand is finished and the drawer is gone."""
+    script = tmp_path / "ends.py"
+    script.write_text(textwrap.dedent(f"""
+        import time
+        from pathlib import Path
+        from cases.study.outputs.figures.canvas import FigureQueue, panel_grid
+
+        def panels(n):
+            fig, axes = panel_grid(n)
+            for k, ax in enumerate(axes):
+                ax.plot([0.0, 1.0], [0.0, k])
+            return fig
+
+        def write(path, text):
+            path.write_text(text)
+
+        queue = FigureQueue()
+        queue.start_drawing()
+        print(queue.drawer[0].pid, flush=True)
+        queue(panels, (3,), Path({str(tmp_path / "a.png")!r}), "drawn before the end", 110)
+        deadline = time.monotonic() + 60
+        while not Path({str(tmp_path / "a.png")!r}).exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        queue.keep(write, Path({str(tmp_path / "b.txt")!r}), "kept last")
+        time.sleep(0.5)   # the drawer has ignored SIGTERM for a while by now
+    """))
+    root = Path(__file__).resolve().parents[4]
+    done = subprocess.run([sys.executable, str(script)], cwd=root, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    pid = int(done.stdout.split()[0])
+    assert (tmp_path / "a.png").exists()
+    deadline = time.monotonic() + 10
+    while Path(f"/proc/{pid}").exists() and time.monotonic() < deadline:   # the kernel's bookkeeping of its end
+        time.sleep(0.05)
+    assert not Path(f"/proc/{pid}").exists()
