@@ -12,6 +12,7 @@ import sys
 import threading
 import time
 import traceback
+import weakref
 from collections import deque
 from multiprocessing.connection import wait
 
@@ -106,7 +107,10 @@ MAX_WORKER_DEATHS = 3
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
-_LIVE_OWNERS = set()  # owners of live helper processes (pools, a figure drawer), kept until closed
+#: owners of live helper processes (pools, a figure drawer) not closed yet: held (a pool's workers inherit each
+#: other's pipes, so they would not see the end of a pool that is collected) or, where the helper ends with its
+#: owner's pipe, weakly
+_LIVE_OWNERS, _LIVE_WEAK_OWNERS = set(), weakref.WeakSet()
 
 
 def child_start(owner_pid, death_signal):
@@ -168,25 +172,27 @@ def _serve(conn, evaluator, owner_pid, death_signal):
             conn.send((batch, idx, values, reasons, None))
 
 
-def close_at_exit(owner):
+def close_at_exit(owner, weak: bool = False):
     """Have ``owner.close()`` called at interpreter exit unless :func:`closed` says it was closed before. ``owner``
     holds helper processes started with :func:`child_start`: they ignore SIGTERM, so multiprocessing's own exit
     handler, which sends SIGTERM to its daemonic children and then joins every child, would wait for them forever.
-    This handler is registered after multiprocessing's (it is registered anew whenever the first owner of a round
-    comes), so it runs first (atexit runs the last registered first)."""
-    if not _LIVE_OWNERS:
+    ``weak``: ``owner`` is not kept alive for this (its helpers end when it is collected). The handler is registered
+    after multiprocessing's (anew whenever the first owner of a round comes), so it runs first (atexit runs the last
+    registered first)."""
+    if not _LIVE_OWNERS and not _LIVE_WEAK_OWNERS:
         atexit.unregister(_close_live_owners)
         atexit.register(_close_live_owners)
-    _LIVE_OWNERS.add(owner)
+    (_LIVE_WEAK_OWNERS if weak else _LIVE_OWNERS).add(owner)
 
 
 def closed(owner):
     """``owner`` has closed its helper processes (:func:`close_at_exit`)."""
     _LIVE_OWNERS.discard(owner)
+    _LIVE_WEAK_OWNERS.discard(owner)
 
 
 def _close_live_owners():
-    for owner in list(_LIVE_OWNERS):
+    for owner in [*_LIVE_OWNERS, *_LIVE_WEAK_OWNERS]:
         owner.close()
 
 

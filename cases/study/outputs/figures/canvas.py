@@ -203,7 +203,9 @@ class FigureQueue:
         jobs_in.close()
         done_out.close()
         self.drawer = (process, jobs_out, done_in)
-        close_at_exit(self)   # a drawer ignores SIGTERM: an interpreter that ends without draw_all or close stops it
+        # it ignores SIGTERM: an interpreter that ends without draw_all or close stops it; a queue collected before
+        # closes the pipe it reads, and it ends
+        close_at_exit(self, weak=True)
 
     def _stop_drawing(self) -> set:
         """Stop the background drawer after the job in hand; the indices of the jobs it drew or wrote. A job that
