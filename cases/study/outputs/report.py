@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from cases.study.outputs.calibration_warnings import calibration_warnings
-from cases.study.outputs.figures.canvas import draw, panel_grid
+from cases.study.outputs.figures.canvas import draw, log_time_axis, panel_grid
 from cases.study.outputs.figures.curves import curves_figure, stress_path_panels, stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.panels import curve_panels, stage_axes
@@ -137,7 +137,8 @@ def loop_figure(like, classes, diag, panels=None):
     """Per recorded curve, or per group of a stage programme's curves drawn end to end (``panels``,
     :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve): data with the base (dashed)
     and enriched (solid) MAP, and below it the base class's relative residual with the mismatch regions shaded. The
-    enriched class drawn is the confirmed one, else the physics class (not the model-form class) of largest ln Z.
+    enriched class drawn is the confirmed one, else the physics class (not the model-form class) of largest ln Z. A
+    time axis spanning more than two decades is logarithmic, as in the curves' figure.
     ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis. Returns the
     figure."""
     panels = panels or curve_panels(like.observations)
@@ -171,4 +172,6 @@ def loop_figure(like, classes, diag, panels=None):
         bottom.axhline(0, color="k", lw=0.6)
         bottom.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
         bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")
+        for ax in (top, bottom):
+            log_time_axis(ax, curve.x_name, curve.x)
     return fig

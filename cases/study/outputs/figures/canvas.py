@@ -13,11 +13,14 @@ import numpy as np
 from inference import PoolExecutor
 from inference.executors.local import child_start, close_at_exit, closed
 
-__all__ = ["FIXED", "MAX_COLUMNS", "PANEL_MARGINS", "TITLE_ROOM", "FigureQueue", "draw", "pyplot", "panel_grid",
-           "save"]
+__all__ = ["FIXED", "MAX_COLUMNS", "PANEL_MARGINS", "PANEL_TICKS", "TITLE_ROOM", "FigureQueue", "draw", "lean_ticks",
+           "log_time_axis", "pyplot", "panel_grid", "save"]
 
 #: the most panels side by side
 MAX_COLUMNS = 4
+#: the most intervals between major ticks on a panel's linear axis (matplotlib's ``nbins``): a tick is five artists,
+#: and ticks are most of a panel's drawing time
+PANEL_TICKS = 5
 
 
 def pyplot():
@@ -37,13 +40,32 @@ TITLE_ROOM = 0.4
 FIXED = "fixed grid"
 
 
+def lean_ticks(ax, bins: int = PANEL_TICKS):
+    """At most ``bins`` intervals between the major ticks of the linear axes of ``ax`` (matplotlib's automatic
+    locator otherwise fits up to about nine on a panel)."""
+    ax.locator_params(nbins=bins)
+
+
+def log_time_axis(ax, x_name: str, x) -> None:
+    """A time abscissa (``x_name`` "time" or "stage_time", values ``x`` in s) spanning more than two decades on a log
+    scale, its decades ticked (no minor ticks): creep, relaxation and consolidation records are logged at growing
+    intervals. Any other abscissa stays linear."""
+    from matplotlib.ticker import NullLocator
+
+    x = np.asarray(x, float)
+    if x_name in ("time", "stage_time") and x.min() > 0 and x.max() > 100 * x.min():
+        ax.set_xscale("log")
+        ax.xaxis.set_minor_locator(NullLocator())
+
+
 def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int = MAX_COLUMNS, stack: int = 1,
-               gap: float = 0.45):
+               gap: float = 0.45, ticks: int = PANEL_TICKS):
     """A figure of ``n`` panels, each in a cell of ``width`` x ``height`` inches (its axes inside the cell's
     ``PANEL_MARGINS``), in rows of at most ``max_columns``, with ``TITLE_ROOM`` above: (figure, the ``n`` axes in
     reading order). ``stack`` > 1 splits each cell's axes into that many axes of equal height, one above the other
     and ``gap`` inches apart (room for the upper ones' tick labels): each panel is then a tuple of axes, top first.
-    The panels are placed on this fixed grid, so :func:`save` needs no layout pass."""
+    The panels are placed on this fixed grid, so :func:`save` needs no layout pass; their axes have at most
+    ``ticks`` intervals between major ticks (:func:`lean_ticks`)."""
     plt = pyplot()
     cols = max(1, min(n, max_columns))
     rows = max(1, math.ceil(n / cols))
@@ -59,6 +81,8 @@ def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int
         bottom = fig_h - TITLE_ROOM - (row + 1) * height + m["bottom"]
         cell = [fig.add_axes((left / fig_w, (bottom + (stack - 1 - i) * (each + gap)) / fig_h, inner_w / fig_w,
                               each / fig_h)) for i in range(stack)]
+        for ax in cell:
+            lean_ticks(ax, ticks)
         axes.append(cell[0] if stack == 1 else tuple(cell))
     return fig, axes
 
@@ -100,11 +124,12 @@ class _Drawing:
         return np.zeros(len(rows)), [None] * len(rows)
 
 
-def _background_drawer(jobs_in, done_out, parents_ends, owner_pid, death_signal):
+def _background_drawer(jobs_in, done_out, stop_now, parents_ends, owner_pid, death_signal):
     """The background drawer's process (:meth:`FigureQueue.start_drawing`): at the lowest priority, draw or write
     each job (index, writer, args) received on ``jobs_in`` in the order kept, answering ("done", index) or ("failed",
-    index, traceback) on ``done_out``; on None, or when the parent's end of the pipe closes, stop after the job in
-    hand and answer ("stopped",). A thread receives the jobs as they come, so the parent never waits on a send.
+    index, traceback) on ``done_out``; when the event ``stop_now`` is set, on None, or when the parent's end of the
+    pipe closes, stop after the job in hand (the jobs received and not begun are left to the parent) and answer
+    ("stopped",). A thread receives the jobs as they come, so the parent never waits on a send.
     ``parents_ends``: the parent's ends of the two pipes, closed here; ``owner_pid``, ``death_signal``: of
     ``inference.executors.local.child_start`` (signals left to the parent, death with it), as a pool worker."""
     import traceback
@@ -141,7 +166,7 @@ def _background_drawer(jobs_in, done_out, parents_ends, owner_pid, death_signal)
     while True:
         with arrived:
             arrived.wait_for(lambda: pending or stop.is_set())
-            if stop.is_set():
+            if stop.is_set() or stop_now.is_set():
                 break
             index, write, args = pending.popleft()
         try:
@@ -166,7 +191,7 @@ class FigureQueue:
 
     def __init__(self):
         self.jobs = []
-        self.drawer = None   # the background drawer: (process, jobs' pipe, answers' pipe)
+        self.drawer = None   # the background drawer: (process, jobs' pipe, answers' pipe, its stop event)
 
     def __call__(self, make, args, path, title: str | None = None, dpi: int = 110):
         self.keep(draw, make, args, path, title, dpi)
@@ -196,13 +221,14 @@ class FigureQueue:
         ctx = mp.get_context("fork")
         jobs_in, jobs_out = ctx.Pipe(duplex=False)
         done_in, done_out = ctx.Pipe(duplex=False)
+        stop_now = ctx.Event()
         process = ctx.Process(target=_background_drawer, daemon=True,
-                              args=(jobs_in, done_out, (jobs_out, done_in), os.getpid(),
+                              args=(jobs_in, done_out, stop_now, (jobs_out, done_in), os.getpid(),
                                     threading.current_thread() is threading.main_thread()))
         process.start()
         jobs_in.close()
         done_out.close()
-        self.drawer = (process, jobs_out, done_in)
+        self.drawer = (process, jobs_out, done_in, stop_now)
         # it ignores SIGTERM: an interpreter that ends without draw_all or close stops it; a queue collected before
         # closes the pipe it reads, and it ends
         close_at_exit(self, weak=True)
@@ -210,9 +236,10 @@ class FigureQueue:
     def _stop_drawing(self) -> set:
         """Stop the background drawer after the job in hand; the indices of the jobs it drew or wrote. A job that
         failed there raises RuntimeError with its error."""
-        process, jobs_out, done_in = self.drawer
+        process, jobs_out, done_in, stop_now = self.drawer
         self.drawer = None
         done = set()
+        stop_now.set()   # not after the jobs sent before the None below: a starved drawer may hold many unread
         try:
             jobs_out.send(None)
             while True:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import panel_grid
+from cases.study.outputs.figures.canvas import log_time_axis, panel_grid
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.panels import Panel, curve_panels
 from cases.study.programme import split_key
@@ -38,8 +38,8 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
     :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve), at most four side by side: the
     records, the MAP and the 95 % posterior predictive band (``bands`` {(test, curve): inference.diagnosis
     PredictiveBand}) with the share of the records inside it, a faint line where a stage continues the one before
-    it on the axial strain of its shear; a time axis spanning more than two decades is logarithmic. Returns the
-    figure."""
+    it on the axial strain of its shear; a time axis spanning more than two decades is logarithmic
+    (:func:`cases.study.outputs.figures.canvas.log_time_axis`). Returns the figure."""
     dense = dense or {}
     panels = panels or curve_panels(observations)
     fig, axes = panel_grid(len(panels))
@@ -60,8 +60,7 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
         ax.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
         ax.set_ylabel(quantity_label(panel.keys[0], curve.y_unit))
         ax.set_title(panel.title, fontsize=9)
-        if curve.x_name in ("time", "stage_time") and curve.x.min() > 0 and curve.x.max() > 100 * curve.x.min():
-            ax.set_xscale("log")   # creep, relaxation, consolidation: records logged at growing intervals
+        log_time_axis(ax, curve.x_name, curve.x)
     axes[0].legend(fontsize=7)
     return fig
 

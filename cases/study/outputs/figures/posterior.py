@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import FIXED, draw, panel_grid, pyplot
+from cases.study.outputs.figures.canvas import FIXED, draw, lean_ticks, panel_grid, pyplot
 from cases.study.outputs.figures.labels import parameter_label
 
 __all__ = ["zoom", "marginals_figure", "pairs_figure", "stages_figure", "write_posterior_figures"]
@@ -38,9 +38,9 @@ def marginals_figure(post, marks=None, units=None):
     """One histogram per parameter of the final-stage samples, the axis zoomed to the posterior (:func:`zoom`), the
     MAP and the ``marks`` as vertical lines; a reference value outside the zoomed axis is named in the legend with
     its value instead. Returns the figure."""
-    fig, axes = panel_grid(len(post.names), 3.4, 2.7)
+    fig, axes = panel_grid(len(post.names), 3.4, 2.7, ticks=4)   # narrow panels, long tick labels
     for i, (ax, name) in enumerate(zip(axes, post.names)):
-        ax.hist(post.samples[:, i], bins=_bins(post.samples[:, i]), density=True, color="0.75",
+        ax.hist(post.samples[:, i], bins=_bins(post.samples[:, i]), density=True, color="0.75", histtype="stepfilled",
                 label="posterior samples")
         ax.axvline(post.map_theta[i], color="C3", lw=1.5, label="MAP")
         lo, hi = zoom(post.samples[:, i])
@@ -74,9 +74,10 @@ def pairs_figure(post, marks=None, units=None):
     for row in range(d):
         for col in range(row + 1):
             ax = fig.add_subplot(grid[row, col])
+            lean_ticks(ax, 4)
             x = post.samples[:, col]
             if col == row:
-                ax.hist(x, bins=_bins(x), color="0.7")
+                ax.hist(x, bins=_bins(x), color="0.7", histtype="stepfilled")
                 ax.axvline(post.map_theta[col], color="C3", lw=1.2)
                 for _, value, k in _marks_of(marks, post.names[col]):
                     ax.axvline(value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2)
@@ -109,10 +110,10 @@ def pairs_figure(post, marks=None, units=None):
 def stages_figure(post, units=None):
     """Each parameter's samples against the stage index (how the population narrows from the prior, stage 0, to
     the posterior, beta = 1). Returns the figure."""
-    fig, axes = panel_grid(len(post.names), 3.2, 2.6)
+    fig, axes = panel_grid(len(post.names), 3.2, 2.6, ticks=4)
+    spread = np.concatenate([j + np.linspace(-0.3, 0.3, len(theta)) for j, theta in enumerate(post.stage_samples)])
     for i, (ax, name) in enumerate(zip(axes, post.names)):
-        for j, theta in enumerate(post.stage_samples):
-            ax.plot(np.full(len(theta), j) + np.linspace(-0.3, 0.3, len(theta)), theta[:, i], ".", ms=1, color="C0")
+        ax.plot(spread, np.concatenate([theta[:, i] for theta in post.stage_samples]), ".", ms=1, color="C0")
         ax.set_xlabel("stage j")
         ax.set_ylabel(parameter_label(name, units or {}))
     return fig

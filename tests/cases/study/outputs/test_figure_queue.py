@@ -1,6 +1,7 @@
 """Figures kept and drawn later (cases.study.outputs.figures.canvas.FigureQueue): the same files, byte for byte, as
 drawn at once, whether the kept figures are drawn here or side by side on a process pool; nothing is drawn before
 ``draw_all``; a figure that fails stops the drawing with its error."""
+import os
 import subprocess
 import sys
 import textwrap
@@ -129,6 +130,52 @@ def test_closing_a_queue_stops_its_drawer_and_forgets_the_rest(tmp_path):
     queue.draw_all(inference.SerialExecutor())   # nothing kept is left to draw
     assert not (tmp_path / "x.txt").exists()
 
+
+
+def _busy_then_write(path, seconds):
+    """Hold this process's interpreter for ``seconds``, then write its process id to ``path``."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        pass
+    path.write_text(str(os.getpid()))
+
+
+def _write_pid(path, *_):
+    path.write_text(str(os.getpid()))
+
+
+def _read_slowly(seconds):
+    time.sleep(seconds)
+    return _SlowToRead(0.0)
+
+
+class _SlowToRead:
+    """An argument that takes ``seconds`` to unpickle: the drawer's reading thread is held on it."""
+
+    def __init__(self, seconds):
+        self.seconds = seconds
+
+    def __reduce__(self):
+        return _read_slowly, (self.seconds,)
+
+
+def test_the_drawer_stops_after_the_job_in_hand_even_with_jobs_received_behind_it(tmp_path):
+    """draw_all stops the background drawer after the job in hand although the drawer has received jobs it has not
+    begun and has not yet read the request to stop (its reading thread is held, as a drawer starved of a core is):
+    those jobs are drawn by draw_all, here, not one after the other in the drawer before it stops."""
+    queue = FigureQueue()
+    queue.start_drawing()
+    drawer = queue.drawer[0].pid
+    queue.keep(_busy_then_write, tmp_path / "in_hand.txt", 2.0)
+    for k in range(3):
+        queue.keep(_write_pid, tmp_path / f"received_{k}.txt")
+    queue.keep(_write_pid, tmp_path / "held.txt", _SlowToRead(4.0))   # the reading thread stops here
+    time.sleep(0.5)   # the drawer has the first job in hand and the next three received
+    queue.draw_all(inference.SerialExecutor())
+    assert (tmp_path / "in_hand.txt").read_text() == str(drawer)
+    here = str(os.getpid())
+    assert [(tmp_path / f"received_{k}.txt").read_text() for k in range(3)] == [here] * 3
+    assert (tmp_path / "held.txt").read_text() == here
 
 def test_an_interpreter_that_ends_with_its_drawer_running_stops_it(tmp_path):
     """A program that ends (an error after the loop started, a test that fails) without draw_all or close: the

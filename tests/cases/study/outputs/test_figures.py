@@ -370,3 +370,37 @@ def test_the_loop_figure_shades_a_stages_mismatch_where_the_stage_lies_on_the_jo
     extent = span.get_path().transformed(span.get_patch_transform()).vertices[:, 0]
     np.testing.assert_allclose([extent.min(), extent.max()], [2.2, 2.8])
     assert fig.axes[2].get_title() == "P, stages fast to slow (2)"
+
+
+def _hold(name, times, y):
+    """A creep hold's curve recorded at ``times`` (s) against the time ``name``."""
+    return Curve(times, y, name, "axial_strain", "s", "%")
+
+
+def test_a_time_axis_over_more_than_two_decades_is_logarithmic_in_the_curves_and_the_loop_figure():
+    """A creep hold logged at growing intervals (10 s to 1e5 s) is drawn on a log time axis ticked at its decades
+    (no minor ticks), in the curves' figure and in both axes of the loop figure's panel; a hold over less than two
+    decades and a strain abscissa stay linear. The panels' linear axes carry at most PANEL_TICKS intervals."""
+    from matplotlib.ticker import NullLocator
+
+    from cases.study.outputs.figures.canvas import PANEL_TICKS
+    from cases.study.outputs.figures.curves import curves_figure
+
+    observations = Observations([Test("C", {
+        "axial_strain@long": _hold("stage_time", np.geomspace(10.0, 1e5, 12), np.linspace(8.0, 9.0, 12)),
+        "axial_strain@short": _hold("stage_time", np.linspace(100.0, 5000.0, 12), np.linspace(9.0, 9.2, 12)),
+        "q@shear": Curve(np.linspace(0.1, 12.0, 12), np.linspace(20.0, 120.0, 12), "axial_strain", "q", "%",
+                         "kPa")})])
+    sims = {("C", c): curve.y * 1.01 for c, curve in observations["C"].curves.items()}
+    bands = {key: SimpleNamespace(lower=y * 0.9, upper=y * 1.1, coverage=1.0) for key, y in sims.items()}
+    fig = curves_figure(observations, sims, bands)
+    scales = [ax.get_xscale() for ax in fig.axes]
+    assert scales == ["log", "linear", "linear"]
+    assert isinstance(fig.axes[0].xaxis.get_minor_locator(), NullLocator)
+    fig.canvas.draw()
+    for ax in fig.axes[1:]:
+        assert len(ax.get_xticks()) <= PANEL_TICKS + 3 and len(ax.get_yticks()) <= PANEL_TICKS + 3
+    base = SimpleNamespace(map_simulated=sims, role="base", candidate=None, log_evidence=0.0)
+    diag = SimpleNamespace(omitted_physics="none", mismatch_regions=[])
+    loop = loop_figure(SimpleNamespace(observations=observations), [base], diag)
+    assert [ax.get_xscale() for ax in loop.axes] == ["log", "log", "linear", "linear", "linear", "linear"]
