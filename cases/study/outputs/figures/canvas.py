@@ -239,7 +239,7 @@ class FigureQueue:
         process, jobs_out, done_in, stop_now = self.drawer
         self.drawer = None
         done = set()
-        stop_now.set()   # not after the jobs sent before the None below: a starved drawer may hold many unread
+        stop_now.set()   # the None below is read only after every job sent before it (a starved drawer lags)
         try:
             jobs_out.send(None)
             while True:
