@@ -132,8 +132,10 @@ def test_closing_a_queue_stops_its_drawer_and_forgets_the_rest(tmp_path):
 
 
 
-def _busy_then_write(path, seconds):
-    """Hold this process's interpreter for ``seconds``, then write its process id to ``path``."""
+def _busy_then_write(begun, path, seconds):
+    """Say it has begun (the file ``begun``), hold this process's interpreter for ``seconds``, then write its process
+    id to ``path``."""
+    begun.write_text("begun")
     end = time.monotonic() + seconds
     while time.monotonic() < end:
         pass
@@ -166,16 +168,20 @@ def test_the_drawer_stops_after_the_job_in_hand_even_with_jobs_received_behind_i
     queue = FigureQueue()
     queue.start_drawing()
     drawer = queue.drawer[0].pid
-    queue.keep(_busy_then_write, tmp_path / "in_hand.txt", 2.0)
+    queue.keep(_busy_then_write, tmp_path / "begun.txt", tmp_path / "in_hand.txt", 3.0)
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "begun.txt").exists() and time.monotonic() < deadline:   # a drawer at the lowest priority
+        time.sleep(0.05)
     for k in range(3):
         queue.keep(_write_pid, tmp_path / f"received_{k}.txt")
     queue.keep(_write_pid, tmp_path / "held.txt", _SlowToRead(4.0))   # the reading thread stops here
-    time.sleep(0.5)   # the drawer has the first job in hand and the next three received
+    time.sleep(0.5)   # the next three received while the first is in hand
     queue.draw_all(inference.SerialExecutor())
     assert (tmp_path / "in_hand.txt").read_text() == str(drawer)
     here = str(os.getpid())
     assert [(tmp_path / f"received_{k}.txt").read_text() for k in range(3)] == [here] * 3
     assert (tmp_path / "held.txt").read_text() == here
+
 
 def test_an_interpreter_that_ends_with_its_drawer_running_stops_it(tmp_path):
     """A program that ends (an error after the loop started, a test that fails) without draw_all or close: the
