@@ -13,14 +13,16 @@ import numpy as np
 from inference import PoolExecutor
 from inference.executors.local import child_start, close_at_exit, closed
 
-__all__ = ["FIXED", "MAX_COLUMNS", "PANEL_MARGINS", "PANEL_TICKS", "TITLE_ROOM", "FigureQueue", "draw", "lean_ticks",
-           "log_time_axis", "pyplot", "panel_grid", "save"]
+__all__ = ["FIXED", "MAX_COLUMNS", "NARROW_PANEL_TICKS", "PANEL_MARGINS", "PANEL_TICKS", "TITLE_ROOM", "FigureQueue",
+           "draw", "lean_ticks", "log_time_axis", "pyplot", "panel_grid", "save"]
 
 #: the most panels side by side
 MAX_COLUMNS = 4
 #: the most intervals between major ticks on a panel's linear axis (matplotlib's ``nbins``): a tick is five artists,
 #: and ticks are most of a panel's drawing time
 PANEL_TICKS = 5
+#: the same on a narrow panel whose tick labels are long (a posterior's parameters, the pairs plot)
+NARROW_PANEL_TICKS = 4
 
 
 def pyplot():

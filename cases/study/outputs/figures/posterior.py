@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import FIXED, draw, lean_ticks, panel_grid, pyplot
+from cases.study.outputs.figures.canvas import FIXED, NARROW_PANEL_TICKS, draw, lean_ticks, panel_grid, pyplot
 from cases.study.outputs.figures.labels import parameter_label
 
 __all__ = ["zoom", "marginals_figure", "pairs_figure", "stages_figure", "write_posterior_figures"]
@@ -38,7 +38,7 @@ def marginals_figure(post, marks=None, units=None):
     """One histogram per parameter of the final-stage samples, the axis zoomed to the posterior (:func:`zoom`), the
     MAP and the ``marks`` as vertical lines; a reference value outside the zoomed axis is named in the legend with
     its value instead. Returns the figure."""
-    fig, axes = panel_grid(len(post.names), 3.4, 2.7, ticks=4)   # narrow panels, long tick labels
+    fig, axes = panel_grid(len(post.names), 3.4, 2.7, ticks=NARROW_PANEL_TICKS)
     for i, (ax, name) in enumerate(zip(axes, post.names)):
         ax.hist(post.samples[:, i], bins=_bins(post.samples[:, i]), density=True, color="0.75", histtype="stepfilled",
                 label="posterior samples")
@@ -74,7 +74,7 @@ def pairs_figure(post, marks=None, units=None):
     for row in range(d):
         for col in range(row + 1):
             ax = fig.add_subplot(grid[row, col])
-            lean_ticks(ax, 4)
+            lean_ticks(ax, NARROW_PANEL_TICKS)
             x = post.samples[:, col]
             if col == row:
                 ax.hist(x, bins=_bins(x), color="0.7", histtype="stepfilled")
@@ -110,7 +110,7 @@ def pairs_figure(post, marks=None, units=None):
 def stages_figure(post, units=None):
     """Each parameter's samples against the stage index (how the population narrows from the prior, stage 0, to
     the posterior, beta = 1). Returns the figure."""
-    fig, axes = panel_grid(len(post.names), 3.2, 2.6, ticks=4)
+    fig, axes = panel_grid(len(post.names), 3.2, 2.6, ticks=NARROW_PANEL_TICKS)
     spread = np.concatenate([j + np.linspace(-0.3, 0.3, len(theta)) for j, theta in enumerate(post.stage_samples)])
     for i, (ax, name) in enumerate(zip(axes, post.names)):
         ax.plot(spread, np.concatenate([theta[:, i] for theta in post.stage_samples]), ".", ms=1, color="C0")
