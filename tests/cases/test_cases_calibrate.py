@@ -460,7 +460,11 @@ def test_a_finished_run_resumed_gives_its_answer_without_sampling_again(tiny_run
     assert after["log_evidence"] == before["log_evidence"] and after["n_forward_solves"] == before["n_forward_solves"]
     np.testing.assert_array_equal(np.load(out / "posterior.npz")["samples"],
                                   np.load(tiny_run / "posterior.npz")["samples"])
-    assert "resuming from" in (out / "progress.log").read_text() and "phase done" in (out / "progress.log").read_text()
+    log = (out / "progress.log").read_text()
+    resumed = log[log.rindex("resuming from"):]   # the new session's lines
+    first, *later = resumed.splitlines()
+    assert "phase done" in first   # and nothing sampled after it: no stage, no batch of evaluations
+    assert not [line for line in later if line.lstrip().startswith("stage ") or "evaluations" in line]
 
 
 def test_tiny_run_posterior_nc_has_the_groups_and_the_npz_posterior(tiny_run):
