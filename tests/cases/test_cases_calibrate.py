@@ -526,13 +526,11 @@ def test_tiny_run_report_ends_with_the_glossary_of_its_symbols(tiny_run):
 
 
 @pytest.mark.parametrize("processes", ["1", "2"])
-def test_diagnose_on_the_tiny_run_writes_diagnosis_json(tiny_study, processes):
+def test_diagnose_on_the_tiny_run_writes_diagnosis_json(tiny_study, processes, children_left):
     """One process, or a pool with the background drawer of the figures: the same files, no process left."""
-    import multiprocessing
-
     out = tiny_study.parent / f"diag_{processes}"
     assert cal.main([str(tiny_study), "--quick", "--processes", processes, "--out", str(out), "--diagnose"]) == 0
-    assert not multiprocessing.active_children()
+    assert not children_left()
     for name in ("curves.png", "marginals.png", "pairs.png", "stages.png", "diagnosis.png"):
         assert (out / name).is_file(), name
     d = json.loads((out / "diagnosis.json").read_text())

@@ -1,6 +1,5 @@
 """inference.side_by_side: independent tasks each whole in a forked child, at most `processes` at once; answers in the
 tasks' order, errors returned, a child that dies redone here, no process left behind."""
-import multiprocessing
 import os
 import signal
 import time
@@ -22,7 +21,7 @@ def _stamp(k, pause=0.3):
     return task
 
 
-def test_answers_come_in_the_tasks_order_from_children_at_most_processes_at_once():
+def test_answers_come_in_the_tasks_order_from_children_at_most_processes_at_once(children_left):
     tasks = [_stamp(k, 0.3 if k != 1 else 0.05) for k in range(5)]
     results = side_by_side(tasks, 2)
     assert [err for _, err in results] == [None] * 5
@@ -35,7 +34,7 @@ def test_answers_come_in_the_tasks_order_from_children_at_most_processes_at_once
             assert sum(a <= moment <= b for _, _, a, b in values) <= 2
     # and two did run at once: five tasks of about 0.3 s on two processes take well under their sum
     assert max(v[3] for v in values) - min(v[2] for v in values) < 0.85 * sum(v[3] - v[2] for v in values)
-    assert not multiprocessing.active_children()
+    assert not children_left()
 
 
 def test_an_error_is_the_task_s_answer_and_the_others_still_run():
@@ -74,7 +73,7 @@ def test_one_process_or_one_task_runs_here_without_the_hooks():
         assert [v[1] for v, _ in results] == [os.getpid()] * n
 
 
-def test_a_child_that_dies_is_redone_here_and_said_once():
+def test_a_child_that_dies_is_redone_here_and_said_once(children_left):
     parent = os.getpid()
 
     def dies_in_a_child():
@@ -88,10 +87,10 @@ def test_a_child_that_dies_is_redone_here_and_said_once():
     assert len(lines) == 1 and "task 2 of 2" in lines[0] and "killed by signal 9" in lines[0]
     side_by_side([_stamp(0, 0.01), dies_in_a_child], 2, note=lines.append, names=["first", "the class of viscosity"])
     assert lines[1].startswith("the class of viscosity: its process") and "main process" in lines[1]
-    assert not multiprocessing.active_children()
+    assert not children_left()
 
 
-def test_an_error_here_while_children_run_kills_them_first():
+def test_an_error_here_while_children_run_kills_them_first(children_left):
     def back(answer):
         if answer[0] == 0:
             raise RuntimeError("stopped here")
@@ -101,4 +100,4 @@ def test_an_error_here_while_children_run_kills_them_first():
     with pytest.raises(RuntimeError, match="stopped here"):
         side_by_side([_stamp(0, 0.01), _stamp(1, 60.0)], 2, back=back)
     assert time.monotonic() - t0 < 20.0
-    assert not multiprocessing.active_children()
+    assert not children_left()

@@ -2,7 +2,6 @@
 process, are the classes one after the other gives, to the bit; what the next step needs comes back (the figures and
 files the children kept, the likelihood of each class for ``adopt``). SYNTHETIC records of the independent
 generator (a CRS programme of a viscous clay)."""
-import multiprocessing
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -37,7 +36,7 @@ def _step(out, processes):
         raise
 
 
-def _compare(one, two, base1, base2, both):
+def _compare(one, two, base1, base2, both, children_left):
     """The same classes to the bit, the same error for an effect the catalog lacks, no child left."""
     assert base1.log_evidence == base2.log_evidence
     for (a, err_a), (b, err_b) in zip(one[:3], two[:3]):
@@ -50,11 +49,11 @@ def _compare(one, two, base1, base2, both):
     assert str(one[3][1]) == str(two[3][1])
     assert "model-form discrepancy" in two[0][0].name and "viscous=True" in two[1][0].name
     # the only process left is the loop's background drawer of the figures
-    assert multiprocessing.active_children() == [both.figures.drawer[0]]
+    assert children_left() == [both.figures.drawer[0]]
 
 
 @pytest.mark.skipif(not can_fork(), reason="side by side needs fork")
-def test_side_by_side_gives_the_classes_one_after_the_other_gives(tmp_path, monkeypatch):
+def test_side_by_side_gives_the_classes_one_after_the_other_gives(tmp_path, monkeypatch, children_left):
     alone, base1, one = _step(tmp_path / "one", 1)
     children = tmp_path / "children"
     plain = inference.side_by_side
@@ -71,14 +70,14 @@ def test_side_by_side_gives_the_classes_one_after_the_other_gives(tmp_path, monk
     pids = children.read_text().split()
     assert len(pids) == len(REQUESTS) == len(set(pids)) and str(os.getpid()) not in pids
     try:
-        _compare(one, two, base1, base2, both)
+        _compare(one, two, base1, base2, both, children_left)
         # what the children kept comes back: each class's figures and posterior.nc are drawn and written here
         with inference.PoolExecutor(2) as pool:
             both.figures.draw_all(pool)
     finally:
         alone.figures.close()
         both.figures.close()
-    assert not multiprocessing.active_children()
+    assert not children_left()
     for folder in ("model_form", "enriched_viscosity", "enriched_time-dependent_swelling"):
         for name in ("curves.png", "pairs.png", "posterior.nc", "summary.json"):
             assert (tmp_path / "two" / folder / name).is_file(), (folder, name)
