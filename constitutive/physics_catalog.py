@@ -34,8 +34,13 @@ from dataclasses import dataclass, field
 
 from .registry import enrichment_family
 
-__all__ = ["COVARIATES", "STRESS_CURVES", "EFFECTIVE_STRESS_CURVES", "PORE_PRESSURE_CURVES", "STRAIN_CURVES",
-           "SIGNATURE_KEYS", "Enrichment", "Candidate", "CATALOG", "candidate", "signatures", "enriched_settings"]
+__all__ = ["COVARIATES", "COUPLED_FE_ARGUMENTS", "STRESS_CURVES", "EFFECTIVE_STRESS_CURVES", "PORE_PRESSURE_CURVES",
+           "STRAIN_CURVES", "SIGNATURE_KEYS", "Enrichment", "Candidate", "CATALOG", "candidate", "signatures",
+           "enriched_settings"]
+
+#: the switch and the parameter that go to a forward model solving consolidation (the SBP's coupled FE) instead of
+#: the material: the partial drainage enrichment's ``forward_arguments``
+COUPLED_FE_ARGUMENTS = ("coupled", "permeability")
 
 #: covariate vocabulary: name -> what a forward model reports under that name
 COVARIATES = {
@@ -208,7 +213,7 @@ CATALOG = (
         # each particle (fem.Solver.solve(permeability=...)); "coupled" is a forward-model switch, not an ANICREEP
         # argument. k log-uniform over five decades (clays 1e-11 to silts 1e-6 m/s).
         Enrichment("ANICREEP", {"coupled": True}, {"permeability": (1e-11, 1e-6)}, ("permeability",),
-                   forward_arguments=("coupled", "permeability"), inert_at={"permeability": "lower"}),
+                   forward_arguments=COUPLED_FE_ARGUMENTS, inert_at={"permeability": "lower"}),
         "the lab-test drivers (constitutive.labtests) treat a specimen as one material point, drained or undrained; "
         "the enrichment (permeability free, m/s) exists only for forward models that solve consolidation (the SBP "
         "FE in fem/, switch 'coupled')"),

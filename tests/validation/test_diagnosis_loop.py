@@ -366,3 +366,16 @@ def test_lab_case_tiny_loop_names_anisotropy(tmp_path):
     assert d.verdict == "structured mismatch" and d.omitted_physics == "anisotropy"
     assert list(d.log_bayes.values())[0] > diagnosis.STRONG_LOG_BAYES
     assert (tmp_path / "diagnosis.json").exists() and (tmp_path / "diagnosis.png").exists()
+
+
+def test_the_coupled_fe_enrichment_is_a_candidate_only_where_the_forward_model_solves_consolidation():
+    """A laboratory programme's specimens are material points: partial drainage (the coupled FE's permeability) is
+    unavailable there with the catalog's reason, and available to the pressuremeter problem."""
+    from validation.proofs.sbp import SBPProblem
+
+    lab_cands = {c["name"]: c for c in cv.PROBLEM.candidates()}
+    assert lab_cands["partial drainage"]["enrichment"] is None
+    assert "material point" in lab_cands["partial drainage"]["unavailable"]
+    assert lab_cands["viscosity"]["enrichment"] is not None
+    sbp_cands = {c["name"]: c for c in SBPProblem(1e-9, True).candidates()}
+    assert sbp_cands["partial drainage"]["enrichment"]["forward_arguments"] == ["coupled", "permeability"]

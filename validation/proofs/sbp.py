@@ -153,6 +153,7 @@ class SBPProblem(LoopProblem):
     model = "ANICREEP"
     base_switches = BASE_SWITCHES
     base_bounds = BASE_BOUNDS
+    forward_arguments = physics_catalog.COUPLED_FE_ARGUMENTS
     sigma_bounds = SIGMA_BOUNDS
     base_dir = "base"
 

@@ -32,7 +32,7 @@ __all__ = ["SBPForward", "pressuremeter_problem", "stage_phases", "hold_growth",
 
 #: parameters and switches of a model class that go to the FE rather than the material (the catalog's partial
 #: drainage: ``coupled`` and the free ``permeability`` in m/s)
-FE_ARGUMENTS = tuple(physics_catalog.candidate("partial drainage").enrichment.forward_arguments)
+FE_ARGUMENTS = physics_catalog.COUPLED_FE_ARGUMENTS
 
 def pressuremeter_problem(rate: float, preset, site: dict, void_ratio0: float, save_fields="none", history=None):
     """The fem.Problem of one SBP expansion at cavity strain rate ``rate`` (1/s) to :data:`MAX_CAVITY_STRAIN`, or of the

@@ -63,11 +63,11 @@ class LoopProblem:
     """A soil study as an ``inference.diagnosis.LoopProblem``.
 
     A subclass sets the base class (``model``, ``base_switches``, ``base_bounds``, ``base_log_uniform``, the error
-    parameter's ``sigma_bounds`` and ``sigma_kind``) and supplies :meth:`forward`, :meth:`map_curves`,
-    :meth:`curve_covariates` and optionally :meth:`catalog_switches`, :meth:`also_enrich`, :meth:`executor`,
-    :meth:`summary_extra`, :meth:`describe`, :meth:`outputs` and :meth:`plot`. :meth:`start` binds the loop's data
-    and run (observations, run settings, directory, seed, class size, label); the loop then calls
-    :meth:`candidates`, :meth:`calibrate` and :meth:`covariates`.
+    parameter's ``sigma_bounds`` and ``sigma_kind``, the forward model's ``forward_arguments``) and supplies
+    :meth:`forward`, :meth:`map_curves`, :meth:`curve_covariates` and optionally :meth:`catalog_switches`,
+    :meth:`also_enrich`, :meth:`executor`, :meth:`summary_extra`, :meth:`describe`, :meth:`outputs` and :meth:`plot`.
+    :meth:`start` binds the loop's data and run (observations, run settings, directory, seed, class size, label); the
+    loop then calls :meth:`candidates`, :meth:`calibrate` and :meth:`covariates`.
     """
 
     case = "case"
@@ -75,6 +75,9 @@ class LoopProblem:
     base_switches: dict = {}
     base_bounds: dict = {}
     base_log_uniform: tuple = ()
+    #: the arguments the forward model takes beyond the constitutive model's (physics_catalog.Enrichment.
+    #: forward_arguments); none for laboratory specimens, the coupled FE's for a pressuremeter problem
+    forward_arguments: tuple = ()
     sigma_bounds = {"sigma_eps": (0.002, 0.3)}
     sigma_kind = "uniform"
     #: inference.Constraint (or expressions) restricting the prior of the free parameters
@@ -92,9 +95,12 @@ class LoopProblem:
     enrichment_priors: dict = {}
     #: where the base class is calibrated, relative to the loop's directory
     base_dir = "base"
-    #: the candidates the stepwise discovery confirmed (:meth:`adopt`) and their switches (none before it steps)
+    #: the candidates the stepwise discovery confirmed (:meth:`adopt`), their switches and the priors of their added
+    #: parameters (none before it steps)
     adopted: tuple = ()
     adopted_switches: dict = {}
+    adopted_bounds: dict = {}
+    adopted_log_uniform: tuple = ()
     #: the fraction of a sampler stage's solves that may fail before a class's calibration stops (every class: base,
     #: model-form, enriched): a prior holds regions where the model cannot follow the programme's controls (M below
     #: the stress ratio of a K0 consolidation path; structure collapsing faster than it hardens under
@@ -295,8 +301,11 @@ class LoopProblem:
         self.seed, self.settings, self.label = seed, settings, label
         self.likelihood, self.description, self.base_mode = None, "", None
         self.convention, self.conventions_compared, self.own_base = {}, [], None
-        # the stepwise discovery: the confirmed candidates, their switches, where the step's classes go
+        # the stepwise discovery: the confirmed candidates, their switches and the priors of their added parameters
+        # (apart from the problem's own base, which a loop run again on this problem starts from), where the step's
+        # classes go
         self.adopted, self.adopted_switches, self.class_root, self.calibrated = (), {}, self.out, {}
+        self.adopted_bounds, self.adopted_log_uniform = {}, ()
         self.base_name = None
         self.figures = FigureQueue()
         if isinstance(self.executor(), inference.PoolExecutor):   # a background drawer takes what the loop leaves idle
@@ -304,9 +313,14 @@ class LoopProblem:
 
     def candidates(self) -> list:
         """The catalog for the base class (with the candidates :meth:`adopt` confirmed in it), an enrichment's added
-        parameters with the priors its class is calibrated under (:meth:`enriched_priors`)."""
+        parameters with the priors its class is calibrated under (:meth:`enriched_priors`). An enrichment that needs
+        forward-model arguments this problem's forward model does not take (:attr:`forward_arguments`: the coupled
+        FE's permeability, where the specimens are material points) is unavailable, with the catalog's reason."""
         out = physics_catalog.signatures(self.catalog_switches({**self.base_switches, **self.adopted_switches}),
                                          self.model)
+        out = [{**c, "enrichment": None, "unavailable": physics_catalog.candidate(c["name"]).unavailable}
+               if c["enrichment"] is not None and not set(c["enrichment"]["forward_arguments"]) <= set(
+                   self.forward_arguments) else c for c in out]
         for c in out:
             if c["enrichment"] is not None and c["name"] in self.enrichment_priors:
                 bounds, log_uniform = self.enriched_priors(c["name"], c["enrichment"]["parameters"],
@@ -340,13 +354,19 @@ class LoopProblem:
         """(name, switches, prior bounds, log-uniform names, directory) of the base class enriched with
         ``candidate``, on top of the candidates :meth:`adopt` confirmed (a combined class), in the base's
         convention."""
+        base_bounds, base_log_uniform = self.free_priors()
         switches, bounds, extra_log = physics_catalog.enriched_settings(
-            candidate, {**self.base_switches, **self.adopted_switches}, self.base_bounds, self.model, self.shears)
+            candidate, {**self.base_switches, **self.adopted_switches}, base_bounds, self.model, self.shears)
         bounds, extra_log = self.enriched_priors(candidate, bounds, extra_log)
         switches = {**switches, **self.adopted_switches, **self.convention}
         return (class_name(switches, enrichment_family(self.model).model), switches, bounds,
-                tuple(self.base_log_uniform) + tuple(extra_log),
+                base_log_uniform + tuple(extra_log),
                 self.class_root / f"enriched_{candidate.replace(' ', '_')}")
+
+    def free_priors(self) -> tuple:
+        """(bounds, log-uniform names) of the current base's free parameters: the problem's own, then the added
+        parameters of the candidates :meth:`adopt` confirmed, with the priors their classes were calibrated with."""
+        return {**self.base_bounds, **self.adopted_bounds}, tuple(self.base_log_uniform) + self.adopted_log_uniform
 
     def calibrate_base(self) -> ModelClass:
         """The base class in its own convention, in DIR/<base_dir> (:meth:`compare_conventions` writes it the other
@@ -425,7 +445,7 @@ class LoopProblem:
             switches = {**self.base_switches, **self.convention}
             name = class_name(switches, self.model)
         cls, _, _ = self.calibrate_class(self.observations, name + " + model-form discrepancy", switches,
-                                         self.base_bounds, tuple(self.base_log_uniform), self.run,
+                                         *self.free_priors(), self.run,
                                          self.class_root / "model_form", self.seed, self.settings,
                                          discrepancy=self.discrepancy(self.observations))
         return cls
@@ -492,9 +512,8 @@ class LoopProblem:
         self.adopted += (confirmed.candidate,)
         self.adopted_switches = {**self.adopted_switches, **enrichment.switches}
         added = {n: confirmed.priors[n] for n in enrichment.parameters if n in confirmed.priors}
-        self.base_bounds = {**self.base_bounds, **{n: (lo, hi) for n, (lo, hi, _) in added.items()}}
-        self.base_log_uniform = tuple(self.base_log_uniform) + tuple(
-            n for n, (_, _, kind) in added.items() if kind == "log-uniform")
+        self.adopted_bounds = {**self.adopted_bounds, **{n: (lo, hi) for n, (lo, hi, _) in added.items()}}
+        self.adopted_log_uniform += tuple(n for n, (_, _, kind) in added.items() if kind == "log-uniform")
         self.base_mode = dict(zip(confirmed.parameters, confirmed.extra["map_theta"]))
         self.base_name = confirmed.name
         self.class_root = self.out / f"step_{len(self.adopted) + 1}"

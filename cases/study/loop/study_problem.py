@@ -39,6 +39,9 @@ class StudyProblem(LoopProblem):
         self.base_switches = dict(study.switches)
         self.base_bounds = dict(study.free)
         self.base_log_uniform = tuple(study.log_uniform)
+        # a laboratory specimen is a material point, drained or undrained; pressuremeter tests are solved by the FE
+        if any("sbp" in (t.type, t.apparatus) for t in study.tests):
+            self.forward_arguments = physics_catalog.COUPLED_FE_ARGUMENTS
         self.sigma_bounds = ({"sigma_eps": study.sigma_bounds} if study.error_model is None
                              else study.error_model.parameter_bounds())
         self.sigma_kind = study.sigma_kind
@@ -87,16 +90,6 @@ class StudyProblem(LoopProblem):
 
     def catalog_switches(self, switches):
         return {**self.study.spec.catalog, **switches}
-
-    def candidates(self) -> list:
-        """The catalog for the study's base model; an enrichment that needs forward-model arguments (the coupled
-        FE's permeability) is unavailable to a study without pressuremeter tests (its laboratory specimens are
-        material points, drained or undrained), with the catalog's reason."""
-        out = super().candidates()
-        if any("sbp" in (t.type, t.apparatus) for t in self.study.tests):
-            return out
-        return [{**c, "enrichment": None, "unavailable": physics_catalog.candidate(c["name"]).unavailable}
-                if c["enrichment"] is not None and c["enrichment"]["forward_arguments"] else c for c in out]
 
     def executor(self):
         return inference.default_executor(self.dispatch, self.processes)
