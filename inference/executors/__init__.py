@@ -24,10 +24,10 @@ import os
 from .evaluator import EvaluationTimeout, Evaluator
 from .local import Executor, PoolExecutor, SerialExecutor
 from .mpi import MPIExecutor, RootRankError, mpi_world
-from .side_by_side import side_by_side
+from .side_by_side import SharedCoresExecutor, side_by_side
 
 __all__ = ["EvaluationTimeout", "RootRankError", "Evaluator", "Executor", "SerialExecutor", "PoolExecutor",
-           "MPIExecutor", "default_executor", "mpi_world", "side_by_side"]
+           "MPIExecutor", "SharedCoresExecutor", "default_executor", "mpi_world", "side_by_side"]
 
 
 def default_executor(dispatch="dynamic", processes=None):

@@ -1,14 +1,16 @@
 """inference.side_by_side: independent tasks each whole in a forked child, at most `processes` at once; answers in the
-tasks' order, errors returned, a child that dies redone here, no process left behind."""
+tasks' order, errors returned, a child that dies redone here, no process left behind; the cores of ended children
+shared among the running ones once none waits (SharedCoresExecutor)."""
 import itertools
 import os
 import signal
 import time
 
+import numpy as np
 import pytest
 
-from inference import side_by_side
-from inference.executors.side_by_side import can_fork
+from inference import Evaluator, SerialExecutor, side_by_side
+from inference.executors.side_by_side import SharedCoresExecutor, can_fork, cores_allotted
 
 pytestmark = pytest.mark.skipif(not can_fork(), reason="side by side needs fork")
 
@@ -102,4 +104,56 @@ def test_an_error_here_while_children_run_kills_them_first(children_left):
     with pytest.raises(RuntimeError, match="stopped here"):
         side_by_side([_stamp(0, 0.01), _stamp(1, 60.0)], 2, back=back)
     assert time.monotonic() - t0 < 20.0
+    assert not children_left()
+
+
+def _until_allotted(cores, limit_s=30.0):
+    """A task that waits until this child may use ``cores`` cores; returns the cores it was allotted at its start and
+    the most it saw."""
+    def task():
+        first = most = cores_allotted()
+        deadline = time.monotonic() + limit_s
+        while most < cores and time.monotonic() < deadline:
+            time.sleep(0.01)
+            most = max(most, cores_allotted())
+        return first, most
+    return task
+
+
+def test_the_cores_of_ended_children_go_to_those_still_running(children_left):
+    assert cores_allotted() == 1   # not in a side-by-side child
+    # three tasks on two processes: one core each while the third waits; when the third has started and the
+    # quick ones have ended, the one left running is allotted both cores
+    quick = lambda: (cores_allotted(), cores_allotted())   # noqa: E731
+    results = side_by_side([quick, _until_allotted(2), quick], 2)
+    assert [err for _, err in results] == [None] * 3
+    assert results[0][0] == (1, 1)          # started while a task waited
+    assert results[1][0] == (1, 2)          # one core, then both once the others had ended
+    assert results[2][0][0] == 1            # started beside the long one
+    assert not children_left()
+
+
+def _weighted_sum(theta):
+    return float(theta @ np.arange(1.0, 1.0 + theta.size))
+
+
+def test_a_child_allotted_two_cores_evaluates_on_a_pool_of_two_with_the_serial_values(children_left):
+    thetas = np.random.default_rng(3).normal(size=(40, 3))
+    serial = SerialExecutor().evaluate(Evaluator(_weighted_sum), thetas)[0]
+
+    def evaluate_when_alone():
+        _until_allotted(2)()
+        with SharedCoresExecutor() as executor:
+            values, _, ranks = executor.evaluate(Evaluator(_weighted_sum), thetas)
+            return values, sorted(set(ranks.tolist())), cores_allotted()
+
+    results = side_by_side([lambda: None, evaluate_when_alone], 2)
+    values, ranks, cores = results[1][0]
+    assert cores == 2 and ranks == [0, 1]   # both workers of the child's pool took a share
+    np.testing.assert_array_equal(values, serial)
+    # where it is not allotted more than one core it evaluates here, as SerialExecutor does
+    with SharedCoresExecutor() as executor:
+        values, _, ranks = executor.evaluate(Evaluator(_weighted_sum), thetas)
+    np.testing.assert_array_equal(values, serial)
+    assert not ranks.any()
     assert not children_left()

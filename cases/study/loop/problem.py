@@ -454,7 +454,8 @@ class LoopProblem:
         """The classes ``requests`` of one step (``inference.diagnosis.MODEL_FORM``: :meth:`calibrate_model_form`;
         a candidate: :meth:`calibrate`) side by side on the study's processes when its executor is a local pool
         (``inference.side_by_side``): each class whole in a child of this process, its evaluations there
-        (``inference.SerialExecutor``), so that no class waits at a sweep for the other worker's chunk. Returns
+        (``inference.executors.SharedCoresExecutor``: in the child, and on the cores of the classes that have ended
+        once no class waits to start), so that no class waits at a sweep for the other worker's chunk. Returns
         [(ModelClass, None) or (None, the error)] in their order, the classes one after the other would give (the
         model-form class starts last). A child sends back, with its class, the figures and files it kept (those that
         cannot travel it writes itself) and the switches of what it calibrated (:attr:`calibrated`, whose likelihood
@@ -468,7 +469,8 @@ class LoopProblem:
             return lambda: self.calibrate(request)
 
         def in_child(run):
-            self.executor = inference.SerialExecutor   # this child's evaluations stay in it
+            # this child's evaluations stay in it, on the cores the ended classes leave once none waits to start
+            self.executor = inference.executors.SharedCoresExecutor
             self.figures, known = FigureQueue(), set(self.calibrated)
             cls = run()
             kept = []   # each job pickled once, here: what cannot travel is written here
