@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cases.study.outputs.calibration_warnings import calibration_warnings
+from cases.study.outputs.calibration_warnings import calibration_warnings, warnings_section
 from cases.study.outputs.figures.canvas import draw, log_time_axis, panel_grid
 from cases.study.outputs.figures.curves import curves_figure, stress_path_panels, stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
@@ -114,10 +114,8 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
         lines.append("")
     lines += ["Predictive coverage of the records (95 % band): " + ", ".join(
         f"{panel.label} {100 * panel.coverage(bands):.0f} %" for panel in panels), ""]
-    warnings = cls["warnings"] if "warnings" in cls else calibration_warnings(post, like, cls["map_simulated"])
-    for text in warnings:
-        print(f"warning: {text}", flush=True)
-    lines += ["## Warnings", ""] + ([f"- {text}" for text in warnings] or ["none"]) + [""]
+    lines += warnings_section(cls["warnings"] if "warnings" in cls else
+                              calibration_warnings(post, like, cls["map_simulated"]))
     lines += ["Figures: curves.png (records, MAP, 95 % posterior predictive band)"
               + (", stress_paths.png (q-p')" if paths else "") + ", marginals.png, pairs.png, stages.png.",
               "",

@@ -24,6 +24,7 @@ import inference
 from cases.study.checks import Checker, read_toml
 from cases.study.cli import UsageError, unit_hint
 from cases.study.forward.lab import LabForward
+from cases.study.outputs.calibration_warnings import calibration_warnings, warnings_section
 from cases.study.outputs.glossary import glossary_lines
 from cases.study.outputs.report import parameter_table
 from cases.study.programme import TestSpec, condition_features
@@ -319,6 +320,16 @@ def _label(s: SandStudy, noise) -> str:
     return f"{s.study.description} ({'noise-free' if not noise else f'noise c ~ N(1, {noise:g}^2)'})"
 
 
+def _warnings(s: SandStudy, post) -> list:
+    """The calibration's warnings (``calibration_warnings``: prior bounds, sigma_eps at its ceiling, failed solves,
+    poor fits, one sigma_eps for quantities of unequal scatter) from the MAP's curves (one forward solve)."""
+    try:
+        simulated = {key: values[0] for key, values in s.like.simulated_many(post.map_theta).items()}
+    except Exception as exc:  # noqa: BLE001 - a diagnostic, reported rather than fatal
+        return [f"the MAP's curves could not be computed for the warnings: {type(exc).__name__}: {exc}"]
+    return calibration_warnings(post, s.like, simulated)
+
+
 def _report(out, run, seed, post, s: SandStudy, summary, volume_rows, truth, noise, reference_curves, predictions):
     """report.md and the figures of one run; ``reference_curves`` the forward model at the generating values,
     ``predictions`` the lines of the Predictions section (predictions.png already drawn when there are any)."""
@@ -352,7 +363,8 @@ def _report(out, run, seed, post, s: SandStudy, summary, volume_rows, truth, noi
         text += ["Volumetric strain of the predicted drained tests (%, compression positive, dilation negative; "
                  "eps_v = 100 (e0 - e)/(1 + e0); measured: the record interpolated; 95 % posterior predictive of "
                  "(P1) on e, noise and model error):", "", *volume_lines(volume_rows), ""]
-    text += [*predictions, "Figures: curves.png, stress_paths.png, marginals.png, pairs.png, stages.png, csl.png"
+    text += [*predictions, *warnings_section(_warnings(s, post)),
+             "Figures: curves.png, stress_paths.png, marginals.png, pairs.png, stages.png, csl.png"
              + (", predictions.png." if predictions else "."), "", *glossary_lines()]
     (Path(out) / "report.md").write_text("\n".join(text) + "\n")
 

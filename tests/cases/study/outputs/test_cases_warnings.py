@@ -1,5 +1,6 @@
 """Warnings of a finished calibration (cases.study.outputs.calibration_warnings) on constructed posteriors: parameters
-on prior bounds, sigma_eps at its ceiling, poor fits with the range where the residual is largest."""
+on prior bounds, sigma_eps at its ceiling, poor fits with the range where the residual is largest, one sigma_eps for
+quantities of unequal scatter."""
 import numpy as np
 import pytest
 
@@ -8,6 +9,7 @@ from cases.study.outputs.calibration_warnings import (
     calibration_warnings,
     failure_warnings,
     fit_warnings,
+    shared_sigma_warnings,
     sigma_warnings,
 )
 from inference import Bound, Curve, Likelihood, Observations, Posterior, Prior, Test
@@ -79,6 +81,37 @@ def test_calibration_warnings_with_error_groups():
         "the noise the prior allows"]
 
 
+def test_one_sigma_for_quantities_of_unequal_scatter():
+    """q misses by +-3 % at every point, the void ratio by +-0.5 % (RMS 3 % and 0.5 %, ratio 6): under one sigma_eps
+    the e curves weigh 36 times less than under their own, and the line offers a group per quantity; with q off by
+    +-1.4 % (ratio 2.8, below 3), with groups, or with one quantity, nothing is said."""
+    x = np.arange(1.0, 21.0)
+    sign = (-1.0) ** np.arange(20)
+    q, e = 10.0 * x, 0.9 - 0.005 * x
+    obs = Observations([Test("T1", {"q": Curve(x, q), "e": Curve(x, e)}), Test("T2", {"q@shear2": Curve(x, 2 * q)})])
+    sim = {("T1", "q"): q * (1 + 0.03 * sign), ("T1", "e"): e * (1 + 0.005 * sign),
+           ("T2", "q@shear2"): 2 * q * (1 - 0.03 * sign)}
+    one = Likelihood(obs, lambda p: {})
+    assert shared_sigma_warnings(one, sim) == [
+        "one sigma_eps serves quantities whose RMS relative residual at the MAP differs 6.0 times (q 3 %, e 0.5 %): "
+        'the e curves weigh about 36 times less than under an error parameter of their own; give each quantity its '
+        'own (Eq. (6g)): [sigma_eps] groups = { q = ["q"], e = ["e"] }']
+    closer = {**sim, ("T1", "q"): q * (1 + 0.014 * sign), ("T2", "q@shear2"): 2 * q * (1 + 0.014 * sign)}
+    assert shared_sigma_warnings(one, closer) == []
+    grouped = Likelihood(obs, lambda p: {}, groups={"stress": ["q", "q@shear2"], "volume": ["e"]})
+    assert shared_sigma_warnings(grouped, sim) == []
+    only_q = Likelihood(Observations([Test("T1", {"q": Curve(x, q)})]), lambda p: {})
+    assert shared_sigma_warnings(only_q, sim) == []
+    # among a calibration's warnings it is said where nothing is a poor fit (sigma_eps 3 %: the q curves at 1 x), not
+    # beside poor fits (sigma_eps 0.5 %: q at 6 x), whose misfit an error group would not mend
+    prior = Prior([Bound("a", 0.0, 1.0), Bound("sigma_eps", 0.001, 0.3)])
+    one.bind(prior.names)
+    fitted = calibration_warnings(_posterior(prior, np.tile([0.5, 0.03], (10, 1)), [0.5, 0.03]), one, sim)
+    assert fitted == shared_sigma_warnings(one, sim)
+    poor = calibration_warnings(_posterior(prior, np.tile([0.5, 0.005], (10, 1)), [0.5, 0.005]), one, sim)
+    assert len(poor) == 2 and all(line.startswith("poor fit: test T") for line in poor)
+
+
 @pytest.mark.parametrize("value, warned", [(0.2 * 0.99 + 0.001 * 0.01 + 1e-9, True), (0.2 * 0.99 - 0.01, False)])
 def test_bound_tolerance_is_a_fraction_of_the_width(value, warned):
     prior = Prior([Bound("a", 0.001, 0.2), Bound("sigma_eps", 0.01, 0.1)])
@@ -110,6 +143,17 @@ def test_an_error_parameter_on_its_lower_bound_is_a_bound_warning():
     assert bound_warnings(post, lower_only=("sigma_eps",)) == [
         "sigma_eps MAP 0.0102, 2.5 % quantile 0.0105, 97.5 % quantile 0.0105 at the lower bound 0.01 of its prior: "
         "widen the bound or fix it"]
+
+
+def test_a_lower_bound_of_zero_is_reached_only_on_the_posterior_s_own_scale():
+    """sigma_eps in a box [0, 1]: 0.0018 +- 0.0001 is 0.18 % of the box from 0 but far from it on its own scale (no
+    warning); a posterior reaching down to 1e-5 with its 97.5 % quantile at 0.002 is on the bound."""
+    prior = Prior([Bound("a", 0.0, 1.0), Bound("sigma_eps", 0.0, 1.0)])
+    clear = np.column_stack([np.full(40, 0.5), np.linspace(0.00167, 0.00193, 40)])
+    assert bound_warnings(_posterior(prior, clear, [0.5, 0.00177]), lower_only=("sigma_eps",)) == []
+    reaching = np.column_stack([np.full(40, 0.5), np.linspace(1e-5, 0.002, 40)])
+    (line,) = bound_warnings(_posterior(prior, reaching, [0.5, 1e-4]), lower_only=("sigma_eps",))
+    assert line.startswith("sigma_eps MAP 0.0001, 2.5 % quantile") and "at the lower bound 0 of its prior" in line
 
 
 def test_failed_solves_say_whether_the_posterior_reached_them():
