@@ -38,9 +38,8 @@ from cases.study.programme import split_key
 from inference.priors import Bound
 
 __all__ = ["BOUND_TOLERANCE", "SIGMA_TOLERANCE", "POOR_FIT_RATIO", "SHARE_RATIO", "ZERO_BOUND_FRACTION", "WINDOW",
-           "prior_bounds",
-           "bound_warnings", "sigma_warnings", "failure_warnings", "fit_warnings", "shared_sigma_warnings",
-           "calibration_warnings", "warnings_section"]
+           "prior_bounds", "bound_warnings", "sigma_warnings", "failure_warnings", "fit_warnings",
+           "shared_sigma_warnings", "calibration_warnings", "warnings_section"]
 
 BOUND_TOLERANCE = 0.01
 SIGMA_TOLERANCE = 0.02
