@@ -124,7 +124,9 @@ def test_the_cores_of_ended_children_go_to_those_still_running(children_left):
     assert cores_allotted() == 1   # not in a side-by-side child
     # three tasks on two processes: one core each while the third waits; when the third has started and the
     # quick ones have ended, the one left running is allotted both cores
-    quick = lambda: (cores_allotted(), cores_allotted())   # noqa: E731
+    def quick():
+        return cores_allotted(), cores_allotted()
+
     results = side_by_side([quick, _until_allotted(2), quick], 2)
     assert [err for _, err in results] == [None] * 3
     assert results[0][0] == (1, 1)          # started while a task waited

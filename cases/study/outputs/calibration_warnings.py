@@ -130,11 +130,11 @@ def fit_warnings(like, map_simulated: dict, curve_sigma: dict, ratio=POOR_FIT_RA
     reference = float(np.median(list(curve_sigma.values())))
     net = " net of the discrepancy" if discrepancy else ""
     found = []
+    residuals = like.residuals(None, map_simulated)
     for t in like.observations:
         for c, curve in t.curves.items():
             used = like.masks[t.name, c]
-            y, sim = curve.y[used], np.asarray(map_simulated[t.name, c], dtype=float)[used]
-            r = (y - sim) / y
+            r = residuals[t.name, c][used]
             if discrepancy:
                 r = r - discrepancy[t.name, c][used]
             x = curve.x[used]
@@ -158,15 +158,12 @@ def shared_sigma_warnings(like, map_simulated: dict, ratio=SHARE_RATIO) -> list:
     if len(like.sigma_names) != 1 or like.discrepancy_names:
         return []
     squares = {}
-    for t in like.observations:
-        for c, curve in t.curves.items():
-            used = like.masks[t.name, c]
-            y = curve.y[used]
-            r = (y - np.asarray(map_simulated[t.name, c], dtype=float)[used]) / y
-            if r.size and np.isfinite(r).all():
-                total = squares.setdefault(split_key(c)[0], [0.0, 0])
-                total[0] += float(r @ r)
-                total[1] += r.size
+    for (test, c), r in like.residuals(None, map_simulated).items():
+        r = r[like.masks[test, c]]
+        if r.size and np.isfinite(r).all():
+            total = squares.setdefault(split_key(c)[0], [0.0, 0])
+            total[0] += float(r @ r)
+            total[1] += r.size
     rms = {q: np.sqrt(s / n) for q, (s, n) in squares.items() if n}
     if len(rms) < 2 or min(rms.values()) <= 0.0:
         return []
