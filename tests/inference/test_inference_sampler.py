@@ -349,6 +349,7 @@ def test_arviz_export_carries_the_final_samples_and_evidence(tmp_path):
     curves, log_likelihood also the given pointwise terms per curve; the file written by save() reads back with
     arviz.from_netcdf."""
     az = pytest.importorskip("arviz")
+    xr = pytest.importorskip("xarray")
     prior = UniformPrior({"a": (-3.0, 3.0), "b": (-3.0, 3.0)})
     post = tmcmc(lambda th: -0.5 * float(np.sum(np.asarray(th) ** 2)), prior, n_samples=100, seed=1,
                            executor=SerialExecutor(), progress=False)
@@ -373,6 +374,15 @@ def test_arviz_export_carries_the_final_samples_and_evidence(tmp_path):
     assert np.array_equal(observed["T1:q:axial_strain"].values, x)
     assert np.array_equal(idata.posterior_predictive["T1:q"].values[0, 0], [11.0, 19.0, 31.0])
     assert float(az.summary(idata, var_names=["a"])["mean"].iloc[0]) == pytest.approx(post.mean["a"], abs=1e-3)
+    # the file is ArviZ's own: written by InferenceData.to_netcdf, every group reads back identical
+    post.to_arviz(observations, {("T1", "q"): np.array([11.0, 19.0, 31.0])}, pointwise).to_netcdf(
+        str(tmp_path / "arviz.nc"))
+    ours, theirs = (xr.open_datatree(tmp_path / name, engine="h5netcdf") for name in ("posterior.nc", "arviz.nc"))
+    assert ours.attrs == theirs.attrs and set(ours.children) == set(theirs.children)
+    for group in theirs.children:
+        xr.testing.assert_identical(ours[group].to_dataset(), theirs[group].to_dataset())
+        for var in theirs[group].to_dataset().variables:
+            assert ours[group][var].encoding.get("zlib") == theirs[group][var].encoding.get("zlib"), (group, var)
 
 
 def test_executor_given_by_name_is_refused_with_the_choices():

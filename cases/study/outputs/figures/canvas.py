@@ -13,7 +13,7 @@ import numpy as np
 from inference import PoolExecutor
 from inference.executors.local import child_start, close_at_exit, closed
 
-__all__ = ["FIXED", "MAX_COLUMNS", "NARROW_PANEL_TICKS", "PANEL_MARGINS", "PANEL_TICKS", "TITLE_ROOM", "FigureQueue",
+__all__ = ["FIXED", "MAX_COLUMNS", "PANEL_MARGINS", "PANEL_TICKS", "TITLE_ROOM", "FigureQueue",
            "draw", "lean_ticks", "log_time_axis", "pyplot", "panel_grid", "save"]
 
 #: the most panels side by side
@@ -21,8 +21,6 @@ MAX_COLUMNS = 4
 #: the most intervals between major ticks on a panel's linear axis (matplotlib's ``nbins``): a tick is five artists,
 #: and ticks are most of a panel's drawing time
 PANEL_TICKS = 5
-#: the same on a narrow panel whose tick labels are long (a posterior's parameters, the pairs plot)
-NARROW_PANEL_TICKS = 4
 
 
 def pyplot():
@@ -42,10 +40,10 @@ TITLE_ROOM = 0.4
 FIXED = "fixed grid"
 
 
-def lean_ticks(ax, bins: int = PANEL_TICKS):
-    """At most ``bins`` intervals between the major ticks of the linear axes of ``ax`` (matplotlib's automatic
+def lean_ticks(ax):
+    """At most ``PANEL_TICKS`` intervals between the major ticks of the linear axes of ``ax`` (matplotlib's automatic
     locator otherwise fits up to about nine on a panel)."""
-    ax.locator_params(nbins=bins)
+    ax.locator_params(nbins=PANEL_TICKS)
 
 
 def log_time_axis(ax, x_name: str, x) -> None:
@@ -61,13 +59,13 @@ def log_time_axis(ax, x_name: str, x) -> None:
 
 
 def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int = MAX_COLUMNS, stack: int = 1,
-               gap: float = 0.45, ticks: int = PANEL_TICKS):
+               gap: float = 0.45):
     """A figure of ``n`` panels, each in a cell of ``width`` x ``height`` inches (its axes inside the cell's
     ``PANEL_MARGINS``), in rows of at most ``max_columns``, with ``TITLE_ROOM`` above: (figure, the ``n`` axes in
     reading order). ``stack`` > 1 splits each cell's axes into that many axes of equal height, one above the other
     and ``gap`` inches apart (room for the upper ones' tick labels): each panel is then a tuple of axes, top first.
     The panels are placed on this fixed grid, so :func:`save` needs no layout pass; their axes have at most
-    ``ticks`` intervals between major ticks (:func:`lean_ticks`)."""
+    ``PANEL_TICKS`` intervals between major ticks (:func:`lean_ticks`)."""
     plt = pyplot()
     cols = max(1, min(n, max_columns))
     rows = max(1, math.ceil(n / cols))
@@ -84,7 +82,7 @@ def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int
         cell = [fig.add_axes((left / fig_w, (bottom + (stack - 1 - i) * (each + gap)) / fig_h, inner_w / fig_w,
                               each / fig_h)) for i in range(stack)]
         for ax in cell:
-            lean_ticks(ax, ticks)
+            lean_ticks(ax)
         axes.append(cell[0] if stack == 1 else tuple(cell))
     return fig, axes
 

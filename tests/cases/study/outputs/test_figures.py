@@ -18,7 +18,14 @@ from cases.study.outputs.figures.curves import (
 from cases.study.outputs.figures.dense import dense_curves, densified, with_mean_stress
 from cases.study.outputs.figures.labels import abscissa_label, panel_title, parameter_label, quantity_label
 from cases.study.outputs.figures.panels import curve_panels, stage_axes
-from cases.study.outputs.figures.posterior import marginals_figure, pairs_figure, write_posterior_figures
+from cases.study.outputs.figures.posterior import (
+    marginals_figure,
+    pairs_figure,
+    stages_figure,
+    write_posterior_figures,
+    zoom,
+)
+from cases.study.outputs.figures.sheet import TICK_FONT
 from cases.study.outputs.report import loop_figure
 from cases.study.programme import InitialState, Stage, TestSpec
 from inference import Curve, Observations, Test
@@ -119,37 +126,113 @@ def test_a_stacked_grid_keeps_each_panels_axes_apart_with_their_labels(tmp_path)
             assert _overlap(box, other) == 0.0
 
 
+def _cells(ax):
+    """The frames of a sheet's cells (cases.study.outputs.figures.sheet) as (left, bottom, width, height), in the
+    order drawn: the first line collection's closed rectangles."""
+    out = []
+    for seg in ax.collections[0].get_segments():
+        (x0, y0), (x1, _), (_, y1) = seg[0], seg[1], seg[2]
+        out.append((x0, y0, x1 - x0, y1 - y0))
+    return out
+
+
+def _values(cell, values, axis, value_range):
+    """Positions on a cell's ``axis`` (0: x, 1: y) back to the values of an axis over ``value_range``."""
+    lo, hi = value_range
+    return lo + (hi - lo) * (np.asarray(values) - cell[axis]) / cell[2 + axis]
+
+
 def test_marginals_are_zoomed_to_the_posterior_with_units_and_a_legend():
     post = _posterior()
     marks = {"generating": {"M": 1.2, "sigma_p0": 400.0}}
     fig = marginals_figure(post, marks, UNITS)
-    ax_m, ax_s = fig.axes
-    assert ax_m.get_xlabel() == "M (-)" and ax_s.get_xlabel() == "sigma_p0 (kPa)"
-    for ax, column in ((ax_m, 0), (ax_s, 1)):
+    (ax,) = fig.axes   # the panels are cells of one axes
+    cell_m, cell_s = _cells(ax)
+    texts = {t.get_text(): t.get_position() for t in ax.texts}
+    # each label under its own panel
+    assert cell_m[0] < texts["M (-)"][0] < cell_m[0] + cell_m[2] and texts["M (-)"][1] < cell_m[1]
+    assert cell_s[0] < texts["sigma_p0 (kPa)"][0] < cell_s[0] + cell_s[2]
+    # zoomed: each histogram spans its cell, which spans the samples' range widened by 15 % on each side
+    hist_m, hist_s = ax.patches
+    for hist, cell, column in ((hist_m, cell_m, 0), (hist_s, cell_s, 1)):
         lo, hi = post.samples[:, column].min(), post.samples[:, column].max()
-        assert ax.get_xlim() == pytest.approx((lo - 0.15 * (hi - lo), hi + 0.15 * (hi - lo)))
-    legend = [t.get_text() for t in ax_m.get_legend().get_texts()]
+        box = hist.get_path().get_extents()
+        assert _values(cell, [box.x0, box.x1], 0, zoom(post.samples[:, column])) == pytest.approx(
+            [lo - 0.15 * (hi - lo), hi + 0.15 * (hi - lo)])
+    # the MAP of M where it is: a vertical red line in M's cell
+    red = [line for line in ax.get_lines() if line.get_color() == "C3"]
+    assert _values(cell_m, red[0].get_xdata()[0], 0, zoom(post.samples[:, 0])) == pytest.approx(post.map_theta[0])
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert sorted(legend) == ["MAP", "generating", "posterior samples"]
-    # 400 kPa is far outside the posterior of sigma_p0: named with its value, not drawn
-    assert "generating: 400 (off the axis)" in [t.get_text() for t in ax_s.get_legend().get_texts()]
+    # 400 kPa is far outside the posterior of sigma_p0: named with its value in its panel, not drawn
+    x, y = texts["generating: 400 (off the axis)"]
+    assert cell_s[0] < x < cell_s[0] + cell_s[2] and cell_s[1] < y <= cell_s[1] + cell_s[3]
+    dashed = [line for line in ax.get_lines() if line.get_linestyle() == "--"]
+    assert len(dashed) == 1 and cell_m[0] < dashed[0].get_xdata()[0] < cell_m[0] + cell_m[2]
 
 
 def test_pairs_plot_shows_the_samples_the_map_and_the_ridge_with_units():
     post = _posterior()
     fig = pairs_figure(post, {"generating": {"M": 1.2, "sigma_p0": 100.0}}, UNITS)
-    # the lower triangle only, row by row: (0, 0), (1, 0), (1, 1)
-    diagonal, pair, last = fig.axes
-    assert pair.get_xlabel() == "M (-)" and pair.get_ylabel() == "sigma_p0 (kPa)"
-    assert last.get_xlabel() == "sigma_p0 (kPa)" and diagonal.get_xlabel() == ""
-    samples, star, mark = pair.get_lines()[:3]
-    np.testing.assert_array_equal(samples.get_xdata(), post.samples[:, 0])
-    np.testing.assert_array_equal(samples.get_ydata(), post.samples[:, 1])
-    assert (star.get_xdata()[0], star.get_ydata()[0]) == tuple(post.map_theta)
-    assert (mark.get_xdata()[0], mark.get_ydata()[0]) == (1.2, 100.0)
+    (ax,) = fig.axes   # the cells of one axes, the lower triangle row by row: (0, 0), (1, 0), (1, 1)
+    diagonal, pair, last = _cells(ax)
+    assert diagonal[0] == pair[0] and diagonal[1] > pair[1] and last[0] > pair[0] and last[1] == pair[1]
+    texts = [t.get_text() for t in ax.texts]
+    assert texts.count("M (-)") == 1 and texts.count("sigma_p0 (kPa)") == 2   # under its column and left of its row
+    lines = ax.get_lines()
+    samples = next(line for line in lines if line.get_marker() == ".")
+    star = next(line for line in lines if line.get_marker() == "*")
+    mark = next(line for line in lines if line.get_marker() == "s")
+    m_range, s_range = zoom(post.samples[:, 0]), zoom(post.samples[:, 1])
+    np.testing.assert_allclose(_values(pair, samples.get_xdata(), 0, m_range), post.samples[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(_values(pair, samples.get_ydata(), 1, s_range), post.samples[:, 1], rtol=1e-12)
+    np.testing.assert_allclose([_values(pair, star.get_xdata()[0], 0, m_range),
+                                _values(pair, star.get_ydata()[0], 1, s_range)], post.map_theta, rtol=1e-12)
+    np.testing.assert_allclose([_values(pair, mark.get_xdata()[0], 0, m_range),
+                                _values(pair, mark.get_ydata()[0], 1, s_range)], (1.2, 100.0), rtol=1e-12)
     # the ridge: the samples of the pair panel are correlated as drawn (M = 1 + 0.002 sigma_p0)
     assert np.corrcoef(samples.get_xdata(), samples.get_ydata())[0, 1] > 0.9
-    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    # the diagonal's histograms stand in their cells: M's in (0, 0), sigma_p0's in (1, 1)
+    for hist, cell in zip(ax.patches, (diagonal, last)):
+        box = hist.get_path().get_extents()
+        assert cell[0] - 1e-9 <= box.x0 and box.x1 <= cell[0] + cell[2] + 1e-9
+        assert cell[1] - 1e-9 <= box.y0 and box.y1 <= cell[1] + cell[3] + 1e-9
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert legend == ["posterior samples", "MAP", "generating"]
+
+
+def test_tick_values_stay_off_the_cells_edges_and_name_the_value_at_their_place():
+    """The tick values under a column of the pairs plot lie in its middle 88 %, so the last label of one column
+    and the first of the next do not meet; each names the value at its place (a power of ten shared by an axis's
+    values is written once, beside its label)."""
+    post = _posterior()
+    post.samples[:, 1] *= 1e-11   # sigma_p0 about 1e-9 (a permeability's scale): its values written over 1e-9
+    (ax,) = pairs_figure(post, None, UNITS).axes
+    diagonal, pair, last = _cells(ax)
+    under = [t for t in ax.texts if t.get_fontsize() == TICK_FONT and t.get_position()[1] < pair[1]]
+    assert len(under) >= 4
+    for t in under:
+        x = t.get_position()[0]
+        cell, k = (pair, 0) if x < last[0] else (last, 1)
+        assert cell[0] + 0.06 * cell[2] <= x <= cell[0] + 0.94 * cell[2]
+        scale = 1e-9 if k == 1 else 1.0
+        assert float(t.get_text()) * scale == pytest.approx(_values(cell, x, 0, zoom(post.samples[:, k])), rel=1e-3)
+    assert "sigma_p0 (kPa) x 1e-9" in [t.get_text() for t in ax.texts]
+
+
+def test_stages_are_drawn_with_every_stage_ticked():
+    post = _posterior()
+    (ax,) = stages_figure(post, UNITS).axes
+    cell_m, cell_s = _cells(ax)
+    dots = ax.get_lines()[0]
+    n = sum(len(theta) for theta in post.stage_samples)
+    # M's samples in M's cell, then sigma_p0's in its own, each at its stage's index +- 0.3
+    np.testing.assert_allclose(np.round(_values(cell_m, dots.get_xdata()[:n], 0, (-0.6, 1.6))),
+                               np.repeat([0, 1], [len(t) for t in post.stage_samples]))
+    values = np.concatenate([theta[:, 1] for theta in post.stage_samples])
+    np.testing.assert_allclose(_values(cell_s, dots.get_ydata()[n:], 1, zoom(values, 0.05)), values, rtol=1e-12)
+    stage_ticks = [t.get_text() for t in ax.texts if t.get_fontsize() == TICK_FONT and t.get_position()[1] < cell_m[1]]
+    assert stage_ticks.count("0") == 2 and stage_ticks.count("1") == 2
 
 
 def test_posterior_figures_are_written(tmp_path):
