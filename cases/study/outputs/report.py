@@ -9,16 +9,26 @@ from pathlib import Path
 import numpy as np
 
 from cases.study.outputs.calibration_warnings import calibration_warnings, warnings_section
-from cases.study.outputs.figures.canvas import draw, log_time_axis, panel_grid
+from cases.study.outputs.figures.canvas import (
+    MAX_COLUMNS,
+    PANEL_MARGINS,
+    PANEL_TICKS,
+    draw,
+    logarithmic_time,
+)
 from cases.study.outputs.figures.curves import curves_figure, stress_path_panels, stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.panels import curve_panels, stage_axes
 from cases.study.outputs.figures.posterior import write_posterior_figures
+from cases.study.outputs.figures.sheet import grid, padded
 from cases.study.outputs.glossary import glossary_lines
 from cases.study.runner import method_name
 from inference import diagnosis
 
 __all__ = ["parameter_table", "runs_table", "loop_figure", "plot_loop", "write_outputs"]
+
+#: the loop figure: the room (inches) between a panel's records and its residual below them
+STACK_GAP = 0.2
 
 def _fmt(v):
     if v is None or (isinstance(v, float) and not np.isfinite(v)):
@@ -134,42 +144,59 @@ def plot_loop(path, like, classes, diag, label, synthetic, draw=draw, panels=Non
 def loop_figure(like, classes, diag, panels=None):
     """Per recorded curve, or per group of a stage programme's curves drawn end to end (``panels``,
     :func:`cases.study.outputs.figures.panels.curve_panels`; None: a panel per curve): data with the base (dashed)
-    and enriched (solid) MAP, and below it the base class's relative residual with the mismatch regions shaded. The
-    enriched class drawn is the confirmed one, else the physics class (not the model-form class) of largest ln Z. A
-    time axis spanning more than two decades is logarithmic, as in the curves' figure.
-    ``classes``: the loop's [ModelClass], the base class first; ``diag``: its final Diagnosis. Returns the
-    figure."""
+    and enriched (solid) MAP, and below it on the same abscissa the base class's relative residual with the mismatch
+    regions shaded. The enriched class drawn is the confirmed one, else the physics class (not the model-form class)
+    of largest ln Z. A time axis spanning more than two decades is logarithmic, as in the curves' figure (the panels
+    are cells of one axes, :mod:`cases.study.outputs.figures.sheet`). ``classes``: the loop's [ModelClass], the base
+    class first; ``diag``: its final Diagnosis. Returns the figure."""
+    from matplotlib.patches import Rectangle
+
     panels = panels or curve_panels(like.observations)
-    fig, axes = panel_grid(len(panels), 4.2, 5.6, stack=2)
+    m = PANEL_MARGINS
+    sheet, frames = grid(len(panels), (4.2, 5.6), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
+                         PANEL_TICKS, legend=True)
     base, enriched = classes[0], None
     physics = [c for c in classes[1:] if c.role == "enriched"]
     if physics:
         confirmed = [c for c in physics if c.candidate == diag.omitted_physics]
         enriched = confirmed[0] if confirmed else max(physics, key=lambda c: c.log_evidence)
-    for (top, bottom), panel in zip(axes, panels):
+    ax = sheet.ax
+    for k, ((left, bottom, width, height), panel) in enumerate(zip(frames, panels)):
         t = panel.test
-        for k, (c, offset) in enumerate(panel.members):
-            curve, first = like.observations[t].curves[c], k == 0
-            x = curve.x + offset
-            top.plot(x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded" if first else None)
-            top.plot(x, base.map_simulated[t, c], "k--", lw=1, label="base MAP" if first else None)
-            if enriched is not None:
-                top.plot(x, enriched.map_simulated[t, c], "C0-", lw=1.3,
-                         label=f"{enriched.candidate} MAP" if first else None)
-            bottom.plot(x, 100 * (curve.y / base.map_simulated[t, c] - 1.0), "o-", ms=3, lw=0.6, color="C3")
+        members = []   # (x, records, base MAP, enriched MAP or None, residual %, offset, key)
+        for c, offset in panel.members:
+            curve = like.observations[t].curves[c]
+            members.append((curve.x + offset, curve.y, base.map_simulated[t, c],
+                            None if enriched is None else enriched.map_simulated[t, c],
+                            100 * (curve.y / base.map_simulated[t, c] - 1.0), offset, c))
+        curve = like.observations[t].curves[panel.keys[0]]
+        log = logarithmic_time(curve.x_name, curve.x)
+        x_range = padded(np.concatenate([x for x, *_ in members]), log)
+        each = (height - STACK_GAP) / 2
+        top = sheet.cell(left, bottom + each + STACK_GAP, width, each, x_range, padded(np.concatenate(
+            [v for _, y, b, e, *_ in members for v in (y, b, () if e is None else e)])), x_log=log)
+        low = sheet.cell(left, bottom, width, each, x_range,
+                         padded(np.concatenate([[0.0], *(r for *_, r, _, _ in members)])), x_log=log)
+        for j, (x, y, b, e, r, offset, c) in enumerate(members):
+            label = k == 0 and j == 0
+            ax.plot(top.x(x), top.y(y), "o", ms=3, mfc="none", color="C3", label="recorded" if label else None)
+            ax.plot(top.x(x), top.y(b), "k--", lw=1, label="base MAP" if label else None)
+            if e is not None:
+                ax.plot(top.x(x), top.y(e), "C0-", lw=1.3, label=f"{enriched.candidate} MAP" if label else None)
+            ax.plot(low.x(x), low.y(r), "o-", ms=3, lw=0.6, color="C3")
             for reg in diag.mismatch_regions:
                 if reg.test == t and reg.curve == c:
-                    bottom.axvspan(reg.x_start + offset, reg.x_end + offset, color="C3", alpha=0.15)
+                    x0, x1 = np.clip(low.x([reg.x_start + offset, reg.x_end + offset]), low.left, low.left + width)
+                    ax.add_patch(Rectangle((x0, low.bottom), x1 - x0, each, color="C3", alpha=0.15, lw=0))
             if offset:   # where a stage continues the one before on a shifted axis
-                for ax in (top, bottom):
-                    ax.axvline(offset, color="0.75", lw=0.5, zorder=0)
-        curve = like.observations[t].curves[panel.keys[0]]
-        top.set_title(panel.title, fontsize=9)
-        top.set_ylabel(quantity_label(panel.keys[0], curve.y_unit))
-        top.legend(fontsize=7)
-        bottom.axhline(0, color="k", lw=0.6)
-        bottom.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
-        bottom.set_ylabel("base residual U_obs/U_sim - 1 (%)")
-        for ax in (top, bottom):
-            log_time_axis(ax, curve.x_name, curve.x)
-    return fig
+                for cell in (top, low):
+                    cell.vertical(offset, color="0.75", lw=0.5, zorder=0)
+        ax.plot([low.left, low.left + width], [float(low.y(0.0))] * 2, color="k", lw=0.6)
+        top.title(panel.title)
+        top.x_axis(values=False, edge=0.0)
+        top.y_axis(quantity_label(panel.keys[0], curve.y_unit), edge=0.0)
+        low.x_axis(abscissa_label(curve.x_name, curve.x_unit), edge=0.0)
+        low.y_axis("base residual U_obs/U_sim - 1 (%)", edge=0.0)
+    sheet.legend_row(ax.get_legend_handles_labels()[0])
+    return sheet.finish()
+

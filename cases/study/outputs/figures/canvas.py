@@ -14,7 +14,7 @@ from inference import PoolExecutor
 from inference.executors.local import child_start, close_at_exit, closed
 
 __all__ = ["FIXED", "MAX_COLUMNS", "PANEL_MARGINS", "PANEL_TICKS", "TITLE_ROOM", "FigureQueue",
-           "draw", "lean_ticks", "log_time_axis", "pyplot", "panel_grid", "save"]
+           "draw", "lean_ticks", "logarithmic_time", "pyplot", "panel_grid", "save"]
 
 #: the most panels side by side
 MAX_COLUMNS = 4
@@ -46,26 +46,20 @@ def lean_ticks(ax):
     ax.locator_params(nbins=PANEL_TICKS)
 
 
-def log_time_axis(ax, x_name: str, x) -> None:
-    """A time abscissa (``x_name`` "time" or "stage_time", values ``x`` in s) spanning more than two decades on a log
-    scale, its decades ticked (no minor ticks): creep, relaxation and consolidation records are logged at growing
-    intervals. Any other abscissa stays linear."""
-    from matplotlib.ticker import NullLocator
-
+def logarithmic_time(x_name: str, x) -> bool:
+    """Whether an abscissa is drawn on a log scale: a time (``x_name`` "time" or "stage_time", values ``x`` in s)
+    spanning more than two decades (creep, relaxation and consolidation records are logged at growing intervals);
+    any other abscissa is linear."""
     x = np.asarray(x, float)
-    if x_name in ("time", "stage_time") and x.min() > 0 and x.max() > 100 * x.min():
-        ax.set_xscale("log")
-        ax.xaxis.set_minor_locator(NullLocator())
+    return x_name in ("time", "stage_time") and x.min() > 0 and x.max() > 100 * x.min()
 
 
-def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int = MAX_COLUMNS, stack: int = 1,
-               gap: float = 0.45):
+def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int = MAX_COLUMNS):
     """A figure of ``n`` panels, each in a cell of ``width`` x ``height`` inches (its axes inside the cell's
     ``PANEL_MARGINS``), in rows of at most ``max_columns``, with ``TITLE_ROOM`` above: (figure, the ``n`` axes in
-    reading order). ``stack`` > 1 splits each cell's axes into that many axes of equal height, one above the other
-    and ``gap`` inches apart (room for the upper ones' tick labels): each panel is then a tuple of axes, top first.
-    The panels are placed on this fixed grid, so :func:`save` needs no layout pass; their axes have at most
-    ``PANEL_TICKS`` intervals between major ticks (:func:`lean_ticks`)."""
+    reading order). The panels are placed on this fixed grid, so :func:`save` needs no layout pass; their axes have
+    at most ``PANEL_TICKS`` intervals between major ticks (:func:`lean_ticks`). A figure of many small panels is
+    cheaper drawn as cells of one axes (:mod:`cases.study.outputs.figures.sheet`)."""
     plt = pyplot()
     cols = max(1, min(n, max_columns))
     rows = max(1, math.ceil(n / cols))
@@ -73,17 +67,14 @@ def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int
     fig = plt.figure(figsize=(fig_w, fig_h), label=FIXED)
     m = PANEL_MARGINS
     inner_w, inner_h = width - m["left"] - m["right"], height - m["bottom"] - m["top"]
-    each = (inner_h - (stack - 1) * gap) / stack
     axes = []
     for k in range(n):
         row, col = divmod(k, cols)
         left = col * width + m["left"]
         bottom = fig_h - TITLE_ROOM - (row + 1) * height + m["bottom"]
-        cell = [fig.add_axes((left / fig_w, (bottom + (stack - 1 - i) * (each + gap)) / fig_h, inner_w / fig_w,
-                              each / fig_h)) for i in range(stack)]
-        for ax in cell:
-            lean_ticks(ax)
-        axes.append(cell[0] if stack == 1 else tuple(cell))
+        ax = fig.add_axes((left / fig_w, bottom / fig_h, inner_w / fig_w, inner_h / fig_h))
+        lean_ticks(ax)
+        axes.append(ax)
     return fig, axes
 
 

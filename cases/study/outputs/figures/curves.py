@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import log_time_axis, panel_grid
+from cases.study.outputs.figures.canvas import MAX_COLUMNS, PANEL_MARGINS, PANEL_TICKS, logarithmic_time, panel_grid
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.panels import Panel, curve_panels
+from cases.study.outputs.figures.sheet import grid, padded
 from cases.study.programme import split_key
 
 __all__ = ["curves_figure", "model_at_records", "recorded_mean_stress", "stress_path_panels",
@@ -39,30 +40,44 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
     records, the MAP and the 95 % posterior predictive band (``bands`` {(test, curve): inference.diagnosis
     PredictiveBand}) with the share of the records inside it, a faint line where a stage continues the one before
     it on the axial strain of its shear; a time axis spanning more than two decades is logarithmic
-    (:func:`cases.study.outputs.figures.canvas.log_time_axis`). Returns the figure."""
+    (:func:`cases.study.outputs.figures.canvas.logarithmic_time`), ticked at its decades. The panels are cells of
+    one axes (:mod:`cases.study.outputs.figures.sheet`), each scaled to what it draws; one legend, under the
+    title. Returns the figure."""
     dense = dense or {}
     panels = panels or curve_panels(observations)
-    fig, axes = panel_grid(len(panels))
-    for ax, panel in zip(axes, panels):
+    m = PANEL_MARGINS
+    sheet, frames = grid(len(panels), (4.2, 3.2), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
+                         PANEL_TICKS, legend=True)
+    for k, (frame, panel) in enumerate(zip(frames, panels)):
         test = panel.test
-        for j, (key, offset) in enumerate(panel.members):
-            curve, band, first = observations[test].curves[key], bands[test, key], j == 0
-            x = curve.x + offset
-            ax.fill_between(x, band.lower, band.upper, color="C0", alpha=0.25, lw=0,
-                            label="95 % predictive" if first else None)
-            _draw_map(ax, _shifted(dense.get((test, key)), offset), x, map_simulated[test, key], first)
-            ax.plot(x, curve.y, "o", ms=3, mfc="none", color="C3", label="recorded" if first else None)
+        drawn = []   # per member: (x, band, MAP line or None, MAP at the records, records, offset)
+        for key, offset in panel.members:
+            curve = observations[test].curves[key]
+            drawn.append((curve.x + offset, bands[test, key], _shifted(dense.get((test, key)), offset),
+                          map_simulated[test, key], curve.y, offset))
+        first = observations[test].curves[panel.keys[0]]
+        log = logarithmic_time(first.x_name, first.x)
+        xs = [v for x, _, line, *_ in drawn for v in (x, () if line is None else line[0])]
+        ys = [v for _, band, line, at, y, _ in drawn
+              for v in (band.lower, band.upper, at if line is None else line[1], y)]
+        cell = sheet.cell(*frame, padded(np.concatenate(xs), log), padded(np.concatenate(ys)), x_log=log)
+        for j, (x, band, line, at, y, offset) in enumerate(drawn):
+            label = k == 0 and j == 0
+            sheet.ax.fill_between(cell.x(x), cell.y(band.lower), cell.y(band.upper), color="C0", alpha=0.25, lw=0,
+                                  label="95 % predictive" if label else None)
+            _draw_map(sheet.ax, None if line is None else (cell.x(line[0]), cell.y(line[1])), cell.x(x), cell.y(at),
+                      label)
+            sheet.ax.plot(cell.x(x), cell.y(y), "o", ms=3, mfc="none", color="C3", label="recorded" if label else None)
             if offset:   # where a stage continues the one before on a shifted axis
-                ax.axvline(offset, color="0.75", lw=0.5, zorder=0)
-        ax.text(0.98, 0.03, f"{100 * panel.coverage(bands):.0f} % of the records in the band", transform=ax.transAxes,
-                ha="right", va="bottom", fontsize=7, color="0.3")
-        curve = observations[test].curves[panel.keys[0]]
-        ax.set_xlabel(abscissa_label(curve.x_name, curve.x_unit))
-        ax.set_ylabel(quantity_label(panel.keys[0], curve.y_unit))
-        ax.set_title(panel.title, fontsize=9)
-        log_time_axis(ax, curve.x_name, curve.x)
-    axes[0].legend(fontsize=7)
-    return fig
+                cell.vertical(offset, color="0.75", lw=0.5, zorder=0)
+        cell.note(f"{100 * panel.coverage(bands):.0f} % of the records in the band", top=False, color="0.3",
+                  fontsize=7)
+        # the panels stand apart (PANEL_MARGINS): ticks up to their ends
+        cell.x_axis(abscissa_label(first.x_name, first.x_unit), edge=0.0)
+        cell.y_axis(quantity_label(panel.keys[0], first.y_unit), edge=0.0)
+        cell.title(panel.title)
+    sheet.legend_row(sheet.ax.get_legend_handles_labels()[0])
+    return sheet.finish()
 
 
 def model_at_records(recorded, key, map_raw, dense):

@@ -36,18 +36,6 @@ def _marks_of(marks, name):
             if values and values.get(name) is not None]
 
 
-def _legend(cell, handles):
-    """``handles`` as a legend in the top right corner of ``cell``."""
-    cell.ax.legend(handles=handles, loc="upper right", fontsize=7, bbox_transform=cell.ax.transData,
-                   bbox_to_anchor=(cell.left + cell.width, cell.bottom + cell.height))
-
-
-def _vertical(cell, value, **style):
-    """A vertical line across ``cell`` at ``value`` of its x axis."""
-    x = float(cell.x(value))
-    cell.ax.plot([x, x], [cell.bottom, cell.bottom + cell.height], **style)
-
-
 def _histogram(cell, values, color):
     """The histogram of ``values`` (:func:`_bins`) in ``cell``, one filled step polygon over its x range, the
     tallest bar at 0.9 of the cell's height: the shape of the marginal density, not its scale."""
@@ -59,30 +47,28 @@ def _histogram(cell, values, color):
 def marginals_figure(post, marks=None, units=None):
     """One histogram per parameter of the final-stage samples (heights relative, :func:`_histogram`), the axis
     zoomed to the posterior (:func:`zoom`), the MAP and the ``marks`` as vertical lines; a reference value outside
-    the zoomed axis is named in its panel with its value instead; one legend, in the first panel. Returns the
+    the zoomed axis is named in its panel with its value instead; one legend, under the title. Returns the
     figure."""
     plt = pyplot()
-    sheet, frames = grid(len(post.names), (3.0, 2.3), (0.2, 0.15, 0.55, 0.1), MAX_COLUMNS)
-    cells = []
+    sheet, frames = grid(len(post.names), (3.0, 2.3), (0.2, 0.15, 0.55, 0.1), MAX_COLUMNS, legend=True)
     for i, (frame, name) in enumerate(zip(frames, post.names)):
         cell = sheet.cell(*frame, zoom(post.samples[:, i]))
         _histogram(cell, post.samples[:, i], "0.75")
-        _vertical(cell, post.map_theta[i], color="C3", lw=1.5)
+        cell.vertical(post.map_theta[i], color="C3", lw=1.5)
         off = []
         for label, value, k in _marks_of(marks, name):
             if cell.inside_x(value):
-                _vertical(cell, value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2)
+                cell.vertical(value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2)
             else:
                 off.append(f"{label}: {value:.4g} (off the axis)")
         if off:
             cell.note("\n".join(off))
         cell.x_axis(parameter_label(name, units or {}))
-        cells.append(cell)
     handles = [plt.matplotlib.patches.Patch(color="0.75", label="posterior samples"),
                plt.Line2D([], [], color="C3", lw=1.5, label="MAP")]
     handles += [plt.Line2D([], [], color=f"C{k}", ls=_LINES[k % 4], lw=1.2, label=label)
                 for k, label in enumerate(marks or {}) if marks[label]]
-    _legend(cells[0], handles)
+    sheet.legend_row(handles)
     return sheet.finish()
 
 
@@ -121,10 +107,10 @@ def pairs_figure(post, marks=None, units=None):
             c.x_axis(parameter_label(names[0], units) if bottom_row else None, values=bottom_row)
             if col == row:
                 _histogram(c, post.samples[:, col], "0.7")
-                _vertical(c, post.map_theta[col], color="C3", lw=1.2)
+                c.vertical(post.map_theta[col], color="C3", lw=1.2)
                 for _, value, k in _marks_of(marks, names[0]):
                     if c.inside_x(value):
-                        _vertical(c, value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2)
+                        c.vertical(value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2)
                 continue
             c.y_axis(parameter_label(names[1], units) if col == 0 else None, values=col == 0)
             xs.append(c.x(post.samples[:, col]))

@@ -13,7 +13,7 @@ import numpy as np
 
 from cases.study.outputs.figures.canvas import FIXED, TITLE_ROOM, pyplot
 
-__all__ = ["TICK_FONT", "LABEL_FONT", "Cell", "Sheet", "grid", "nice_ticks"]
+__all__ = ["TICK_FONT", "LABEL_FONT", "Cell", "Sheet", "grid", "nice_ticks", "padded"]
 
 #: the most intervals between a cell's ticks (matplotlib's ``nbins``): its tick values are long beside its width
 NARROW_PANEL_TICKS = 4
@@ -25,17 +25,25 @@ TICK_LENGTH = 0.05
 TICK_GAP, X_LABEL_GAP, Y_LABEL_GAP = 0.04, 0.22, 0.62
 #: no tick within this fraction of an axis's range from its ends (:func:`nice_ticks`)
 EDGE = 0.06
+#: the room (inches) of a row of legend entries under the title
+LEGEND_ROOM = 0.3
 
 
-def nice_ticks(lo: float, hi: float, integer: bool = False, edge: float = EDGE):
-    """(values, labels, power) of the ticks of an axis over [lo, hi]: matplotlib's nice numbers (at most
-    ``NARROW_PANEL_TICKS`` intervals; whole numbers when ``integer``) at least ``edge`` of the range inside it, so
-    that the labels of neighbouring cells do not meet; the labels are the values over 10^power, ``power`` 0 for
-    values between 0.0001 and 10 000, else the exponent of the largest value."""
+def nice_ticks(lo: float, hi: float, integer: bool = False, edge: float = EDGE, bins: int = NARROW_PANEL_TICKS,
+               log: bool = False):
+    """(values, labels, power) of the ticks of an axis over [lo, hi]: matplotlib's nice numbers (at most ``bins``
+    intervals; whole numbers when ``integer``; the decades on a ``log`` axis) at least ``edge`` of the range inside
+    it, so that the labels of neighbouring cells do not meet; the labels are the values over 10^power, ``power`` 0
+    for values between 0.0001 and 10 000 and on a log axis, else the exponent of the largest value."""
     from matplotlib.ticker import MaxNLocator
 
+    if log:
+        a, b = np.log10(lo), np.log10(hi)
+        decades = np.arange(np.ceil(a + edge * (b - a)), np.floor(b - edge * (b - a)) + 1)
+        values = [float(10.0 ** k) for k in decades]
+        return values, [f"{v:g}" for v in values], 0
     edge = edge * (hi - lo)
-    values = [float(v) for v in MaxNLocator(nbins=NARROW_PANEL_TICKS, integer=integer).tick_values(lo, hi)
+    values = [float(v) for v in MaxNLocator(nbins=bins, integer=integer).tick_values(lo, hi)
               if lo + edge <= v <= hi - edge]
     top = max((abs(v) for v in values), default=0.0)
     power = int(np.floor(np.log10(top))) if top > 0.0 else 0
@@ -45,11 +53,12 @@ def nice_ticks(lo: float, hi: float, integer: bool = False, edge: float = EDGE):
 
 class Sheet:
     """A figure of ``width`` x ``height`` inches (``TITLE_ROOM`` at the top for the title that ``canvas.save``
-    writes) whose one axes has 1 unit = 1 inch, origin at the bottom left; :meth:`cell` places the panels."""
+    writes) whose one axes has 1 unit = 1 inch, origin at the bottom left; :meth:`cell` places the panels, whose
+    axes carry at most ``bins`` intervals between ticks."""
 
-    def __init__(self, width: float, height: float):
+    def __init__(self, width: float, height: float, bins: int = NARROW_PANEL_TICKS):
         plt = pyplot()
-        self.width, self.height = width, height
+        self.width, self.height, self.bins = width, height, bins
         self.fig = plt.figure(figsize=(width, height), label=FIXED)
         self.ax = self.fig.add_axes((0.0, 0.0, 1.0, 1.0))
         self.ax.set_xlim(0.0, width)
@@ -57,12 +66,20 @@ class Sheet:
         self.ax.set_axis_off()
         self.frames, self.marks = [], []
 
-    def cell(self, left: float, bottom: float, width: float, height: float, x_range, y_range=(0.0, 1.0)) -> "Cell":
+    def cell(self, left: float, bottom: float, width: float, height: float, x_range, y_range=(0.0, 1.0),
+             x_log: bool = False) -> "Cell":
         """A panel whose frame spans [left, left + width] x [bottom, bottom + height] inches, its x axis over
-        ``x_range`` (lo, hi) and its y axis over ``y_range``."""
+        ``x_range`` (lo, hi; logarithmic when ``x_log``) and its y axis over ``y_range``."""
         self.frames.append([(left, bottom), (left + width, bottom), (left + width, bottom + height),
                             (left, bottom + height), (left, bottom)])
-        return Cell(self, left, bottom, width, height, tuple(map(float, x_range)), tuple(map(float, y_range)))
+        return Cell(self, left, bottom, width, height, tuple(map(float, x_range)), tuple(map(float, y_range)),
+                    x_log)
+
+    def legend_row(self, handles):
+        """``handles`` as one row of legend entries under the title, from the left edge (:func:`grid` with
+        ``legend`` leaves the room)."""
+        self.ax.legend(handles=handles, loc="upper left", ncol=len(handles), fontsize=7, frameon=False,
+                       bbox_transform=self.ax.transData, bbox_to_anchor=(0.1, self.height - TITLE_ROOM))
 
     def finish(self):
         """The figure, the frames and tick marks of every cell added."""
@@ -77,14 +94,18 @@ class Cell:
     """One panel of a :class:`Sheet`: :meth:`x` and :meth:`y` take values to the sheet's inches; draw on
     ``cell.ax`` (the sheet's axes) with them."""
 
-    def __init__(self, sheet: Sheet, left, bottom, width, height, x_range, y_range):
+    def __init__(self, sheet: Sheet, left, bottom, width, height, x_range, y_range, x_log=False):
         self.sheet, self.ax = sheet, sheet.ax
         self.left, self.bottom, self.width, self.height = left, bottom, width, height
-        self.x_range, self.y_range = x_range, y_range
+        self.x_range, self.y_range, self.x_log = x_range, y_range, x_log
 
     def x(self, values):
         lo, hi = self.x_range
-        return self.left + self.width * (np.asarray(values, dtype=float) - lo) / (hi - lo)
+        values = np.asarray(values, dtype=float)
+        if self.x_log:   # a value <= 0 goes to -inf or NaN, which matplotlib leaves out, as on its own log axes
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return self.left + self.width * np.log(values / lo) / np.log(hi / lo)
+        return self.left + self.width * (values - lo) / (hi - lo)
 
     def y(self, values):
         lo, hi = self.y_range
@@ -99,7 +120,7 @@ class Cell:
     def x_axis(self, label: str | None = None, values: bool = True, integer: bool = False, edge: float = EDGE):
         """Tick marks on the bottom edge (:func:`nice_ticks` with ``integer`` and ``edge``); with ``values`` their
         values below it and ``label`` (with the power of ten of the values) under them."""
-        ticks, texts, power = nice_ticks(*self.x_range, integer=integer, edge=edge)
+        ticks, texts, power = nice_ticks(*self.x_range, integer, edge, self.sheet.bins, self.x_log)
         at = self.x(ticks)
         self.sheet.marks += [[(x, self.bottom), (x, self.bottom + TICK_LENGTH)] for x in at]
         if values:
@@ -109,10 +130,10 @@ class Cell:
             self.ax.text(self.left + 0.5 * self.width, self.bottom - X_LABEL_GAP, _with_power(label, power),
                          ha="center", va="top", fontsize=LABEL_FONT)
 
-    def y_axis(self, label: str | None = None, values: bool = True):
-        """Tick marks on the left edge (:func:`nice_ticks`); with ``values`` their values left of it and ``label``
-        (with the power of ten of the values), rotated, left of them."""
-        ticks, texts, power = nice_ticks(*self.y_range)
+    def y_axis(self, label: str | None = None, values: bool = True, edge: float = EDGE):
+        """Tick marks on the left edge (:func:`nice_ticks` with ``edge``); with ``values`` their values left of it
+        and ``label`` (with the power of ten of the values), rotated, left of them."""
+        ticks, texts, power = nice_ticks(*self.y_range, edge=edge, bins=self.sheet.bins)
         at = self.y(ticks)
         self.sheet.marks += [[(self.left, y), (self.left + TICK_LENGTH, y)] for y in at]
         if values:
@@ -122,31 +143,56 @@ class Cell:
             self.ax.text(self.left - Y_LABEL_GAP, self.bottom + 0.5 * self.height, _with_power(label, power),
                          ha="center", va="center", rotation=90, fontsize=LABEL_FONT)
 
+    def title(self, text: str):
+        """``text`` centred above the cell."""
+        self.ax.text(self.left + 0.5 * self.width, self.bottom + self.height + TICK_GAP, text, ha="center",
+                     va="bottom", fontsize=LABEL_FONT)
+
+    def vertical(self, value, **style):
+        """A line across the cell at ``value`` of its x axis (``style``: matplotlib's line keywords)."""
+        x = float(self.x(value))
+        self.ax.plot([x, x], [self.bottom, self.bottom + self.height], **style)
+
     def note(self, text: str, top: bool = True, **style):
-        """A small text in a corner of the cell (top left, else bottom right)."""
+        """A small text in a corner of the cell (top left, else bottom right; ``style``: matplotlib's text keywords,
+        font size 6 unless given)."""
         pad = 0.05
+        style = {"fontsize": 6, **style}
         if top:
-            self.ax.text(self.left + pad, self.bottom + self.height - pad, text, ha="left", va="top", fontsize=6,
-                         **style)
+            self.ax.text(self.left + pad, self.bottom + self.height - pad, text, ha="left", va="top", **style)
         else:
-            self.ax.text(self.left + self.width - pad, self.bottom + pad, text, ha="right", va="bottom", fontsize=6,
-                         **style)
+            self.ax.text(self.left + self.width - pad, self.bottom + pad, text, ha="right", va="bottom", **style)
 
 
-def grid(n: int, pitch: tuple, inset: tuple, max_columns: int):
+def grid(n: int, pitch: tuple, inset: tuple, max_columns: int, bins: int = NARROW_PANEL_TICKS, legend: bool = False):
     """(Sheet, the frames' (left, bottom, width, height) in reading order) of ``n`` cells in rows of at most
     ``max_columns``, each in a ``pitch`` (width, height) of inches whose frame is inset by ``inset`` (left, right,
-    bottom, top) inches, ``TITLE_ROOM`` above the rows."""
+    bottom, top) inches, ``TITLE_ROOM`` above the rows and with ``legend`` ``LEGEND_ROOM`` under it
+    (:meth:`Sheet.legend_row`); ``bins`` as :class:`Sheet`."""
     cols = max(1, min(n, max_columns))
     rows = max(1, -(-n // cols))
     pw, ph = pitch
     left, right, bottom, top = inset
-    sheet = Sheet(pw * cols, ph * rows + TITLE_ROOM)
+    sheet = Sheet(pw * cols, ph * rows + TITLE_ROOM + (LEGEND_ROOM if legend else 0.0), bins)
     frames = []
     for k in range(n):
         row, col = divmod(k, cols)
         frames.append((col * pw + left, (rows - 1 - row) * ph + bottom, pw - left - right, ph - bottom - top))
     return sheet, frames
+
+
+def padded(values, log: bool = False, margin: float = 0.05) -> tuple:
+    """The range of an axis over ``values`` (NaN ignored) widened by ``margin`` of it on each side (in the
+    logarithm on a ``log`` axis), as matplotlib's automatic limits; a single value by 1 % of it (or 1)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v) & ((v > 0) if log else True)]
+    lo, hi = (float(v.min()), float(v.max())) if v.size else (1.0, 10.0)
+    if log:
+        a, b = np.log10(lo), np.log10(hi)
+        pad = margin * (b - a) if b > a else 0.5
+        return 10.0 ** (a - pad), 10.0 ** (b + pad)
+    pad = margin * (hi - lo) if hi > lo else max(0.01 * abs(lo), 1.0)
+    return lo - pad, hi + pad
 
 
 def _with_power(label: str, power: int) -> str:

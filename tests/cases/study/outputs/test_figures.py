@@ -102,35 +102,45 @@ def test_the_fixed_grid_keeps_every_panel_with_its_labels_and_title_apart_and_in
             assert _overlap(box, other) == 0.0
 
 
-def test_a_stacked_grid_keeps_each_panels_axes_apart_with_their_labels(tmp_path):
-    """stack = 2 (the loop's figure: the records above their residual): every axes with its tick labels, the upper
-    one's title and the lower one's axis labels lies inside the figure, below its title, and shares no pixel with
-    any other axes, its own panel's included."""
-    fig, cells = panel_grid(6, 4.2, 5.6, stack=2)
-    assert len(cells) == 6 and all(len(cell) == 2 for cell in cells) and len(fig.axes) == 12
-    for k, (top, bottom) in enumerate(cells):
-        assert top.get_position().y0 > bottom.get_position().y1
-        top.plot([0, 1e4], [-12000.0, 99999.0])
-        top.set_ylabel("sigma'_v (kPa)")
-        top.set_title(f"TEST_{k}, stage relax_ocr1", fontsize=9)
-        bottom.plot([0, 1e4], [-150.0, 600.0])
-        bottom.set_xlabel("axial strain eps_a (%)")
-        bottom.set_ylabel("residual (%)")
-    save(fig, tmp_path / "stacked.png", "SYNTHETIC data: a figure title")
+@pytest.mark.parametrize("figure", ["curves", "loop"])
+def test_a_sheets_texts_lie_inside_the_figure_below_its_title_and_apart(figure, tmp_path):
+    """Six panels of long tick values (-12000 to 99999 kPa) and labels, on a sheet (the curves' figure; the loop's
+    figure, records above their residual): every tick value, axis label and panel title lies inside the figure,
+    below the figure's title and the legend's row, and shares no pixel with any other text."""
+    x = np.linspace(0.0, 1e4, 5)
+    observations = Observations([Test(f"TEST_{k}", {"axial_stress@relax_ocr1": Curve(
+        x, np.linspace(-12000.0, 99999.0, 5), "axial_strain", "axial_stress", "%", "kPa")}) for k in range(6)])
+    sims = {(t.name, c): curve.y * 1.01 + 5.0 for t in observations for c, curve in t.curves.items()}
+    if figure == "curves":
+        bands = {k: SimpleNamespace(lower=v - 900.0, upper=v + 900.0, coverage=1.0) for k, v in sims.items()}
+        fig = curves_figure(observations, sims, bands)
+    else:
+        base = SimpleNamespace(map_simulated=sims, role="base", candidate=None, log_evidence=0.0)
+        fig = loop_figure(SimpleNamespace(observations=observations), [base],
+                          SimpleNamespace(omitted_physics="none", mismatch_regions=[]))
+    save(fig, tmp_path / "sheet.png", "SYNTHETIC data: a figure title")
     renderer = FigureCanvasAgg(fig).get_renderer()
-    boxes = [ax.get_tightbbox(renderer) for ax in fig.axes]
+    (ax,) = fig.axes
+    title = fig.texts[0].get_window_extent(renderer)
+    legend = ax.get_legend().get_window_extent(renderer)
+    boxes = [t.get_window_extent(renderer) for t in ax.texts]
+    assert len(boxes) > 6 * 8
     page = fig.bbox
     for i, box in enumerate(boxes):
-        assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
+        assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0 and box.y1 <= title.y0
+        assert _overlap(box, legend) == 0.0
         for other in boxes[i + 1:]:
             assert _overlap(box, other) == 0.0
 
-
 def _cells(ax):
     """The frames of a sheet's cells (cases.study.outputs.figures.sheet) as (left, bottom, width, height), in the
-    order drawn: the first line collection's closed rectangles."""
+    order drawn: the closed rectangles of its line collection of frames."""
+    from matplotlib.collections import LineCollection
+
+    frames = next(c for c in ax.collections if isinstance(c, LineCollection)
+                  and all(len(seg) == 5 for seg in c.get_segments()))
     out = []
-    for seg in ax.collections[0].get_segments():
+    for seg in frames.get_segments():
         (x0, y0), (x1, _), (_, y1) = seg[0], seg[1], seg[2]
         out.append((x0, y0, x1 - x0, y1 - y0))
     return out
@@ -257,26 +267,45 @@ def _bands(observations):
             for t in observations for c, curve in t.curves.items()}
 
 
+def _relative(values):
+    """Positions as fractions of their span from the first (a cell's scale taken out)."""
+    v = np.asarray(values, float)
+    return (v - v[0]) / (v[-1] - v[0])
+
+
+def _inside(cell, line):
+    return cell[0] - 1e-9 <= np.min(line.get_xdata()) and np.max(line.get_xdata()) <= cell[0] + cell[2] + 1e-9
+
+
 def test_curves_draw_the_map_as_a_line_between_the_records_else_as_markers():
     observations = _records()
     map_simulated = {(t.name, c): curve.y * 1.01 for t in observations for c, curve in t.curves.items()}
     dense_x = np.linspace(1.0, 4.0, 13)
     dense = {("CIU", "q"): (dense_x, 50.0 * (1 - np.exp(-dense_x)))}
     fig = curves_figure(observations, map_simulated, _bands(observations), dense)
-    ax_q, ax_u, ax_oed = fig.axes[:3]
-    assert (ax_q.get_xlabel(), ax_q.get_ylabel()) == ("axial strain eps_a (%)", "q (kPa)")
-    assert ax_u.get_ylabel() == "excess pore pressure u (kPa)"
-    assert (ax_oed.get_xlabel(), ax_oed.get_ylabel(), ax_oed.get_title()) == ("time t (s)", "sigma'_v (kPa)",
-                                                                              "OED, stage relax")
-    line = ax_q.get_lines()[0]
-    np.testing.assert_array_equal(line.get_xdata(), dense_x)
-    assert line.get_linestyle() == "-"
-    markers = ax_u.get_lines()[0]   # no dense curve: markers at the records, no segments
-    assert markers.get_linestyle() == "None" and markers.get_marker() == "x"
-    np.testing.assert_array_equal(markers.get_ydata(), map_simulated["CIU", "excess_pore_pressure"])
-    assert len(fig.axes) == 3   # three panels: one row of three
-    assert ax_oed.get_xscale() == "log" and ax_q.get_xscale() == "linear"   # relaxation times over three decades
-
+    (ax,) = fig.axes   # the panels are cells of one axes
+    cells = _cells(ax)
+    assert len(cells) == 3   # three panels: one row of three
+    cell_q, cell_u, cell_oed = cells
+    assert cell_q[1] == cell_u[1] == cell_oed[1] and cell_q[0] < cell_u[0] < cell_oed[0]
+    texts = [t.get_text() for t in ax.texts]
+    for label in ("axial strain eps_a (%)", "q (kPa)", "excess pore pressure u (kPa)", "time t (s)",
+                  "sigma'_v (kPa)", "OED, stage relax"):
+        assert label in texts, label
+    line = next(v for v in ax.get_lines() if v.get_linestyle() == "-" and _inside(cell_q, v))
+    np.testing.assert_allclose(_relative(line.get_xdata()), _relative(dense_x), atol=1e-12)
+    # no dense curve: markers at the records, no segments
+    markers = next(v for v in ax.get_lines() if v.get_marker() == "x" and _inside(cell_u, v))
+    assert markers.get_linestyle() == "None"
+    np.testing.assert_allclose(_relative(markers.get_ydata()), _relative(map_simulated["CIU", "excess_pore_pressure"]),
+                               atol=1e-12)
+    # relaxation times over three decades: on a log axis, the records 10, 100 and 1e4 s at 0, 1/3 and 1
+    recorded = next(v for v in ax.get_lines() if v.get_marker() == "o" and _inside(cell_oed, v))
+    np.testing.assert_allclose(_relative(recorded.get_xdata()), [0.0, 1.0 / 3.0, 1.0], atol=1e-12)
+    recorded_q = next(v for v in ax.get_lines() if v.get_marker() == "o" and _inside(cell_q, v))
+    np.testing.assert_allclose(_relative(recorded_q.get_xdata()), [0.0, 1.0 / 3.0, 1.0], atol=1e-12)   # 1, 2, 4 %
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == ["95 % predictive", "MAP", "recorded"]
 
 def test_recorded_mean_stress_follows_the_total_stress_path_of_the_test():
     """An undrained test from p'0 = 95 kPa, q0 = 0 at constant cell pressure: p' = p'0 + q/3 - u. The model: q 30,
@@ -409,15 +438,20 @@ def test_joined_stages_are_drawn_on_the_running_strain_with_the_pooled_coverage(
     bands["P", "q@slow"] = SimpleNamespace(lower=bands["P", "q@slow"].lower, upper=bands["P", "q@slow"].upper,
                                            coverage=0.5, outside=np.array([True, False]), n_used=2)
     fig = curves_figure(observations, map_simulated, bands, None, panels)
-    ax_q = fig.axes[1]
-    recorded = [line for line in ax_q.get_lines() if line.get_marker() == "o"]
-    np.testing.assert_array_equal(np.concatenate([line.get_xdata() for line in recorded]), [0.5, 1.0, 2.0, 3.0])
-    assert [v.get_xdata()[0] for v in ax_q.get_lines() if v.get_linestyle() == "-"] == [1.0]   # where "slow" starts
-    assert "75 % of the records in the band" in [t.get_text() for t in ax_q.texts]   # 1 of 4 outside
+    (ax,) = fig.axes
+    cells = _cells(ax)
+    assert len(cells) == 5
+    cell_q = cells[1]
+    recorded = [line for line in ax.get_lines() if line.get_marker() == "o" and _inside(cell_q, line)]
+    x = np.concatenate([line.get_xdata() for line in recorded])   # the running strain 0.5, 1, 2, 3 %
+    np.testing.assert_allclose(_relative(x), (np.array([0.5, 1.0, 2.0, 3.0]) - 0.5) / 2.5, atol=1e-12)
+    # where "slow" starts: a faint line at 1 %
+    (start,) = [v for v in ax.get_lines() if v.get_linestyle() == "-" and v.get_color() == "0.75"
+                and _inside(cell_q, v)]
+    assert (start.get_xdata()[0] - x[0]) / (x[-1] - x[0]) == pytest.approx(0.2)
+    assert "75 % of the records in the band" in [t.get_text() for t in ax.texts]   # 1 of 4 outside
     unused = {k: SimpleNamespace(coverage=float("nan"), outside=np.zeros(2, bool), n_used=0) for k in bands}
     assert np.isnan(panels[1].coverage(unused))   # every record below the floor: no share, no division by zero
-    assert len(fig.axes) == 5
-
 
 def test_the_stress_path_of_a_programme_is_one_panel_with_every_stage():
     tests, observations = _staged()
@@ -445,15 +479,23 @@ def test_the_loop_figure_shades_a_stages_mismatch_where_the_stage_lies_on_the_jo
     region = SimpleNamespace(test="P", curve="q@slow", x_start=1.2, x_end=1.8)
     diag = SimpleNamespace(omitted_physics="none", mismatch_regions=[region])
     fig = loop_figure(SimpleNamespace(observations=observations), [base, model_form, viscous], diag, panels)
+    (ax,) = fig.axes
     # the physics class of largest ln Z is drawn beside the base, not the model-form class
-    # each panel is a pair of axes, the records above their residual: the second panel's are axes 2 and 3
-    assert [t.get_text() for t in fig.axes[2].get_legend().get_texts()] == ["recorded", "base MAP", "viscosity MAP"]
-    residual_q = fig.axes[3]
-    (span,) = residual_q.patches
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["recorded", "base MAP", "viscosity MAP"]
+    # each panel is a pair of cells, the records above their residual: the second panel's are cells 2 and 3
+    cells = _cells(ax)
+    top_q, residual_q = cells[2], cells[3]
+    assert top_q[0] == residual_q[0] and top_q[1] > residual_q[1] + residual_q[3]
+    # the joined strain 0.5, 1, 2, 3 %: the region 1.2-1.8 % of the slow stage, which starts at 1 %, is 2.2-2.8 %
+    records = [v for v in ax.get_lines() if v.get_marker() == "o" and v.get_linestyle() == "None"
+               and _inside(top_q, v)]
+    x = np.concatenate([v.get_xdata() for v in records])
+    (span,) = ax.patches
     extent = span.get_path().transformed(span.get_patch_transform()).vertices[:, 0]
-    np.testing.assert_allclose([extent.min(), extent.max()], [2.2, 2.8])
-    assert fig.axes[2].get_title() == "P, stages fast to slow (2)"
-
+    np.testing.assert_allclose((np.array([extent.min(), extent.max()]) - x[0]) / (x[-1] - x[0]),
+                               (np.array([2.2, 2.8]) - 0.5) / 2.5)
+    assert residual_q[1] - 1e-9 <= span.get_y() and span.get_y() + span.get_height() <= top_q[1]
+    assert "P, stages fast to slow (2)" in [t.get_text() for t in ax.texts]
 
 def _hold(name, times, y):
     """A creep hold's curve recorded at ``times`` (s) against the time ``name``."""
@@ -461,11 +503,9 @@ def _hold(name, times, y):
 
 
 def test_a_time_axis_over_more_than_two_decades_is_logarithmic_in_the_curves_and_the_loop_figure():
-    """A creep hold logged at growing intervals (10 s to 1e5 s) is drawn on a log time axis ticked at its decades
-    (no minor ticks), in the curves' figure and in both axes of the loop figure's panel; a hold over less than two
-    decades and a strain abscissa stay linear. The panels' linear axes carry at most PANEL_TICKS intervals."""
-    from matplotlib.ticker import NullLocator
-
+    """A creep hold logged at growing intervals (10 s to 1e5 s) is drawn on a log time axis ticked at its decades,
+    in the curves' figure and in both axes of the loop figure's panel; a hold over less than two decades and a
+    strain abscissa stay linear. The panels' linear axes carry at most PANEL_TICKS intervals."""
     from cases.study.outputs.figures.canvas import PANEL_TICKS
     from cases.study.outputs.figures.curves import curves_figure
 
@@ -477,14 +517,26 @@ def test_a_time_axis_over_more_than_two_decades_is_logarithmic_in_the_curves_and
     sims = {("C", c): curve.y * 1.01 for c, curve in observations["C"].curves.items()}
     bands = {key: SimpleNamespace(lower=y * 0.9, upper=y * 1.1, coverage=1.0) for key, y in sims.items()}
     fig = curves_figure(observations, sims, bands)
-    scales = [ax.get_xscale() for ax in fig.axes]
-    assert scales == ["log", "linear", "linear"]
-    assert isinstance(fig.axes[0].xaxis.get_minor_locator(), NullLocator)
-    fig.canvas.draw()
-    for ax in fig.axes[1:]:   # PANEL_TICKS intervals: at most PANEL_TICKS + 1 ticks inside the axis
-        for ticks, (lo, hi) in ((ax.get_xticks(), ax.get_xlim()), (ax.get_yticks(), ax.get_ylim())):
-            assert 2 <= sum(lo <= t <= hi for t in ticks) <= PANEL_TICKS + 1
+    (ax,) = fig.axes
+    cells = _cells(ax)
+    for cell in cells:   # geomspace on the log axis, linspace on the linear ones: equal steps on the page
+        recorded = next(v for v in ax.get_lines() if v.get_marker() == "o" and _inside(cell, v))
+        steps = np.diff(recorded.get_xdata())
+        np.testing.assert_allclose(steps, steps[0], rtol=1e-9)
+    ticks = {}
+    for t in ax.texts:
+        x, y = t.get_position()
+        for k, cell in enumerate(cells):
+            if t.get_fontsize() == 7 and cell[0] - 0.2 <= x <= cell[0] + cell[2] + 0.2 and cell[1] - 0.2 < y < cell[1]:
+                ticks.setdefault(k, []).append(t.get_text())
+    assert ticks[0] == ["10", "100", "1000", "10000", "100000"]   # the decades
+    for k in (1, 2):   # at most PANEL_TICKS + 1 ticks on a linear axis
+        assert 2 <= len(ticks[k]) <= PANEL_TICKS + 1
     base = SimpleNamespace(map_simulated=sims, role="base", candidate=None, log_evidence=0.0)
     diag = SimpleNamespace(omitted_physics="none", mismatch_regions=[])
-    loop = loop_figure(SimpleNamespace(observations=observations), [base], diag)
-    assert [ax.get_xscale() for ax in loop.axes] == ["log", "log", "linear", "linear", "linear", "linear"]
+    (ax,) = loop_figure(SimpleNamespace(observations=observations), [base], diag).axes
+    # records and residual of each curve, both on a log axis for the long hold only: equal steps on the page
+    for cell in _cells(ax):
+        line = next(v for v in ax.get_lines() if v.get_marker() == "o" and _inside(cell, v))
+        steps = np.diff(line.get_xdata())
+        np.testing.assert_allclose(steps, steps[0], rtol=1e-9)
