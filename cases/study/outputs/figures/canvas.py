@@ -1,9 +1,9 @@
-"""Where the figures are drawn: pyplot on the off-screen Agg backend, a grid of panels that wraps (at most
-``MAX_COLUMNS`` columns, so that many curves make more rows, not a row of thousands of pixels), and figures drawn now
-(:func:`draw`) or kept and drawn later side by side on a process pool (:class:`FigureQueue`)."""
+"""Where the figures are drawn: pyplot on the off-screen Agg backend, the settings shared by the figures' panels (at
+most ``MAX_COLUMNS`` side by side, so that many curves make more rows, not a row of thousands of pixels; the panels
+themselves are cells of a :mod:`cases.study.outputs.figures.sheet`), and figures drawn now (:func:`draw`) or kept and
+drawn later side by side on a process pool (:class:`FigureQueue`)."""
 from __future__ import annotations
 
-import math
 import os
 import threading
 import time
@@ -14,12 +14,11 @@ from inference import PoolExecutor
 from inference.executors.local import child_start, close_at_exit, closed
 
 __all__ = ["FIXED", "MAX_COLUMNS", "PANEL_MARGINS", "PANEL_TICKS", "TITLE_ROOM", "FigureQueue",
-           "draw", "lean_ticks", "logarithmic_time", "pyplot", "panel_grid", "save"]
+           "draw", "logarithmic_time", "pyplot", "save"]
 
 #: the most panels side by side
 MAX_COLUMNS = 4
-#: the most intervals between major ticks on a panel's linear axis (matplotlib's ``nbins``): a tick is five artists,
-#: and ticks are most of a panel's drawing time
+#: the most intervals between the ticks of a panel's linear axis (matplotlib's ``nbins``)
 PANEL_TICKS = 5
 
 
@@ -31,19 +30,13 @@ def pyplot():
     return plt
 
 
-#: the room around each panel of a :func:`panel_grid` (inches): tick and axis labels on the left and at the bottom,
-#: the panel's title at the top
+#: the room around a panel of curves (inches): tick and axis labels on the left and at the bottom, the panel's title
+#: at the top
 PANEL_MARGINS = {"left": 0.9, "right": 0.15, "bottom": 0.6, "top": 0.35}
 #: the room for a figure's title above the grid (inches)
 TITLE_ROOM = 0.4
 #: the mark of a figure whose panels are placed on a fixed grid already (:func:`save` lays out the others)
 FIXED = "fixed grid"
-
-
-def lean_ticks(ax):
-    """At most ``PANEL_TICKS`` intervals between the major ticks of the linear axes of ``ax`` (matplotlib's automatic
-    locator otherwise fits up to about nine on a panel)."""
-    ax.locator_params(nbins=PANEL_TICKS)
 
 
 def logarithmic_time(x_name: str, x) -> bool:
@@ -52,30 +45,6 @@ def logarithmic_time(x_name: str, x) -> bool:
     any other abscissa is linear."""
     x = np.asarray(x, float)
     return x_name in ("time", "stage_time") and x.min() > 0 and x.max() > 100 * x.min()
-
-
-def panel_grid(n: int, width: float = 4.2, height: float = 3.2, max_columns: int = MAX_COLUMNS):
-    """A figure of ``n`` panels, each in a cell of ``width`` x ``height`` inches (its axes inside the cell's
-    ``PANEL_MARGINS``), in rows of at most ``max_columns``, with ``TITLE_ROOM`` above: (figure, the ``n`` axes in
-    reading order). The panels are placed on this fixed grid, so :func:`save` needs no layout pass; their axes have
-    at most ``PANEL_TICKS`` intervals between major ticks (:func:`lean_ticks`). A figure of many small panels is
-    cheaper drawn as cells of one axes (:mod:`cases.study.outputs.figures.sheet`)."""
-    plt = pyplot()
-    cols = max(1, min(n, max_columns))
-    rows = max(1, math.ceil(n / cols))
-    fig_w, fig_h = width * cols, height * rows + TITLE_ROOM
-    fig = plt.figure(figsize=(fig_w, fig_h), label=FIXED)
-    m = PANEL_MARGINS
-    inner_w, inner_h = width - m["left"] - m["right"], height - m["bottom"] - m["top"]
-    axes = []
-    for k in range(n):
-        row, col = divmod(k, cols)
-        left = col * width + m["left"]
-        bottom = fig_h - TITLE_ROOM - (row + 1) * height + m["bottom"]
-        ax = fig.add_axes((left / fig_w, bottom / fig_h, inner_w / fig_w, inner_h / fig_h))
-        lean_ticks(ax)
-        axes.append(ax)
-    return fig, axes
 
 
 def save(fig, path, title: str | None = None, dpi: int = 110):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import MAX_COLUMNS, PANEL_MARGINS, PANEL_TICKS, logarithmic_time, panel_grid
+from cases.study.outputs.figures.canvas import MAX_COLUMNS, PANEL_MARGINS, PANEL_TICKS, logarithmic_time
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.panels import Panel, curve_panels
 from cases.study.outputs.figures.sheet import grid, padded
@@ -139,33 +139,52 @@ def stress_paths_figure(observations, map_raw, drained, dense=None):
     """The q-p' paths of the triaxial tests of ``observations`` (the records), every stage whose MAP gives p'
     (:func:`model_at_records`: ``map_raw`` {test: {key: values at the records}}, ``dense`` {(test, key): (x, y)}) in
     its test's panel: the MAP (a line where ``dense`` has it) and the records (:func:`recorded_mean_stress`;
-    ``drained`` {(test, stage name or None): bool}); at most four panels side by side. Returns the figure, or None
-    when no curve has a path."""
+    ``drained`` {(test, stage name or None): bool}); at most four panels side by side, cells of one axes
+    (:mod:`cases.study.outputs.figures.sheet`), one legend under the title, a panel's stages without a recorded p'
+    named in it. Returns the figure, or None when no curve has a path."""
     dense = dense or {}
     panels = stress_path_panels(observations, map_raw, dense)
     if not panels:
         return None
-    fig, axes = panel_grid(len(panels), 4.0, 3.6)
-    for ax, (t, paths) in zip(axes, panels):
-        unknown, labelled = [], False
-        for j, (key, model) in enumerate(paths):
+    m = PANEL_MARGINS
+    sheet, frames = grid(len(panels), (4.0, 3.6), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
+                         PANEL_TICKS, legend=True)
+    labelled = set()
+
+    def label(text):   # each entry of the legend once
+        if text in labelled:
+            return None
+        labelled.add(text)
+        return text
+
+    for frame, (t, paths) in zip(frames, panels):
+        drawn, unknown = [], []   # per stage: (MAP line (p, q) or None, MAP at the records (p, q), records or None)
+        for key, model in paths:
             stage = split_key(key)[1]
             p_key = "mean_stress" if stage is None else f"mean_stress@{stage}"
             line = ((dense[t.name, p_key][1], dense[t.name, key][1])
                     if (t.name, p_key) in dense and (t.name, key) in dense else None)
-            _draw_map(ax, line, model["mean_stress"], model["q"], j == 0)
             p_rec = recorded_mean_stress(t, key, model, drained.get((t.name, stage), False))
-            if p_rec is not None:
-                ax.plot(p_rec, t.curves[key].y, "o", ms=3, mfc="none", color="C3",
-                        label=None if labelled else "recorded")
-                labelled = True
-            else:
+            if p_rec is None:
                 unknown.append(stage)
+            drawn.append((line, (model["mean_stress"], model["q"]),
+                          None if p_rec is None else (p_rec, t.curves[key].y)))
+        shown = [pq for line, at, rec in drawn for pq in (at if line is None else line, rec) if pq is not None]
+        cell = sheet.cell(*frame, padded(np.concatenate([p for p, _ in shown])),
+                          padded(np.concatenate([q for _, q in shown])))
+        for line, at, rec in drawn:
+            if line is not None:
+                sheet.ax.plot(cell.x(line[0]), cell.y(line[1]), "C0-", lw=1.5, label=label("MAP"))
+            else:
+                sheet.ax.plot(cell.x(at[0]), cell.y(at[1]), "C0x", ms=5, label=label("MAP (at the records)"))
+            if rec is not None:
+                sheet.ax.plot(cell.x(rec[0]), cell.y(rec[1]), "o", ms=3, mfc="none", color="C3",
+                              label=label("recorded"))
         if unknown:
             where = "" if unknown == [None] else f" in {len(unknown)} of {len(paths)} stages"
-            ax.plot([], [], " ", label=f"recorded p' unknown{where} (no p' or u recorded)")
-        ax.set_xlabel(quantity_label("mean_stress"))
-        ax.set_ylabel(quantity_label("q"))
-        ax.set_title(Panel(t.name, tuple((key, 0.0) for key, _ in paths)).title, fontsize=9)
-        ax.legend(fontsize=7)
-    return fig
+            cell.note(f"recorded p' unknown{where} (no p' or u recorded)", fontsize=7)
+        cell.x_axis(quantity_label("mean_stress"), edge=0.0)
+        cell.y_axis(quantity_label("q"), edge=0.0)
+        cell.title(Panel(t.name, tuple((key, 0.0) for key, _ in paths)).title)
+    sheet.legend_row(sheet.ax.get_legend_handles_labels()[0])
+    return sheet.finish()

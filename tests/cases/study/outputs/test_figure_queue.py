@@ -12,18 +12,20 @@ import numpy as np
 import pytest
 
 import inference
-from cases.study.outputs.figures.canvas import FigureQueue, draw, panel_grid, pyplot
+from cases.study.outputs.figures.canvas import FigureQueue, draw, pyplot
+from cases.study.outputs.figures.sheet import grid
 
 
 def _panels(n, scale):
-    """A fixed-grid figure of ``n`` panels, each a line of slope ``scale`` * its index."""
-    fig, axes = panel_grid(n)
+    """A sheet of ``n`` panels, each a line of slope ``scale`` * its index."""
+    sheet, frames = grid(n, (4.2, 3.2), (0.9, 0.15, 0.6, 0.35), 4)
     x = np.linspace(0.0, 1.0, 50)
-    for k, ax in enumerate(axes):
-        ax.plot(x, scale * k * x**2, "C0-")
-        ax.set_xlabel("axial strain eps_a (%)")
-        ax.set_ylabel("q (kPa)")
-    return fig
+    for k, frame in enumerate(frames):
+        cell = sheet.cell(*frame, (0.0, 1.0), (0.0, max(scale * k, 1.0)))
+        sheet.ax.plot(cell.x(x), cell.y(scale * k * x**2), "C0-")
+        cell.x_axis("axial strain eps_a (%)")
+        cell.y_axis("q (kPa)")
+    return sheet.finish()
 
 
 def _laid_out(scale):
@@ -191,13 +193,16 @@ def test_an_interpreter_that_ends_with_its_drawer_running_stops_it(tmp_path):
     script.write_text(textwrap.dedent(f"""
         import time
         from pathlib import Path
-        from cases.study.outputs.figures.canvas import FigureQueue, panel_grid
+        from cases.study.outputs.figures.canvas import FigureQueue
+        from cases.study.outputs.figures.sheet import grid
 
         def panels(n):
-            fig, axes = panel_grid(n)
-            for k, ax in enumerate(axes):
-                ax.plot([0.0, 1.0], [0.0, k])
-            return fig
+            sheet, frames = grid(n, (4.2, 3.2), (0.9, 0.15, 0.6, 0.35), 4)
+            for k, frame in enumerate(frames):
+                cell = sheet.cell(*frame, (0.0, 1.0), (0.0, k + 1.0))
+                sheet.ax.plot(cell.x([0.0, 1.0]), cell.y([0.0, k]))
+                cell.x_axis("x")
+            return sheet.finish()
 
         def write(path, text):
             path.write_text(text)
