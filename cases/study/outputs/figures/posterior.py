@@ -46,20 +46,18 @@ def _histogram(cell, values, color):
 
 def marginals_figure(post, marks=None, units=None):
     """One histogram per parameter of the final-stage samples (heights relative, :func:`_histogram`), the axis
-    zoomed to the posterior (:func:`zoom`), the MAP and the ``marks`` as vertical lines; a reference value outside
-    the zoomed axis is named in its panel with its value instead; one legend, under the title. Returns the
+    zoomed to the posterior (:func:`zoom`), the MAP and the ``marks`` as vertical lines; a MAP or reference value
+    outside the zoomed axis is named in its panel with its value instead; one legend, under the title. Returns the
     figure."""
     plt = pyplot()
     sheet, frames = grid(len(post.names), (3.0, 2.3), (0.2, 0.15, 0.55, 0.1), MAX_COLUMNS, legend=True)
     for i, (frame, name) in enumerate(zip(frames, post.names)):
         cell = sheet.cell(*frame, zoom(post.samples[:, i]))
         _histogram(cell, post.samples[:, i], "0.75")
-        cell.vertical(post.map_theta[i], color="C3", lw=1.5)
-        off = []
+        off = [] if cell.vertical(post.map_theta[i], color="C3", lw=1.5) else [
+            f"MAP: {post.map_theta[i]:.4g} (off the axis)"]
         for label, value, k in _marks_of(marks, name):
-            if cell.inside_x(value):
-                cell.vertical(value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2)
-            else:
+            if not cell.vertical(value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2):
                 off.append(f"{label}: {value:.4g} (off the axis)")
         if off:
             cell.note("\n".join(off))
@@ -109,14 +107,14 @@ def pairs_figure(post, marks=None, units=None):
                 _histogram(c, post.samples[:, col], "0.7")
                 c.vertical(post.map_theta[col], color="C3", lw=1.2)
                 for _, value, k in _marks_of(marks, names[0]):
-                    if c.inside_x(value):
-                        c.vertical(value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2)
+                    c.vertical(value, color=f"C{k}", ls=_LINES[k % 4], lw=1.2)
                 continue
             c.y_axis(parameter_label(names[1], units) if col == 0 else None, values=col == 0)
             xs.append(c.x(post.samples[:, col]))
             ys.append(c.y(post.samples[:, row]))
-            map_x.append(float(c.x(post.map_theta[col])))
-            map_y.append(float(c.y(post.map_theta[row])))
+            if c.inside_x(post.map_theta[col]) and c.inside_y(post.map_theta[row]):   # else off the panel
+                map_x.append(float(c.x(post.map_theta[col])))
+                map_y.append(float(c.y(post.map_theta[row])))
             for label, value, _ in _marks_of(marks, names[0]):
                 other = (marks[label] or {}).get(names[1])
                 if other is not None and c.inside_x(value) and c.inside_y(other):

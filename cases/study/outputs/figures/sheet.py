@@ -148,10 +148,14 @@ class Cell:
         self.ax.text(self.left + 0.5 * self.width, self.bottom + self.height + TICK_GAP, text, ha="center",
                      va="bottom", fontsize=LABEL_FONT)
 
-    def vertical(self, value, **style):
-        """A line across the cell at ``value`` of its x axis (``style``: matplotlib's line keywords)."""
+    def vertical(self, value, **style) -> bool:
+        """A line across the cell at ``value`` of its x axis (``style``: matplotlib's line keywords); nothing, and
+        False, when ``value`` lies outside the axis (the sheet clips nothing to a cell)."""
+        if not self.inside_x(value):
+            return False
         x = float(self.x(value))
         self.ax.plot([x, x], [self.bottom, self.bottom + self.height], **style)
+        return True
 
     def note(self, text: str, top: bool = True, **style):
         """A small text in a corner of the cell (top left, else bottom right; ``style``: matplotlib's text keywords,

@@ -194,6 +194,25 @@ def test_pairs_plot_shows_the_samples_the_map_and_the_ridge_with_units():
     assert legend == ["posterior samples", "MAP", "generating"]
 
 
+def test_a_map_outside_the_final_sample_is_named_not_drawn_outside_its_panel():
+    """The MAP is the best evaluated sample of any stage, and may lie outside the final stage's zoomed range: the
+    sheet clips nothing to a panel, so it is named in the marginal's panel and left out of the pairs plot, never
+    drawn over a neighbouring panel."""
+    post = _posterior()
+    post.map_theta = np.array([post.samples[:, 0].max() + 10.0, post.samples[:, 1].mean()])
+    (ax,) = marginals_figure(post, None, UNITS).axes
+    assert f"MAP: {post.map_theta[0]:.4g} (off the axis)" in [t.get_text() for t in ax.texts]
+    (ax,) = pairs_figure(post, None, UNITS).axes
+    diagonal, pair, last = _cells(ax)
+    star = next(line for line in ax.get_lines() if line.get_marker() == "*")
+    assert len(star.get_xdata()) == 0
+    for line in ax.get_lines():   # every line inside the lower triangle's cells
+        x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+        if x.size:
+            assert x.min() >= diagonal[0] - 1e-9 and x.max() <= last[0] + last[2] + 1e-9
+            assert y.min() >= pair[1] - 1e-9 and y.max() <= diagonal[1] + diagonal[3] + 1e-9
+
+
 def test_tick_values_stay_off_the_cells_edges_and_name_the_value_at_their_place():
     """The tick values under a column of the pairs plot lie in its middle 88 %, so the last label of one column
     and the first of the next do not meet; each names the value at its place (a power of ten shared by an axis's
