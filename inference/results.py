@@ -132,7 +132,8 @@ class Posterior:
         """posterior.nc in out_dir: the groups of :meth:`to_arviz`, written whole or not at all (a temporary file
         renamed). The file is the one ``arviz.InferenceData.to_netcdf`` writes (its attributes in the root group, each
         group in a netCDF group of its name, numeric variables zlib-compressed, through h5netcdf), written with
-        xarray alone: importing ArviZ takes some 4 s, which every process that wrote a posterior paid."""
+        xarray alone: importing ArviZ takes some 4 s in a fresh process, which each process writing a posterior
+        would pay."""
         tmp = Path(out_dir) / "posterior.nc.tmp"
         attrs, groups = self._arviz_groups(observations, map_simulated, pointwise)
         import xarray as xr

@@ -30,6 +30,7 @@ __all__ = ["parameter_table", "runs_table", "loop_figure", "plot_loop", "write_o
 #: the loop figure: the room (inches) between a panel's records and its residual below them
 STACK_GAP = 0.2
 
+
 def _fmt(v):
     if v is None or (isinstance(v, float) and not np.isfinite(v)):
         return "-"

@@ -1,9 +1,10 @@
 """Figures of many small panels drawn as cells of one axes whose units are inches (:class:`Sheet`).
 
 A matplotlib axes makes its ticks as artists of their own (two lines and two texts each, with their font
-properties), and the axes and their ticks were nearly all of the drawing time of the posterior's figures (a pairs
+properties), and the axes and their ticks were nearly all of the drawing time of the figures of many panels (a pairs
 plot of 13 parameters is 91 axes). Here a figure is one axes without axis lines, placed over the whole figure with
-1 unit = 1 inch; each panel is a :class:`Cell`, a rectangle of that axes with its own linear scale on each side.
+1 unit = 1 inch; each panel is a :class:`Cell`, a rectangle of that axes with its own linear scale on each side (or a
+logarithmic abscissa). Nothing is clipped to a cell: what is drawn in it must lie in its ranges.
 The frames and tick marks of every cell are two line collections, the tick values and axis labels plain texts.
 Tick values are matplotlib's nice numbers (:func:`nice_ticks`); a power of ten shared by an axis's values is
 written once, beside its label."""
