@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import pyplot
+from cases.study.outputs.figures.canvas import PANEL_MARGINS, PANEL_TICKS, save
+from cases.study.outputs.figures.sheet import grid, padded
 from inference.diagnosis import simulate_samples
 from inference.prediction import band_scores, prediction_bands
 
@@ -143,29 +144,32 @@ def prediction_lines(rows, model_error, check: list, level=0.95) -> list:
 
 
 def plot_predictions(path, rows, title, labels):
-    """predictions.png: one row per predicted test, one panel per curve: the measurements, the predictive mean and
-    the bands without and with the model-error term; ``labels`` {curve: axis label}."""
-    plt = pyplot()
+    """predictions.png: one row per predicted test, one panel per curve, on a sheet
+    (:mod:`cases.study.outputs.figures.sheet`): the measurements, the predictive mean and the bands without and with
+    the model-error term, each band's share of the measurements in its panel; ``labels`` {curve: axis label}."""
     tests = list(dict.fromkeys(r["test"] for r in rows))
     ncol = max(sum(r["test"] == t for r in rows) for t in tests)
-    fig, axes = plt.subplots(len(tests), ncol, figsize=(4.6 * ncol, 3.0 * len(tests)), squeeze=False)
-    for row_axes, t in zip(axes, tests):
-        for ax, r in zip(row_axes, [r for r in rows if r["test"] == t]):
+    m = PANEL_MARGINS
+    sheet, frames = grid(len(tests) * ncol, (4.6, 3.0), (m["left"], m["right"], m["bottom"], m["top"]), ncol,
+                         PANEL_TICKS, legend=4)
+    ax = sheet.ax
+    for row, t in enumerate(tests):
+        for col, r in enumerate([r for r in rows if r["test"] == t]):
             order = np.argsort(r["x"])
             x = r["x"][order]
-            ax.fill_between(x, r["model"]["lower"][order], r["model"]["upper"][order], color="C1", alpha=0.25,
-                            label=f"+ model error ({100 * r['model']['coverage']:.0f} % inside)")
-            ax.fill_between(x, r["noise"]["lower"][order], r["noise"]["upper"][order], color="C0", alpha=0.35,
-                            label=f"parameters + noise ({100 * r['noise']['coverage']:.0f} % inside)")
-            ax.plot(x, r["mean"][order], "C0-", lw=1.2, label="predictive mean")
-            ax.plot(x, r["observed"][order], ".", color="C3", ms=3, label="measured")
-            ax.set_title(f"{t} (prediction): {r['curve']}", fontsize=9)
-            ax.set_xlabel(r["x_label"])
-            ax.set_ylabel(labels.get(r["curve"], r["curve"]))
-            ax.legend(fontsize=7)
-        for ax in row_axes[sum(r["test"] == t for r in rows):]:
-            ax.axis("off")
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+            ys = [r[k][b][order] for k in ("model", "noise") for b in ("lower", "upper")]
+            cell = sheet.cell(*frames[row * ncol + col], padded(x),
+                              padded(np.concatenate([*ys, r["mean"], r["observed"]])))
+            ax.fill_between(cell.x(x), cell.y(ys[0]), cell.y(ys[1]), color="C1", alpha=0.25, lw=0,
+                            label=sheet.once("+ model error"))
+            ax.fill_between(cell.x(x), cell.y(ys[2]), cell.y(ys[3]), color="C0", alpha=0.35, lw=0,
+                            label=sheet.once("parameters + noise"))
+            ax.plot(cell.x(x), cell.y(r["mean"][order]), "C0-", lw=1.2, label=sheet.once("predictive mean"))
+            ax.plot(cell.x(x), cell.y(r["observed"][order]), ".", color="C3", ms=3, label=sheet.once("measured"))
+            cell.note(f"inside: {100 * r['noise']['coverage']:.0f} % (parameters + noise), "
+                      f"{100 * r['model']['coverage']:.0f} % (+ model error)", top=False, color="0.3", fontsize=7)
+            cell.title(f"{t} (prediction): {r['curve']}")
+            cell.x_axis(r["x_label"], edge=0.0)
+            cell.y_axis(labels.get(r["curve"], r["curve"]), edge=0.0)
+    sheet.legend_row(ax.get_legend_handles_labels()[0])
+    save(sheet.finish(), path, title, 110)

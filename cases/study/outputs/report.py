@@ -155,7 +155,7 @@ def loop_figure(like, classes, diag, panels=None):
     panels = panels or curve_panels(like.observations)
     m = PANEL_MARGINS
     sheet, frames = grid(len(panels), (4.2, 5.6), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
-                         PANEL_TICKS, legend=True)
+                         PANEL_TICKS, legend=3)
     base, enriched = classes[0], None
     physics = [c for c in classes[1:] if c.role == "enriched"]
     if physics:

@@ -22,10 +22,11 @@ import numpy as np
 
 import inference
 from cases.study.forward.lab import LabForward
-from cases.study.outputs.figures.canvas import pyplot, save
+from cases.study.outputs.figures.canvas import PANEL_MARGINS, PANEL_TICKS, pyplot, save
 from cases.study.outputs.figures.curves import stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.posterior import write_posterior_figures
+from cases.study.outputs.figures.sheet import grid, padded
 from cases.study.outputs.report import runs_table
 from cases.study.programme import TestSpec
 from cases.study.reading.reference import is_error_parameter
@@ -169,8 +170,8 @@ def predictive(forward: LabForward, post, n_draws=200, seed=0, sigmas=None, ampl
     band, at_map, grids = {}, {}, {}
     for t in forward.tests:
         band[t.name], at_map[t.name] = {}, {}
-        for k, (grid, v) in table[t.name].items():
-            grids[t.name] = grid
+        for k, (strain, v) in table[t.name].items():
+            grids[t.name] = strain
             relative = np.sqrt(sigma_of(k) ** 2 + (amplitude or {}).get((t.name, k), 0.0) ** 2)
             sims = v[:-1] * (1.0 + relative[:, None] * rng.standard_normal(v[:-1].shape))
             ok = ~failed[t.name][:-1]
@@ -210,37 +211,46 @@ def volume_change_table(forward: LabForward, post, observations, tests, at_pct=(
 
 
 def plot_curves(path, observations, forward, post, title, reference=None, predict=(), seed=0, sigmas=None):
-    """Data vs MAP curves with the 95 % posterior predictive band, one row per test (the paper's Figs. 2-4, 13).
-    ``reference``: optional {test: {curve: (x, y)}} drawn dashed (true-value curves); ``predict``: names of tests
-    not used in the calibration (titled "prediction"); ``sigmas``: as :func:`predictive`."""
-    plt = pyplot()
+    """Data vs MAP curves with the 95 % posterior predictive band, one row per test (the paper's Figs. 2-4, 13), on a
+    sheet (:mod:`cases.study.outputs.figures.sheet`). ``reference``: optional {test: {curve: (x, y)}} drawn dashed
+    (true-value curves); ``predict``: names of tests not used in the calibration (titled "prediction");
+    ``sigmas``: as :func:`predictive`."""
     band, grids, at_map = predictive(forward, post, seed=seed, sigmas=sigmas)
     tests = list(forward.tests)
     ncol = max(len(CURVES[t.drainage == "drained"]) for t in tests)
-    fig, axes = plt.subplots(len(tests), ncol, figsize=(4.6 * ncol, 3.0 * len(tests)), squeeze=False)
-    for row, t in zip(axes, tests):
+    m = PANEL_MARGINS
+    sheet, frames = grid(len(tests) * ncol, (4.6, 3.0), (m["left"], m["right"], m["bottom"], m["top"]), ncol,
+                         PANEL_TICKS, legend=4)
+    ax = sheet.ax
+    for row, t in enumerate(tests):
         obs = observations[t.name] if t.name in observations.tests else None
-        for ax, k in zip(row, CURVES[t.drainage == "drained"]):
+        for col, k in enumerate(CURVES[t.drainage == "drained"]):
             x = grids[t.name]
+            shown = [(x, at_map[t.name][k])]
             if band[t.name][k] is not None:
-                ax.fill_between(x, band[t.name][k][0], band[t.name][k][2], color="C0", alpha=0.25,
-                                label="95 % posterior predictive")
-            ax.plot(x, at_map[t.name][k], "C0-", lw=1.5, label="MAP")
+                shown += [(x, band[t.name][k][0]), (x, band[t.name][k][2])]
             if reference and t.name in reference:
-                ax.plot(*reference[t.name][k], "k--", lw=1, label="true values")
+                shown.append(reference[t.name][k])
             if obs is not None and k in obs.curves:
-                ax.plot(obs.curves[k].x, obs.curves[k].y, ".", color="C3", ms=3, label="data")
+                shown.append((obs.curves[k].x, obs.curves[k].y))
+            cell = sheet.cell(*frames[row * ncol + col], padded(np.concatenate([v for v, _ in shown])),
+                              padded(np.concatenate([v for _, v in shown])))
+            if band[t.name][k] is not None:
+                ax.fill_between(cell.x(x), cell.y(band[t.name][k][0]), cell.y(band[t.name][k][2]), color="C0",
+                                alpha=0.25, lw=0, label=sheet.once("95 % posterior predictive"))
+            ax.plot(cell.x(x), cell.y(at_map[t.name][k]), "C0-", lw=1.5, label=sheet.once("MAP"))
+            if reference and t.name in reference:
+                rx, ry = reference[t.name][k]
+                ax.plot(cell.x(rx), cell.y(ry), "k--", lw=1, label=sheet.once("true values"))
+            if obs is not None and k in obs.curves:
+                ax.plot(cell.x(obs.curves[k].x), cell.y(obs.curves[k].y), ".", color="C3", ms=3,
+                        label=sheet.once("data"))
             role = "prediction" if t.name in predict else "calibration"
-            ax.set_title(f"{t.name} ({role}): e0 {t.e0:g}, p'0 {t.p0:g} kPa", fontsize=9)
-            ax.set_xlabel(abscissa_label("axial_strain"))
-            ax.set_ylabel(quantity_label(k))
-        for ax in row[len(CURVES[t.drainage == "drained"]):]:
-            ax.axis("off")
-    axes[0, 0].legend(fontsize=7)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+            cell.title(f"{t.name} ({role}): e0 {t.e0:g}, p'0 {t.p0:g} kPa")
+            cell.x_axis(abscissa_label("axial_strain"), edge=0.0)
+            cell.y_axis(quantity_label(k), edge=0.0)
+    sheet.legend_row(ax.get_legend_handles_labels()[0])
+    save(sheet.finish(), path, title, 110)
 
 
 def plot_stress_paths(path, observations, forward, post, title):

@@ -47,7 +47,7 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
     panels = panels or curve_panels(observations)
     m = PANEL_MARGINS
     sheet, frames = grid(len(panels), (4.2, 3.2), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
-                         PANEL_TICKS, legend=True)
+                         PANEL_TICKS, legend=3)
     for k, (frame, panel) in enumerate(zip(frames, panels)):
         test = panel.test
         drawn = []   # per member: (x, band, MAP line or None, MAP at the records, records, offset)
@@ -148,15 +148,7 @@ def stress_paths_figure(observations, map_raw, drained, dense=None):
         return None
     m = PANEL_MARGINS
     sheet, frames = grid(len(panels), (4.0, 3.6), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
-                         PANEL_TICKS, legend=True)
-    labelled = set()
-
-    def label(text):   # each entry of the legend once
-        if text in labelled:
-            return None
-        labelled.add(text)
-        return text
-
+                         PANEL_TICKS, legend=3)
     for frame, (t, paths) in zip(frames, panels):
         drawn, unknown = [], []   # per stage: (MAP line (p, q) or None, MAP at the records (p, q), records or None)
         for key, model in paths:
@@ -174,12 +166,12 @@ def stress_paths_figure(observations, map_raw, drained, dense=None):
                           padded(np.concatenate([q for _, q in shown])))
         for line, at, rec in drawn:
             if line is not None:
-                sheet.ax.plot(cell.x(line[0]), cell.y(line[1]), "C0-", lw=1.5, label=label("MAP"))
+                sheet.ax.plot(cell.x(line[0]), cell.y(line[1]), "C0-", lw=1.5, label=sheet.once("MAP"))
             else:
-                sheet.ax.plot(cell.x(at[0]), cell.y(at[1]), "C0x", ms=5, label=label("MAP (at the records)"))
+                sheet.ax.plot(cell.x(at[0]), cell.y(at[1]), "C0x", ms=5, label=sheet.once("MAP (at the records)"))
             if rec is not None:
                 sheet.ax.plot(cell.x(rec[0]), cell.y(rec[1]), "o", ms=3, mfc="none", color="C3",
-                              label=label("recorded"))
+                              label=sheet.once("recorded"))
         if unknown:
             where = "" if unknown == [None] else f" in {len(unknown)} of {len(paths)} stages"
             cell.note(f"recorded p' unknown{where} (no p' or u recorded)", fontsize=7)

@@ -50,7 +50,8 @@ def marginals_figure(post, marks=None, units=None):
     outside the zoomed axis is named in its panel with its value instead; one legend, under the title. Returns the
     figure."""
     plt = pyplot()
-    sheet, frames = grid(len(post.names), (3.0, 2.3), (0.2, 0.15, 0.55, 0.1), MAX_COLUMNS, legend=True)
+    sheet, frames = grid(len(post.names), (3.0, 2.3), (0.2, 0.15, 0.55, 0.1), MAX_COLUMNS,
+                         legend=2 + sum(bool(v) for v in (marks or {}).values()))
     for i, (frame, name) in enumerate(zip(frames, post.names)):
         cell = sheet.cell(*frame, zoom(post.samples[:, i]))
         _histogram(cell, post.samples[:, i], "0.75")

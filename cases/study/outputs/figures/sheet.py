@@ -14,7 +14,7 @@ import numpy as np
 
 from cases.study.outputs.figures.canvas import FIXED, TITLE_ROOM, pyplot
 
-__all__ = ["TICK_FONT", "LABEL_FONT", "Cell", "Sheet", "grid", "nice_ticks", "padded"]
+__all__ = ["TICK_FONT", "LABEL_FONT", "LEGEND_ROW", "Cell", "Sheet", "grid", "legend_columns", "nice_ticks", "padded"]
 
 #: the most intervals between a cell's ticks (matplotlib's ``nbins``): its tick values are long beside its width
 NARROW_PANEL_TICKS = 4
@@ -26,8 +26,8 @@ TICK_LENGTH = 0.05
 TICK_GAP, X_LABEL_GAP, Y_LABEL_GAP = 0.04, 0.22, 0.62
 #: no tick within this fraction of an axis's range from its ends (:func:`nice_ticks`)
 EDGE = 0.06
-#: the room (inches) of a row of legend entries under the title
-LEGEND_ROOM = 0.3
+#: a row of legend entries under the title: its height and the width of one entry (inches)
+LEGEND_ROW, LEGEND_ENTRY = 0.22, 1.7
 
 
 def nice_ticks(lo: float, hi: float, integer: bool = False, edge: float = EDGE, bins: int = NARROW_PANEL_TICKS,
@@ -60,12 +60,13 @@ class Sheet:
     def __init__(self, width: float, height: float, bins: int = NARROW_PANEL_TICKS):
         plt = pyplot()
         self.width, self.height, self.bins = width, height, bins
+        self.legend_columns = legend_columns(width)
         self.fig = plt.figure(figsize=(width, height), label=FIXED)
         self.ax = self.fig.add_axes((0.0, 0.0, 1.0, 1.0))
         self.ax.set_xlim(0.0, width)
         self.ax.set_ylim(0.0, height)
         self.ax.set_axis_off()
-        self.frames, self.marks = [], []
+        self.frames, self.marks, self.labelled = [], [], set()
 
     def cell(self, left: float, bottom: float, width: float, height: float, x_range, y_range=(0.0, 1.0),
              x_log: bool = False) -> "Cell":
@@ -76,11 +77,20 @@ class Sheet:
         return Cell(self, left, bottom, width, height, tuple(map(float, x_range)), tuple(map(float, y_range)),
                     x_log)
 
+    def once(self, label: str) -> str | None:
+        """``label`` the first time it is asked for, None after: each entry of the legend once, whichever panel
+        draws it first."""
+        if label in self.labelled:
+            return None
+        self.labelled.add(label)
+        return label
+
     def legend_row(self, handles):
-        """``handles`` as one row of legend entries under the title, from the left edge (:func:`grid` with
-        ``legend`` leaves the room)."""
-        self.ax.legend(handles=handles, loc="upper left", ncol=len(handles), fontsize=7, frameon=False,
-                       bbox_transform=self.ax.transData, bbox_to_anchor=(0.1, self.height - TITLE_ROOM))
+        """``handles`` as rows of legend entries under the title, from the left edge, as many side by side as the
+        width holds (:func:`grid` with ``legend`` leaves the room)."""
+        self.ax.legend(handles=handles, loc="upper left", ncol=min(len(handles), self.legend_columns), fontsize=7,
+                       frameon=False, bbox_transform=self.ax.transData,
+                       bbox_to_anchor=(0.1, self.height - TITLE_ROOM))
 
     def finish(self):
         """The figure, the frames and tick marks of every cell added."""
@@ -169,16 +179,22 @@ class Cell:
             self.ax.text(self.left + self.width - pad, self.bottom + pad, text, ha="right", va="bottom", **style)
 
 
-def grid(n: int, pitch: tuple, inset: tuple, max_columns: int, bins: int = NARROW_PANEL_TICKS, legend: bool = False):
+def legend_columns(width: float) -> int:
+    """How many legend entries stand side by side on a sheet ``width`` inches wide."""
+    return max(1, int((width - 0.2) // LEGEND_ENTRY))
+
+
+def grid(n: int, pitch: tuple, inset: tuple, max_columns: int, bins: int = NARROW_PANEL_TICKS, legend: int = 0):
     """(Sheet, the frames' (left, bottom, width, height) in reading order) of ``n`` cells in rows of at most
     ``max_columns``, each in a ``pitch`` (width, height) of inches whose frame is inset by ``inset`` (left, right,
-    bottom, top) inches, ``TITLE_ROOM`` above the rows and with ``legend`` ``LEGEND_ROOM`` under it
+    bottom, top) inches, ``TITLE_ROOM`` above the rows and under it the rows of ``legend`` entries
     (:meth:`Sheet.legend_row`); ``bins`` as :class:`Sheet`."""
     cols = max(1, min(n, max_columns))
     rows = max(1, -(-n // cols))
     pw, ph = pitch
     left, right, bottom, top = inset
-    sheet = Sheet(pw * cols, ph * rows + TITLE_ROOM + (LEGEND_ROOM if legend else 0.0), bins)
+    legend_rows = -(-legend // legend_columns(pw * cols))
+    sheet = Sheet(pw * cols, ph * rows + TITLE_ROOM + (legend_rows * LEGEND_ROW + 0.08 if legend else 0.0), bins)
     frames = []
     for k in range(n):
         row, col = divmod(k, cols)

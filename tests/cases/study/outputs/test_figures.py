@@ -24,7 +24,7 @@ from cases.study.outputs.figures.posterior import (
     write_posterior_figures,
     zoom,
 )
-from cases.study.outputs.figures.sheet import LEGEND_ROOM, TICK_FONT, grid
+from cases.study.outputs.figures.sheet import LEGEND_ROW, TICK_FONT, grid, legend_columns
 from cases.study.outputs.report import loop_figure
 from cases.study.programme import InitialState, Stage, TestSpec
 from inference import Curve, Observations, Test
@@ -68,9 +68,30 @@ def test_the_grid_wraps_many_curves_into_rows_of_four():
     assert sheet.fig.get_size_inches()[1] == pytest.approx(6 * 3.2 + TITLE_ROOM)    # 24 panels / 4 columns, the title
     assert [f[0] for f in frames[:5]] == pytest.approx([0.9, 5.1, 9.3, 13.5, 0.9])   # the fifth starts a row
     assert frames[4][1] == pytest.approx(frames[0][1] - 3.2)
-    sheet, frames = grid(5, (4.2, 3.2), (0.9, 0.15, 0.6, 0.35), MAX_COLUMNS, legend=True)
+    sheet, frames = grid(5, (4.2, 3.2), (0.9, 0.15, 0.6, 0.35), MAX_COLUMNS, legend=3)
     assert len(frames) == 5 and sheet.fig.get_size_inches()[0] == pytest.approx(4 * 4.2)
-    assert sheet.fig.get_size_inches()[1] == pytest.approx(2 * 3.2 + TITLE_ROOM + LEGEND_ROOM)
+    assert sheet.fig.get_size_inches()[1] == pytest.approx(2 * 3.2 + TITLE_ROOM + LEGEND_ROW + 0.08)   # one row
+    # one panel 4.2 inches wide holds two legend entries side by side: four take two rows
+    assert legend_columns(4.2) == 2
+    sheet, frames = grid(1, (4.2, 3.2), (0.9, 0.15, 0.6, 0.35), MAX_COLUMNS, legend=4)
+    assert sheet.fig.get_size_inches()[1] == pytest.approx(3.2 + TITLE_ROOM + 2 * LEGEND_ROW + 0.08)
+
+def test_a_legend_row_wraps_to_the_sheets_width(tmp_path):
+    """Four entries over one panel 4.6 inches wide (predictions.png of one predicted curve): two rows, inside the
+    figure, in the room the grid left under the title."""
+    sheet, frames = grid(1, (4.6, 3.0), (0.9, 0.15, 0.6, 0.35), MAX_COLUMNS, legend=4)
+    cell = sheet.cell(*frames[0], (0.0, 1.0), (0.0, 1.0))
+    cell.x_axis("axial strain eps_a (%)")
+    sheet.legend_row([plt.Line2D([], [], color=f"C{k}", label=text) for k, text in enumerate(
+        ("+ model error", "parameters + noise", "predictive mean", "measured"))])
+    fig = sheet.finish()
+    save(fig, tmp_path / "legend.png", "SYNTHETIC data: a figure title")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    legend = fig.axes[0].get_legend().get_window_extent(renderer)
+    page, dpi = fig.bbox, fig.dpi
+    assert page.x0 <= legend.x0 and legend.x1 <= page.x1
+    assert legend.y0 >= (cell.bottom + cell.height) * dpi and legend.y1 <= page.y1 - TITLE_ROOM * dpi + 1
+
 
 def _overlap(a, b) -> float:
     """The area (pixels^2) two bounding boxes share."""
@@ -79,24 +100,25 @@ def _overlap(a, b) -> float:
     return max(w, 0.0) * max(h, 0.0)
 
 
-@pytest.mark.parametrize("figure", ["curves", "loop", "stress paths"])
-def test_a_sheets_texts_lie_inside_the_figure_below_its_title_and_apart(figure, tmp_path):
-    """Six panels of long tick values (-12000 to 99999 kPa) and labels, on a sheet (the curves' figure; the loop's
-    figure, records above their residual; the stress paths): every tick value, axis label and panel title lies
-    inside the figure, below the figure's title and the legend's row, and shares no pixel with any other text."""
+@pytest.mark.parametrize("figure, n", [("curves", 6), ("curves", 1), ("loop", 6), ("stress paths", 6)])
+def test_a_sheets_texts_lie_inside_the_figure_below_its_title_and_apart(figure, n, tmp_path):
+    """Six panels (or one, whose legend entries wrap into rows) of long tick values (-12000 to 99999 kPa) and labels,
+    on a sheet (the curves' figure; the loop's figure, records above their residual; the stress paths): the legend
+    and every tick value, axis label and panel title lie inside the figure, below the figure's title, and no text
+    shares a pixel with the legend or another text."""
     x = np.linspace(0.0, 1e4, 5)
     observations = Observations([Test(f"TEST_{k}", {"axial_stress@relax_ocr1": Curve(
-        x, np.linspace(-12000.0, 99999.0, 5), "axial_strain", "axial_stress", "%", "kPa")}) for k in range(6)])
+        x, np.linspace(-12000.0, 99999.0, 5), "axial_strain", "axial_stress", "%", "kPa")}) for k in range(n)])
     sims = {(t.name, c): curve.y * 1.01 + 5.0 for t in observations for c, curve in t.curves.items()}
     if figure == "curves":
         bands = {k: SimpleNamespace(lower=v - 900.0, upper=v + 900.0, coverage=1.0) for k, v in sims.items()}
         fig = curves_figure(observations, sims, bands)
     elif figure == "stress paths":
         paths = Observations([Test(f"TEST_{k}", {"q": Curve(x, np.linspace(-12000.0, 99999.0, 5), "axial_strain",
-                                                             "q", "%", "kPa")}) for k in range(6)])
+                                                             "q", "%", "kPa")}) for k in range(n)])
         raw = {f"TEST_{k}": {"q": np.linspace(-12000.0, 99999.0, 5), "mean_stress": np.linspace(-9000.0, 88888.0, 5)}
-               for k in range(6)}
-        fig = stress_paths_figure(paths, raw, {(f"TEST_{k}", None): True for k in range(6)})
+               for k in range(n)}
+        fig = stress_paths_figure(paths, raw, {(f"TEST_{k}", None): True for k in range(n)})
     else:
         base = SimpleNamespace(map_simulated=sims, role="base", candidate=None, log_evidence=0.0)
         fig = loop_figure(SimpleNamespace(observations=observations), [base],
@@ -107,8 +129,9 @@ def test_a_sheets_texts_lie_inside_the_figure_below_its_title_and_apart(figure, 
     title = fig.texts[0].get_window_extent(renderer)
     legend = ax.get_legend().get_window_extent(renderer)
     boxes = [t.get_window_extent(renderer) for t in ax.texts]
-    assert len(boxes) > 6 * 8
+    assert len(boxes) > n * 8
     page = fig.bbox
+    assert page.x0 <= legend.x0 and legend.x1 <= page.x1 and legend.y1 <= title.y0
     for i, box in enumerate(boxes):
         assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0 and box.y1 <= title.y0
         assert _overlap(box, legend) == 0.0
