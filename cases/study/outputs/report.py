@@ -162,7 +162,7 @@ def loop_figure(like, classes, diag, panels=None):
         confirmed = [c for c in physics if c.candidate == diag.omitted_physics]
         enriched = confirmed[0] if confirmed else max(physics, key=lambda c: c.log_evidence)
     ax = sheet.ax
-    for k, ((left, bottom, width, height), panel) in enumerate(zip(frames, panels)):
+    for (left, bottom, width, height), panel in zip(frames, panels):
         t = panel.test
         members = []   # (x, records, base MAP, enriched MAP or None, residual %, offset, key)
         for c, offset in panel.members:
@@ -178,12 +178,11 @@ def loop_figure(like, classes, diag, panels=None):
             [v for _, y, b, e, *_ in members for v in (y, b, () if e is None else e)])), x_log=log)
         low = sheet.cell(left, bottom, width, each, x_range,
                          padded(np.concatenate([[0.0], *(r for *_, r, _, _ in members)])), x_log=log)
-        for j, (x, y, b, e, r, offset, c) in enumerate(members):
-            label = k == 0 and j == 0
-            ax.plot(top.x(x), top.y(y), "o", ms=3, mfc="none", color="C3", label="recorded" if label else None)
-            ax.plot(top.x(x), top.y(b), "k--", lw=1, label="base MAP" if label else None)
+        for x, y, b, e, r, offset, c in members:
+            ax.plot(top.x(x), top.y(y), "o", ms=3, mfc="none", color="C3", label=sheet.once("recorded"))
+            ax.plot(top.x(x), top.y(b), "k--", lw=1, label=sheet.once("base MAP"))
             if e is not None:
-                ax.plot(top.x(x), top.y(e), "C0-", lw=1.3, label=f"{enriched.candidate} MAP" if label else None)
+                ax.plot(top.x(x), top.y(e), "C0-", lw=1.3, label=sheet.once(f"{enriched.candidate} MAP"))
             ax.plot(low.x(x), low.y(r), "o-", ms=3, lw=0.6, color="C3")
             for reg in diag.mismatch_regions:
                 if reg.test == t and reg.curve == c:

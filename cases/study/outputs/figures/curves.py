@@ -20,15 +20,6 @@ __all__ = ["curves_figure", "model_at_records", "recorded_mean_stress", "stress_
            "stress_paths_figure"]
 
 
-def _draw_map(ax, line, x, y, label=True):
-    """The MAP of one curve: a line through ``line`` (x, y) when the model was evaluated between the records, else
-    (None) markers at the records (``x``, ``y``); labelled for the legend when ``label``."""
-    if line is not None:
-        ax.plot(*line, "C0-", lw=1.5, label="MAP" if label else None)
-    else:
-        ax.plot(x, y, "C0x", ms=5, label="MAP (at the records)" if label else None)
-
-
 def _shifted(line, offset):
     """A dense MAP line (x, y) moved by ``offset`` along x; None stays None."""
     return None if line is None else (np.asarray(line[0]) + offset, line[1])
@@ -48,7 +39,7 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
     m = PANEL_MARGINS
     sheet, frames = grid(len(panels), (4.2, 3.2), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
                          PANEL_TICKS, legend=3)
-    for k, (frame, panel) in enumerate(zip(frames, panels)):
+    for frame, panel in zip(frames, panels):
         test = panel.test
         drawn = []   # per member: (x, band, MAP line or None, MAP at the records, records, offset)
         for key, offset in panel.members:
@@ -61,13 +52,14 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
         ys = [v for _, band, line, at, y, _ in drawn
               for v in (band.lower, band.upper, at if line is None else line[1], y)]
         cell = sheet.cell(*frame, padded(np.concatenate(xs), log), padded(np.concatenate(ys)), x_log=log)
-        for j, (x, band, line, at, y, offset) in enumerate(drawn):
-            label = k == 0 and j == 0
+        for x, band, line, at, y, offset in drawn:
             sheet.ax.fill_between(cell.x(x), cell.y(band.lower), cell.y(band.upper), color="C0", alpha=0.25, lw=0,
-                                  label="95 % predictive" if label else None)
-            _draw_map(sheet.ax, None if line is None else (cell.x(line[0]), cell.y(line[1])), cell.x(x), cell.y(at),
-                      label)
-            sheet.ax.plot(cell.x(x), cell.y(y), "o", ms=3, mfc="none", color="C3", label="recorded" if label else None)
+                                  label=sheet.once("95 % predictive"))
+            if line is not None:   # the MAP between the records
+                sheet.ax.plot(cell.x(line[0]), cell.y(line[1]), "C0-", lw=1.5, label=sheet.once("MAP"))
+            else:
+                sheet.ax.plot(cell.x(x), cell.y(at), "C0x", ms=5, label=sheet.once("MAP (at the records)"))
+            sheet.ax.plot(cell.x(x), cell.y(y), "o", ms=3, mfc="none", color="C3", label=sheet.once("recorded"))
             if offset:   # where a stage continues the one before on a shifted axis
                 cell.vertical(offset, color="0.75", lw=0.5, zorder=0)
         cell.note(f"{100 * panel.coverage(bands):.0f} % of the records in the band", top=False, color="0.3",

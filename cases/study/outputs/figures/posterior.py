@@ -9,7 +9,7 @@ import numpy as np
 
 from cases.study.outputs.figures.canvas import MAX_COLUMNS, draw, pyplot
 from cases.study.outputs.figures.labels import parameter_label
-from cases.study.outputs.figures.sheet import Sheet, grid
+from cases.study.outputs.figures.sheet import Sheet, grid, padded
 
 __all__ = ["zoom", "marginals_figure", "pairs_figure", "stages_figure", "write_posterior_figures"]
 
@@ -18,11 +18,9 @@ _MARKERS = ("s", "^", "D", "v")
 
 
 def zoom(values, margin: float = 0.15) -> tuple:
-    """The axis range of a posterior sample: its span widened by ``margin`` of it on each side (a collapsed sample,
-    by 1 % of its value or 1e-12)."""
-    lo, hi = float(np.min(values)), float(np.max(values))
-    pad = margin * (hi - lo) if hi > lo else max(0.01 * abs(lo), 1e-12)
-    return lo - pad, hi + pad
+    """The axis range of a posterior sample: its span widened by ``margin`` of it on each side
+    (:func:`cases.study.outputs.figures.sheet.padded`)."""
+    return padded(values, margin=margin)
 
 
 def _bins(values) -> int:

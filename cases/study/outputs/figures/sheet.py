@@ -204,7 +204,7 @@ def grid(n: int, pitch: tuple, inset: tuple, max_columns: int, bins: int = NARRO
 
 def padded(values, log: bool = False, margin: float = 0.05) -> tuple:
     """The range of an axis over ``values`` (NaN ignored) widened by ``margin`` of it on each side (in the
-    logarithm on a ``log`` axis), as matplotlib's automatic limits; a single value by 1 % of it (or 1)."""
+    logarithm on a ``log`` axis), as matplotlib's automatic limits; a single value by 1 % of it (by 1 when 0)."""
     v = np.asarray(values, dtype=float)
     v = v[np.isfinite(v) & ((v > 0) if log else True)]
     lo, hi = (float(v.min()), float(v.max())) if v.size else (1.0, 10.0)
@@ -212,7 +212,7 @@ def padded(values, log: bool = False, margin: float = 0.05) -> tuple:
         a, b = np.log10(lo), np.log10(hi)
         pad = margin * (b - a) if b > a else 0.5
         return 10.0 ** (a - pad), 10.0 ** (b + pad)
-    pad = margin * (hi - lo) if hi > lo else max(0.01 * abs(lo), 1.0)
+    pad = margin * (hi - lo) if hi > lo else (0.01 * abs(lo) or 1.0)
     return lo - pad, hi + pad
 
 

@@ -329,8 +329,9 @@ def test_curves_draw_the_map_as_a_line_between_the_records_else_as_markers():
     np.testing.assert_allclose(_relative(recorded.get_xdata()), [0.0, 1.0 / 3.0, 1.0], atol=1e-12)
     recorded_q = next(v for v in ax.get_lines() if v.get_marker() == "o" and _inside(cell_q, v))
     np.testing.assert_allclose(_relative(recorded_q.get_xdata()), [0.0, 1.0 / 3.0, 1.0], atol=1e-12)   # 1, 2, 4 %
+    # every mark drawn is named once, in the order first drawn: the u panel's markers too
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert legend == ["95 % predictive", "MAP", "recorded"]
+    assert legend == ["95 % predictive", "MAP", "recorded", "MAP (at the records)"]
 
 def test_recorded_mean_stress_follows_the_total_stress_path_of_the_test():
     """An undrained test from p'0 = 95 kPa, q0 = 0 at constant cell pressure: p' = p'0 + q/3 - u. The model: q 30,
