@@ -26,15 +26,13 @@ an effect that moves curves by tens of percent.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
-from scipy.linalg import solve_triangular
 
 __all__ = ["Discrepancy", "CurveDiscrepancy", "normalized_abscissa", "where_it_lies"]
-
-#: rows of a batch whose covariance matrices are built at once (memory: rows x n^2 floats per curve)
-_ROWS_PER_BLOCK = 64
 
 
 @dataclass(frozen=True)
@@ -134,24 +132,18 @@ class CurveDiscrepancy:
 
     def log_density(self, residuals, sigma, amplitude, length) -> np.ndarray:
         """(D2) for m rows: ``residuals`` (m, n) relative errors at the used points, ``sigma`` the error group's
-        sigma_g (m,), ``amplitude`` (m,), ``length`` (m,). Rows with a non-finite residual give NaN."""
-        m = residuals.shape[0]
-        out = np.empty(m)
-        noise_sd = sigma * np.sqrt(self.scale)
-        for start in range(0, m, _ROWS_PER_BLOCK):
-            rows = slice(start, min(m, start + _ROWS_PER_BLOCK))
-            r = residuals[rows]
-            finite = np.isfinite(r).all(axis=1)
-            r = np.where(finite[:, None], r, 0.0)
-            c = self.covariance(noise_sd[rows], amplitude[rows], length[rows])
-            chol = np.linalg.cholesky(c)
-            z = np.stack([solve_triangular(lower, row, lower=True, check_finite=False)  # L^-1 r, O(n^2) a row
-                          for lower, row in zip(chol, r)])
-            quad = np.cumsum(z * z, axis=1)[:, -1]
-            logdet = 2.0 * np.cumsum(np.log(np.diagonal(chol, axis1=1, axis2=2)), axis=1)[:, -1]
-            value = -0.5 * quad - 0.5 * logdet - 0.5 * self.n * np.log(2.0 * np.pi) + self.constant
-            out[rows] = np.where(finite, value, np.nan)
-        return out
+        sigma_g (m,), ``amplitude`` (m,), ``length`` (m,). Rows with a non-finite residual give NaN; a covariance
+        that is not positive definite raises LinAlgError."""
+        residuals = np.ascontiguousarray(residuals, dtype=float)
+        out = np.empty(residuals.shape[0])
+        noise_sd = np.ascontiguousarray(sigma * np.sqrt(self.scale), dtype=float)
+        amplitude = np.ascontiguousarray(amplitude, dtype=float)
+        length = np.ascontiguousarray(length, dtype=float)
+        row = _gaussian_log_densities(self.sq, self.floor, residuals, noise_sd, amplitude, length, out)
+        if row >= 0:
+            raise np.linalg.LinAlgError(f"the discrepancy's covariance is not positive definite (noise "
+                                        f"{noise_sd[row]:g}, amplitude {amplitude[row]:g}, length {length[row]:g})")
+        return out - 0.5 * self.n * np.log(2.0 * np.pi) + self.constant
 
     def posterior_mean(self, residuals, sigma, amplitude, length) -> np.ndarray:
         """E[delta_j | r_j] = a^2 K C^-1 r at the used points for one parameter set (floats; ``residuals`` (n,))."""
@@ -159,6 +151,61 @@ class CurveDiscrepancy:
         c = self.covariance(noise_sd, np.array([amplitude]), np.array([length]))[0]
         k = c - np.diag(np.full(self.n, noise_sd[0] ** 2 + 1e-10 * amplitude**2))
         return k @ np.linalg.solve(c, np.asarray(residuals, dtype=float))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _gaussian_log_densities(sq, floor, residuals, noise_sd, amplitude, length, out):
+    """ln N(r_i; 0, C_i) + (n/2) ln 2 pi of (D2) for each row i of ``residuals`` (m, n), in ``out`` (m,): C_i of
+    :meth:`CurveDiscrepancy.covariance` from the squared distances ``sq`` (n, n), the length floor and the row's
+    ``noise_sd``, ``amplitude`` and ``length``; its Cholesky factor L (row by row), z = L^-1 r, and
+    -z.z/2 - sum ln L_kk; NaN for a row with a non-finite residual. Returns the first row whose covariance is not
+    positive definite (its value NaN), or -1. Compiled as the kernels of ``constitutive`` (numpy's floating-point
+    error model, no fastmath, cached), one row at a time: no (m, n, n) arrays and no call per row."""
+    m, n = residuals.shape
+    singular = -1
+    lower = np.empty((n, n))
+    z = np.empty(n)
+    for i in range(m):
+        out[i] = np.nan
+        finite = True
+        for r in range(n):
+            finite = finite and math.isfinite(residuals[i, r])
+        if not finite:
+            continue
+        decay = -0.5 / max(length[i], floor) ** 2
+        a2 = amplitude[i] ** 2
+        for r in range(n):
+            for c in range(r):
+                lower[r, c] = a2 * math.exp(decay * sq[r, c])
+            # a relative jitter keeps the matrix positive definite when the noise is negligible against the amplitude
+            lower[r, r] = a2 + (noise_sd[i] ** 2 + 1e-10 * a2)
+        positive, log_det = True, 0.0
+        for r in range(n):
+            for c in range(r + 1):
+                v = lower[r, c]
+                for k in range(c):
+                    v -= lower[r, k] * lower[c, k]
+                if c < r:
+                    lower[r, c] = v / lower[c, c]
+                elif v > 0.0:
+                    lower[r, r] = math.sqrt(v)
+                    log_det += math.log(lower[r, r])
+                else:
+                    positive = False
+            if not positive:
+                break
+        if not positive:
+            singular = i if singular < 0 else singular
+            continue
+        quad = 0.0
+        for r in range(n):
+            v = residuals[i, r]
+            for k in range(r):
+                v -= lower[r, k] * z[k]
+            z[r] = v / lower[r, r]
+            quad += z[r] * z[r]
+        out[i] = -0.5 * quad - log_det
+    return singular
 
 
 def where_it_lies(likelihood, theta, top=None, simulated=None) -> list:

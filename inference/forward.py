@@ -1,6 +1,7 @@
 """The forward-model protocol of :class:`inference.Likelihood`, its adapters for plain callables, the failure
-policy of a batch of evaluations (written once here, applied by the likelihood and the executors' evaluator), and
-one solve per distinct parameter set of a batch (:func:`simulate_distinct`).
+policy of a batch of evaluations (written once here, applied by the likelihood and the executors' evaluator), one
+solve per distinct parameter set of a batch (:func:`simulate_distinct`), and a batch's results per particle
+(:func:`particle_result`) or as one table (:func:`stacked_results`).
 
 A forward model maps m parameter sets to simulated curves:
 
@@ -34,7 +35,8 @@ from collections.abc import Mapping
 import numpy as np
 
 __all__ = ["ForwardModelError", "ForwardModel", "ParticleForward", "ListForward", "as_forward_model", "batch_or_each",
-           "particle_dicts", "reason_of", "distinct_rows", "simulate_distinct"]
+           "particle_dicts", "reason_of", "distinct_rows", "simulate_distinct", "particle_result",
+           "stacked_results"]
 
 
 class ForwardModelError(RuntimeError):
@@ -159,3 +161,35 @@ def simulate_distinct(forward: ForwardModel, names, values) -> tuple:
         return [curves[k] for k in inverse], failed
     return ({t: {c: (v[0], np.asarray(v[1])[inverse]) if isinstance(v, tuple) else np.asarray(v)[inverse]
                  for c, v in cs.items()} for t, cs in curves.items()}, failed)
+
+
+def stacked_results(results, curves: dict):
+    """A list of per-particle results (module docstring) as the table ``{test: {curve: y (m, n)}}`` of the curves
+    ``curves`` ({test: curve names}) when each result gives each of them as values at the records of one size (not
+    as (x, y)); else None."""
+    out = {}
+    for test, names in curves.items():
+        out[test] = {}
+        for name in names:
+            parts = []
+            for result in results:
+                curves_of_test = result.get(test) if isinstance(result, Mapping) else None
+                y = curves_of_test.get(name) if isinstance(curves_of_test, Mapping) else None
+                if y is None or isinstance(y, tuple):
+                    return None
+                parts.append(np.asarray(y, dtype=float))
+            if not parts or any(y.shape != parts[0].shape for y in parts):
+                return None
+            out[test][name] = np.stack(parts)
+    return out
+
+
+def particle_result(curves, failed, i):
+    """Particle i's forward result from a batch's (curves, failed): its exception, or {test: {curve: values or
+    (x, y)}}."""
+    if failed[i] is not None:
+        return failed[i]
+    if isinstance(curves, Mapping):
+        return {t: {c: (v[0], v[1][i]) if isinstance(v, tuple) else v[i] for c, v in cs.items()}
+                for t, cs in curves.items()}
+    return curves[i]

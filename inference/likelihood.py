@@ -26,7 +26,16 @@ from collections.abc import Mapping
 import numpy as np
 
 from .discrepancy import CurveDiscrepancy, Discrepancy, normalized_abscissa
-from .forward import ForwardModelError, as_forward_model, batch_or_each, distinct_rows, reason_of, simulate_distinct
+from .forward import (
+    ForwardModelError,
+    as_forward_model,
+    batch_or_each,
+    distinct_rows,
+    particle_result,
+    reason_of,
+    simulate_distinct,
+    stacked_results,
+)
 from .goodness import curve_mean_squares, goodness_of_fit, log_likelihood_test
 from .observations import Observations
 
@@ -439,19 +448,9 @@ class Likelihood:
         that differ only in their error or discrepancy parameters share one solve (``forward.simulate_distinct``)."""
         return simulate_distinct(self.forward, self._soil_names, self.soil_parameters(thetas))
 
-    @staticmethod
-    def _particle(curves, failed, i):
-        """Particle i's forward result: its exception, or {test: {curve: values or (x, y)}}."""
-        if failed[i] is not None:
-            return failed[i]
-        if isinstance(curves, Mapping):
-            return {t: {c: (v[0], v[1][i]) if isinstance(v, tuple) else v[i] for c, v in cs.items()}
-                    for t, cs in curves.items()}
-        return curves[i]
-
     def _forward_one(self, theta):
         """The forward result of one parameter set (prior order); raises what the forward model raises."""
-        return self._particle(*self._simulate(np.asarray(theta, dtype=float)[None, :]), 0)
+        return particle_result(*self._simulate(np.asarray(theta, dtype=float)[None, :]), 0)
 
     def __call__(self, theta) -> float:
         return self.log_likelihood_from(self._forward_one(theta), self.split(theta)[1], self.discrepancy_arrays(theta))
@@ -463,7 +462,7 @@ class Likelihood:
         thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
         if self.forward.batched:
             curves, failed = self._simulate(thetas)
-            results = [self._particle(curves, failed, i) for i in range(len(thetas))]
+            results = [particle_result(curves, failed, i) for i in range(len(thetas))]
         else:
             first, inverse = distinct_rows(self.soil_parameters(thetas))
             solved = [self._forward_one(thetas[i]) for i in first]
@@ -511,32 +510,54 @@ class Likelihood:
         # the usable sets' curves stacked, then Eqs. (4)-(6) (or (D2)) once for them: the same bits as one set at a
         # time (each row's arithmetic is the same whatever the batch), without the per-set Python of the curves'
         # terms; the reasons in the per-set precedence (sigma_eps, the forward model's failure, an unusable curve)
-        sigma, rows, usable = self.sigma_arrays(thetas), [], []
+        sigma, candidates = self.sigma_arrays(thetas), []
         for i in range(len(thetas)):
-            try:
-                bad = self._sigma_reason(sigma[i])
-                if bad:
-                    raise ForwardModelError(bad)
-                usable.append(self._simulated_one(self._particle(curves, failed, i)))
-                rows.append(i)
-            except Exception as exc:  # noqa: BLE001 - an unusable result is this particle's zero likelihood
-                reasons[i] = reason_of(exc)
+            bad = self._sigma_reason(sigma[i])
+            if bad or failed[i] is not None:
+                reasons[i] = reason_of(ForwardModelError(bad) if bad else failed[i])
+            else:
+                candidates.append(i)
+        rows, simulated = self._usable_rows(curves, candidates, reasons)
         if not rows:
             return values, reasons
         delta = self.discrepancy_arrays(thetas[rows])
         try:
-            values[rows] = self._log_likelihood({key: np.concatenate([u[key] for u in usable]) for key in usable[0]},
-                                                sigma[rows], delta)
+            values[rows] = self._log_likelihood(simulated, sigma[rows], delta)
             return values, reasons
         except Exception:  # noqa: BLE001 - one set's failure (a covariance not positive definite) is its own
             pass
         for i in rows:
             try:
-                values[i] = self.log_likelihood_from(self._particle(curves, failed, i), self.split(thetas[i])[1],
+                values[i] = self.log_likelihood_from(particle_result(curves, failed, i), self.split(thetas[i])[1],
                                                      self.discrepancy_arrays(thetas[i]))
             except Exception as exc:  # noqa: BLE001 - an unusable result is this particle's zero likelihood
                 reasons[i] = reason_of(exc)
         return values, reasons
+
+    def _usable_rows(self, curves, candidates, reasons) -> tuple:
+        """(rows, {(test, curve): (len(rows), n_recorded)}) of the sets ``candidates`` of per-set results ``curves``
+        whose curves are usable (the others' reasons in ``reasons``): as one batch where they stack, else set by set."""
+        stacked = stacked_results([curves[i] for i in candidates], {t.name: t.curves for t in self.observations})
+        if stacked is not None:
+            try:
+                simulated, failures = self._simulated_batch(stacked, len(candidates))
+            except ForwardModelError:  # a size or curve that no set can use: each set names it itself, below
+                stacked = None
+        if stacked is None:
+            rows, usable = [], []
+            for i in candidates:
+                try:
+                    usable.append(self._simulated_one(curves[i]))
+                    rows.append(i)
+                except Exception as exc:  # noqa: BLE001 - an unusable result is this particle's zero likelihood
+                    reasons[i] = reason_of(exc)
+            return rows, ({key: np.concatenate([u[key] for u in usable]) for key in usable[0]} if usable else {})
+        keep = np.ones(len(candidates), dtype=bool)
+        for bad, message in failures:
+            for j in np.flatnonzero(bad & keep):
+                reasons[candidates[j]] = f"{ForwardModelError.__name__}: {message}"
+            keep &= ~bad
+        return [i for i, k in zip(candidates, keep) if k], {key: v[keep] for key, v in simulated.items()}
 
     def _evaluate_arrays(self, thetas, curves, failed):
         """Eqs. (4)-(6) for a batch from a table of curves: the same reasons, in the same precedence, as the

@@ -9,7 +9,7 @@ from scipy.stats import multivariate_normal
 
 import inference
 from inference import Curve, Discrepancy, Likelihood, Observations, Test
-from inference.discrepancy import normalized_abscissa
+from inference.discrepancy import CurveDiscrepancy, normalized_abscissa
 
 X1 = np.linspace(0.5, 10.0, 12)
 X2 = np.linspace(1.0, 6.0, 7)
@@ -79,6 +79,34 @@ def test_batch_rows_give_the_bits_of_single_rows():
     assert all(r is None for r in reasons)
     for i in (0, 63, 64, 69):  # both sides of a block boundary
         assert like.evaluate_many(thetas[i:i + 1])[0][0] == values[i]
+
+
+def test_a_long_curve_row_by_row_equals_a_dense_normal_density_and_bad_rows_are_nan():
+    """(D2) of one curve of 90 irregular points for parameter sets from noise-dominated to amplitude-dominated and
+    from short to long length scales, against scipy's multivariate normal on the covariance written here; a row
+    with a non-finite residual is NaN without touching the others; a singular covariance (no noise, no amplitude)
+    is refused."""
+    rng = np.random.default_rng(5)
+    u = np.sort(rng.uniform(0.0, 1.0, 90))
+    curve = CurveDiscrepancy(u, n_curves=3, n_test=200, min_spacings=3.0)
+    sigma = np.array([0.02, 0.002, 0.01, 0.0005])
+    amplitude = np.array([0.001, 0.05, 0.02, 0.04])
+    length = np.array([0.05, 0.9, 0.2, 0.01])
+    residuals = rng.normal(0.0, 0.02, (4, u.size))
+    got = curve.log_density(residuals, sigma, amplitude, length)
+    scale = 3 * u.size / 200
+    for i in range(4):
+        ell = max(length[i], curve.floor)
+        cov = amplitude[i] ** 2 * np.exp(-np.subtract.outer(u, u) ** 2 / (2.0 * ell**2))
+        cov += (sigma[i] ** 2 * scale + 1e-10 * amplitude[i] ** 2) * np.eye(u.size)
+        expected = multivariate_normal(np.zeros(u.size), cov).logpdf(residuals[i]) + 0.5 * u.size * math.log(scale)
+        assert got[i] == pytest.approx(expected, rel=1e-9)
+    residuals[1, 7] = np.nan
+    again = curve.log_density(residuals, sigma, amplitude, length)
+    assert np.isnan(again[1])
+    assert again[[0, 2, 3]].tolist() == got[[0, 2, 3]].tolist()
+    with pytest.raises(np.linalg.LinAlgError, match="not positive definite"):
+        curve.log_density(residuals[:1], np.zeros(1), np.zeros(1), np.full(1, 0.3))
 
 
 def test_refusals_name_the_parameter_or_curve():

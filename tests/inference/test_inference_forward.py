@@ -163,6 +163,30 @@ def test_a_list_of_results_is_scored_at_once_with_the_bits_and_reasons_of_each_s
                 assert values[i] == -np.inf
 
 
+@pytest.mark.parametrize("odd", ["short", "interpolated", "missing"])
+def test_a_list_whose_sets_give_curves_of_other_forms_is_scored_set_by_set(odd):
+    """One set of a list gives its curve with a value short, as (x, y) to interpolate, or not at all: the sets
+    cannot be taken as one batch of values, so each is scored as alone, its own reason for an unusable curve and
+    the bits of ``like(theta)`` for the others. Oracle: each set evaluated by itself."""
+    def forward(plist):
+        out = []
+        for p in plist:
+            q = 10.0 * p["a"] * X
+            if p["a"] == 1.5:
+                q = {"short": q[:2], "interpolated": (X, q), "missing": None}[odd]
+            out.append({"t": {} if q is None else {"q": q}})
+        return out
+
+    like = Likelihood(_obs(), forward, batch=True).bind(("a", "sigma_eps"))
+    values, reasons = like.evaluate_many(THETAS)
+    for i, theta in enumerate(THETAS):
+        alone, why = like.evaluate_many(theta[None, :])
+        assert why[0] == reasons[i]
+        assert values[i] == alone[0]
+    assert (reasons[2] is None) == (odd == "interpolated")
+    assert reasons[0] is None and values[0] == like(THETAS[0])
+
+
 def test_a_batch_whose_terms_raise_is_scored_set_by_set(monkeypatch):
     """Should the batched terms of a list of results raise (a covariance not positive definite for one set), every
     set is scored alone from the batch's one forward call (not solved again): the values are each set's own."""
