@@ -1,8 +1,8 @@
 """Shear (triaxial cell): the axial strain at ``strain_rate`` (1/s, magnitude) signed by ``direction``
 (``compression`` +, ``extension`` -), the radial total stress held; ``drainage`` ``drained`` or ``undrained`` (volume
-held, the excess pore pressure an unknown). It ends at ``to_axial_strain`` (%, the stage's own axial strain), else at
-its last record. Records against the stage's own axial strain (%, zeroed at the start of shear, as triaxial reports
-give it) or the time since the stage start (s).
+held, the excess pore pressure an unknown). It ends at ``to_axial_strain`` (%, the stage's own axial strain; in
+extension its size or its negative value as recorded), else at its last record. Records against the stage's own
+axial strain (%, zeroed at the start of shear, as triaxial reports give it) or the time since the stage start (s).
 """
 from __future__ import annotations
 
@@ -29,10 +29,22 @@ class Shear(StageKind):
     drainable = True
     rate_controlled = True
     shearing = True
+    strain_end = "any"
 
     @classmethod
     def check(cls, ck, table, where, apparatus, values):
+        """The direction defaults to compression; the end is kept as the strain's size, a negative one only in
+        extension."""
         values.setdefault("direction", "compression")
+        end = values.get("to_strain")
+        if end is None:
+            return
+        if end == 0.0:
+            ck.fail(f"{where}.to_axial_strain", table["to_axial_strain"], "must be != 0 (%, the stage's own strain)")
+        if end < 0.0 and values["direction"] != "extension":
+            ck.fail(f"{where}.to_axial_strain", table["to_axial_strain"], "a negative axial strain is reached in "
+                    'extension: give direction = "extension", or the strain\'s size')
+        values["to_strain"] = abs(end)
 
     @classmethod
     def describe(cls, stage):
