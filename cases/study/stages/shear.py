@@ -1,8 +1,9 @@
-"""Shear (triaxial cell): the axial strain at ``strain_rate`` (1/s, magnitude) signed by ``direction``
-(``compression`` +, ``extension`` -), the radial total stress held; ``drainage`` ``drained`` or ``undrained`` (volume
-held, the excess pore pressure an unknown). It ends at ``to_axial_strain`` (%, the stage's own axial strain; in
-extension its size or its negative value as recorded), else at its last record. Records against the stage's own
-axial strain (%, zeroed at the start of shear, as triaxial reports give it) or the time since the stage start (s).
+"""Shear (triaxial cell): the axial strain at ``strain_rate`` (1/s, its size; in extension also its negative value
+as recorded) signed by ``direction`` (``compression`` +, ``extension`` -), the radial total stress held; ``drainage``
+``drained`` or ``undrained`` (volume held, the excess pore pressure an unknown). It ends at ``to_axial_strain`` (%,
+the stage's own axial strain; in extension its size or its negative value as recorded), else at its last record.
+Records against the stage's own axial strain (%, zeroed at the start of shear, as triaxial reports give it) or the
+time since the stage start (s).
 """
 from __future__ import annotations
 
@@ -32,19 +33,29 @@ class Shear(StageKind):
     strain_end = "any"
 
     @classmethod
+    def read_value(cls, ck, key, value, where):
+        if key != "strain_rate":
+            return super().read_value(ck, key, value, where)
+        rate = ck.number(value, where)
+        if rate == 0:
+            ck.fail(where, value, "must be != 0 (1/s)")
+        return key, rate
+
+    @classmethod
     def check(cls, ck, table, where, apparatus, values):
-        """The direction defaults to compression; the end is kept as the strain's size, a negative one only in
-        extension."""
+        """The direction defaults to compression; the rate and the end are kept as their sizes, either negative (as
+        recorded) only in extension."""
         values.setdefault("direction", "compression")
-        end = values.get("to_strain")
-        if end is None:
-            return
-        if end == 0.0:
-            ck.fail(f"{where}.to_axial_strain", table["to_axial_strain"], "must be != 0 (%, the stage's own strain)")
-        if end < 0.0 and values["direction"] != "extension":
-            ck.fail(f"{where}.to_axial_strain", table["to_axial_strain"], "a negative axial strain is reached in "
-                    'extension: give direction = "extension", or the strain\'s size')
-        values["to_strain"] = abs(end)
+        for field, key, unit in (("strain_rate", "strain_rate", "1/s"), ("to_strain", "to_axial_strain", "%")):
+            value = values.get(field)
+            if value is None:
+                continue
+            if value == 0.0:
+                ck.fail(f"{where}.{key}", table[key], f"must be != 0 ({unit})")
+            if value < 0.0 and values["direction"] != "extension":
+                ck.fail(f"{where}.{key}", table[key], "a negative axial strain is reached in extension: give "
+                        'direction = "extension", or the size')
+            values[field] = abs(value)
 
     @classmethod
     def describe(cls, stage):

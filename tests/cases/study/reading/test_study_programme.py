@@ -377,7 +377,7 @@ BAD_FIELDS = [
     ('kind = "consolidation"\np = 200.0', 'kind = "load"\nsigma_v = 200.0\nduration = 60.0',
      "tests['CIU'].stages[0].kind = 'load': supported for apparatus 'triaxial'"),
     ('strain_rate = 1.0e-5', 'strain_rate = 0',
-     "tests['CIU'].stages[2].strain_rate = 0: must be > 0"),
+     "tests['CIU'].stages[2].strain_rate = 0: must be != 0 (1/s)"),
     ('drainage = "undrained"', 'drainage = "partial"',
      "tests['CIU'].stages[2].drainage = 'partial': expected one of drained, undrained"),
     ('to_axial_strain = 10.0', 'to_axial_strain = -3.0',

@@ -15,21 +15,21 @@ def test_parsed_with_its_defaults():
     assert Shear.elapsed(st, None, None) == 0.12 / 1e-5
 
 
-def test_an_extension_ends_at_its_recorded_negative_strain_or_its_size():
-    ends = [read("triaxial", kind="shear", drainage="undrained", strain_rate=1e-5, direction="extension",
-                 to_axial_strain=end) for end in (-2.5, 2.5)]
-    assert [(st.direction, st.to_strain) for st in ends] == [("extension", 0.025)] * 2
+def test_an_extension_may_be_written_with_its_recorded_negative_rate_and_end():
+    stages = [read("triaxial", kind="shear", drainage="undrained", strain_rate=rate, direction="extension",
+                   to_axial_strain=end) for rate, end in ((-1e-5, -2.5), (1e-5, 2.5), (-1e-5, 2.5))]
+    assert [(st.direction, st.strain_rate, st.to_strain) for st in stages] == [("extension", 1e-5, 0.025)] * 3
 
 
 def test_refusals():
     refused("triaxial", f"{WHERE}.strain_rate is missing", kind="shear", drainage="drained")
     refused("triaxial", f"{WHERE}.drainage = 'partly': expected one of drained, undrained", kind="shear",
             drainage="partly", strain_rate=1e-5)
-    refused("triaxial", f"{WHERE}.to_axial_strain = -5.0: a negative axial strain is reached in extension: give "
-            'direction = "extension", or the strain\'s size', kind="shear", drainage="drained", strain_rate=1e-5,
-            to_axial_strain=-5.0)
-    refused("triaxial", f"{WHERE}.to_axial_strain = 0.0: must be != 0 (%, the stage's own strain)", kind="shear",
-            drainage="drained", strain_rate=1e-5, to_axial_strain=0.0)
+    negative = 'a negative axial strain is reached in extension: give direction = "extension", or the size'
+    for field, value, why in (("to_axial_strain", -5.0, negative), ("to_axial_strain", 0.0, "must be != 0 (%)"),
+                              ("strain_rate", -1e-5, negative), ("strain_rate", 0.0, "must be != 0 (1/s)")):
+        refused("triaxial", f"{WHERE}.{field} = {value!r}: {why}", **{"kind": "shear", "drainage": "drained",
+                                                                       "strain_rate": 1e-5, field: value})
     refused("triaxial", f"{WHERE}.to_axial_strain = 150.0: a strain in % must be <= 100", kind="shear",
             drainage="drained", strain_rate=1e-5, to_axial_strain=150.0)
 
