@@ -135,12 +135,15 @@ class StageKind:
 
     #: the sign a strain end may take: "positive", "non_negative" or "any"
     strain_end = "positive"
+    #: a strain rate that may be negative (any value but 0) says so in its refusal with this note; None: > 0
+    signed_rate = None
 
     # ------------------------------------------------------------------ reading the study file
     @classmethod
     def read_value(cls, ck, key: str, value, where: str) -> tuple:
         """(Stage field, checked value) of the table field ``key`` = ``value`` at ``where``: a text field among its
-        choices, a strain end in % (a fraction in the record, |value| <= 100), any other number > 0."""
+        choices, a strain end in % (a fraction in the record, |value| <= 100), a signed strain rate != 0
+        (``signed_rate``), any other number > 0."""
         if key in CHOICES:
             return key, ck.text(value, where, CHOICES[key])
         if key in ("to_axial_strain", "to_cavity_strain"):
@@ -149,6 +152,11 @@ class StageKind:
             if abs(value) > 100.0:
                 ck.fail(where, value, "a strain in % must be <= 100")
             return "to_strain", strain
+        if key == "strain_rate" and cls.signed_rate:
+            rate = ck.number(value, where)
+            if rate == 0:
+                ck.fail(where, value, f"must be != 0 ({cls.signed_rate})")
+            return key, rate
         return key, ck.number(value, where, positive=True)
 
     @classmethod

@@ -26,15 +26,7 @@ class ConstantRateOfStrain(StageKind):
     controls = {"triaxial": OEDOMETER_STRAIN, "oedometer": OEDOMETER_STRAIN}
     rate_controlled = True
     strain_end = "any"
-
-    @classmethod
-    def read_value(cls, ck, key, value, where):
-        if key != "strain_rate":
-            return super().read_value(ck, key, value, where)
-        rate = ck.number(value, where)
-        if rate == 0:
-            ck.fail(where, value, "must be != 0 (1/s, signed: > 0 loading, < 0 unloading)")
-        return key, rate
+    signed_rate = "1/s, signed: > 0 loading, < 0 unloading"
 
     @classmethod
     def check(cls, ck, table, where, apparatus, values):

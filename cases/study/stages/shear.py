@@ -31,31 +31,22 @@ class Shear(StageKind):
     rate_controlled = True
     shearing = True
     strain_end = "any"
-
-    @classmethod
-    def read_value(cls, ck, key, value, where):
-        if key != "strain_rate":
-            return super().read_value(ck, key, value, where)
-        rate = ck.number(value, where)
-        if rate == 0:
-            ck.fail(where, value, "must be != 0 (1/s)")
-        return key, rate
+    signed_rate = "1/s"
 
     @classmethod
     def check(cls, ck, table, where, apparatus, values):
         """The direction defaults to compression; the rate and the end are kept as their sizes, either negative (as
         recorded) only in extension."""
         values.setdefault("direction", "compression")
-        for field, key, unit in (("strain_rate", "strain_rate", "1/s"), ("to_strain", "to_axial_strain", "%")):
+        if values.get("to_strain") == 0.0:
+            ck.fail(f"{where}.to_axial_strain", table["to_axial_strain"], "must be != 0 (%)")
+        for field, key in (("strain_rate", "strain_rate"), ("to_strain", "to_axial_strain")):
             value = values.get(field)
-            if value is None:
-                continue
-            if value == 0.0:
-                ck.fail(f"{where}.{key}", table[key], f"must be != 0 ({unit})")
-            if value < 0.0 and values["direction"] != "extension":
-                ck.fail(f"{where}.{key}", table[key], "a negative axial strain is reached in extension: give "
-                        'direction = "extension", or the size')
-            values[field] = abs(value)
+            if value is not None and value < 0.0:
+                if values["direction"] != "extension":
+                    ck.fail(f"{where}.{key}", table[key], "a negative axial strain is reached in extension: give "
+                            'direction = "extension", or the size')
+                values[field] = -value
 
     @classmethod
     def describe(cls, stage):
