@@ -119,16 +119,11 @@ class CurveDiscrepancy:
         self.scale = n_curves * self.n / n_test
         self.constant = 0.5 * self.n * np.log(self.scale)
 
-    def covariance(self, noise_sd, amplitude, length) -> np.ndarray:
-        """C_j of (D2) for rows of parameters: ``noise_sd`` s_j, ``amplitude`` a_k, ``length`` l, each (m,);
-        returns (m, n, n)."""
-        ell = np.maximum(length, self.floor)
-        k = np.exp(-self.sq[None, :, :] / (2.0 * ell[:, None, None] ** 2))
-        c = (amplitude**2)[:, None, None] * k
-        diagonal = np.arange(self.n)
-        # a relative jitter keeps the matrix positive definite when the noise is negligible against the amplitude
-        c[:, diagonal, diagonal] += noise_sd[:, None] ** 2 + 1e-10 * (amplitude**2)[:, None]
-        return c
+    def covariance(self, sigma, amplitude, length) -> np.ndarray:
+        """C_j of (D2), (n, n), for one parameter set (floats): sigma_g, the amplitude a_k and the length scale l."""
+        c = np.empty((self.n, self.n))
+        _covariance_lower(self.sq, self.floor, sigma * np.sqrt(self.scale), amplitude, length, c)
+        return np.tril(c) + np.tril(c, -1).T
 
     def log_density(self, residuals, sigma, amplitude, length) -> np.ndarray:
         """(D2) for m rows: ``residuals`` (m, n) relative errors at the used points, ``sigma`` the error group's
@@ -147,16 +142,29 @@ class CurveDiscrepancy:
 
     def posterior_mean(self, residuals, sigma, amplitude, length) -> np.ndarray:
         """E[delta_j | r_j] = a^2 K C^-1 r at the used points for one parameter set (floats; ``residuals`` (n,))."""
-        noise_sd = np.array([sigma * np.sqrt(self.scale)])
-        c = self.covariance(noise_sd, np.array([amplitude]), np.array([length]))[0]
-        k = c - np.diag(np.full(self.n, noise_sd[0] ** 2 + 1e-10 * amplitude**2))
+        c = self.covariance(sigma, amplitude, length)
+        k = c.copy()
+        np.fill_diagonal(k, amplitude**2)   # a^2 K: K is 1 on its diagonal
         return k @ np.linalg.solve(c, np.asarray(residuals, dtype=float))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _covariance_lower(sq, floor, noise_sd, amplitude, length, c):
+    """C_j of (D2) in the lower triangle and diagonal of ``c`` (n, n): a^2 exp(-d^2 / (2 l_j^2)) off the diagonal
+    (``sq`` the squared distances d^2, l_j = max(``length``, ``floor``)), a^2 + s_j^2 on it (``noise_sd`` s_j), plus
+    a relative jitter that keeps the matrix positive definite when the noise is negligible against the amplitude."""
+    decay = -0.5 / max(length, floor) ** 2
+    a2 = amplitude**2
+    for r in range(sq.shape[0]):
+        for col in range(r):
+            c[r, col] = a2 * math.exp(decay * sq[r, col])
+        c[r, r] = a2 + (noise_sd**2 + 1e-10 * a2)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _gaussian_log_densities(sq, floor, residuals, noise_sd, amplitude, length, out):
-    """ln N(r_i; 0, C_i) + (n/2) ln 2 pi of (D2) for each row i of ``residuals`` (m, n), in ``out`` (m,): C_i of
-    :meth:`CurveDiscrepancy.covariance` from the squared distances ``sq`` (n, n), the length floor and the row's
+    """ln N(r_i; 0, C_i) + (n/2) ln 2 pi of (D2) for each row i of ``residuals`` (m, n), in ``out`` (m,): C_i
+    (:func:`_covariance_lower`) from the squared distances ``sq`` (n, n), the length floor and the row's
     ``noise_sd``, ``amplitude`` and ``length``; its Cholesky factor L (row by row), z = L^-1 r, and
     -z.z/2 - sum ln L_kk; NaN for a row with a non-finite residual. Returns the first row whose covariance is not
     positive definite (its value NaN), or -1. Compiled as the kernels of ``constitutive`` (numpy's floating-point
@@ -172,13 +180,7 @@ def _gaussian_log_densities(sq, floor, residuals, noise_sd, amplitude, length, o
             finite = finite and math.isfinite(residuals[i, r])
         if not finite:
             continue
-        decay = -0.5 / max(length[i], floor) ** 2
-        a2 = amplitude[i] ** 2
-        for r in range(n):
-            for c in range(r):
-                lower[r, c] = a2 * math.exp(decay * sq[r, c])
-            # a relative jitter keeps the matrix positive definite when the noise is negligible against the amplitude
-            lower[r, r] = a2 + (noise_sd[i] ** 2 + 1e-10 * a2)
+        _covariance_lower(sq, floor, noise_sd[i], amplitude[i], length[i], lower)
         positive, log_det = True, 0.0
         for r in range(n):
             for c in range(r + 1):

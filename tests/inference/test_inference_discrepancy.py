@@ -167,3 +167,18 @@ def test_evidence_prefers_the_discrepancy_for_a_smooth_misfit_and_not_for_noise(
     gain_plain = _evidence(plain, fwd, d) - _evidence(plain, fwd, None)
     assert gain_smooth > 10.0
     assert gain_plain < 1.0
+
+
+def test_the_discrepancys_posterior_mean_is_the_gaussian_conditional_mean_written_here():
+    """E[delta | r] = a^2 K (a^2 K + s^2 I)^-1 r (the conditional mean of (D1)), with K, the length floor and the
+    noise's scale written in the test; zero amplitude gives zero."""
+    rng = np.random.default_rng(6)
+    u = np.sort(rng.uniform(0.0, 1.0, 40))
+    curve = CurveDiscrepancy(u, n_curves=2, n_test=80, min_spacings=3.0)
+    r = 0.03 * np.sin(6.0 * u) + rng.normal(0.0, 0.01, u.size)
+    sigma, amplitude, length = 0.01, 0.04, 0.2
+    k = amplitude**2 * np.exp(-np.subtract.outer(u, u) ** 2 / (2.0 * max(length, curve.floor) ** 2))
+    noise = (sigma**2 * 2 * u.size / 80 + 1e-10 * amplitude**2) * np.eye(u.size)
+    expected = k @ np.linalg.solve(k + noise, r)
+    assert curve.posterior_mean(r, sigma, amplitude, length) == pytest.approx(expected, rel=1e-9, abs=1e-12)
+    assert np.abs(curve.posterior_mean(r, sigma, 0.0, length)).max() == 0.0
