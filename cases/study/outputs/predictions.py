@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import PANEL_MARGINS, PANEL_TICKS, save
-from cases.study.outputs.figures.sheet import grid, padded
+from cases.study.outputs.figures.canvas import save
+from cases.study.outputs.figures.sheet import padded, panel_sheet
 from inference.diagnosis import simulate_samples
 from inference.prediction import band_scores, prediction_bands
 
@@ -149,9 +149,7 @@ def plot_predictions(path, rows, title, labels):
     the model-error term, each band's share of the measurements in its panel; ``labels`` {curve: axis label}."""
     tests = list(dict.fromkeys(r["test"] for r in rows))
     ncol = max(sum(r["test"] == t for r in rows) for t in tests)
-    m = PANEL_MARGINS
-    sheet, frames = grid(len(tests) * ncol, (4.6, 3.0), (m["left"], m["right"], m["bottom"], m["top"]), ncol,
-                         PANEL_TICKS, legend=4)
+    sheet, frames = panel_sheet(len(tests) * ncol, (4.6, 3.0), ncol, legend=4)
     ax = sheet.ax
     for row, t in enumerate(tests):
         for col, r in enumerate([r for r in rows if r["test"] == t]):
@@ -171,5 +169,5 @@ def plot_predictions(path, rows, title, labels):
             cell.title(f"{t} (prediction): {r['curve']}")
             cell.x_axis(r["x_label"], edge=0.0)
             cell.y_axis(labels.get(r["curve"], r["curve"]), edge=0.0)
-    sheet.legend_row(ax.get_legend_handles_labels()[0])
+    sheet.legend_row()
     save(sheet.finish(), path, title, 110)

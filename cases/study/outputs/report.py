@@ -9,18 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from cases.study.outputs.calibration_warnings import calibration_warnings, warnings_section
-from cases.study.outputs.figures.canvas import (
-    MAX_COLUMNS,
-    PANEL_MARGINS,
-    PANEL_TICKS,
-    draw,
-    logarithmic_time,
-)
+from cases.study.outputs.figures.canvas import draw, logarithmic_time
 from cases.study.outputs.figures.curves import curves_figure, stress_path_panels, stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.panels import curve_panels, stage_axes
 from cases.study.outputs.figures.posterior import write_posterior_figures
-from cases.study.outputs.figures.sheet import grid, padded
+from cases.study.outputs.figures.sheet import padded, panel_sheet
 from cases.study.outputs.glossary import glossary_lines
 from cases.study.runner import method_name
 from inference import diagnosis
@@ -153,9 +147,7 @@ def loop_figure(like, classes, diag, panels=None):
     from matplotlib.patches import Rectangle
 
     panels = panels or curve_panels(like.observations)
-    m = PANEL_MARGINS
-    sheet, frames = grid(len(panels), (4.2, 5.6), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
-                         PANEL_TICKS, legend=3)
+    sheet, frames = panel_sheet(len(panels), (4.2, 5.6))
     base, enriched = classes[0], None
     physics = [c for c in classes[1:] if c.role == "enriched"]
     if physics:
@@ -197,6 +189,5 @@ def loop_figure(like, classes, diag, panels=None):
         top.y_axis(quantity_label(panel.keys[0], curve.y_unit), edge=0.0)
         low.x_axis(abscissa_label(curve.x_name, curve.x_unit), edge=0.0)
         low.y_axis("base residual U_obs/U_sim - 1 (%)", edge=0.0)
-    sheet.legend_row(ax.get_legend_handles_labels()[0])
+    sheet.legend_row()
     return sheet.finish()
-

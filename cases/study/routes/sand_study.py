@@ -22,11 +22,11 @@ import numpy as np
 
 import inference
 from cases.study.forward.lab import LabForward
-from cases.study.outputs.figures.canvas import PANEL_MARGINS, PANEL_TICKS, pyplot, save
+from cases.study.outputs.figures.canvas import pyplot, save
 from cases.study.outputs.figures.curves import stress_paths_figure
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.posterior import write_posterior_figures
-from cases.study.outputs.figures.sheet import grid, padded
+from cases.study.outputs.figures.sheet import padded, panel_sheet
 from cases.study.outputs.report import runs_table
 from cases.study.programme import TestSpec
 from cases.study.reading.reference import is_error_parameter
@@ -218,9 +218,7 @@ def plot_curves(path, observations, forward, post, title, reference=None, predic
     band, grids, at_map = predictive(forward, post, seed=seed, sigmas=sigmas)
     tests = list(forward.tests)
     ncol = max(len(CURVES[t.drainage == "drained"]) for t in tests)
-    m = PANEL_MARGINS
-    sheet, frames = grid(len(tests) * ncol, (4.6, 3.0), (m["left"], m["right"], m["bottom"], m["top"]), ncol,
-                         PANEL_TICKS, legend=4)
+    sheet, frames = panel_sheet(len(tests) * ncol, (4.6, 3.0), ncol, legend=4)
     ax = sheet.ax
     for row, t in enumerate(tests):
         obs = observations[t.name] if t.name in observations.tests else None
@@ -249,7 +247,7 @@ def plot_curves(path, observations, forward, post, title, reference=None, predic
             cell.title(f"{t.name} ({role}): e0 {t.e0:g}, p'0 {t.p0:g} kPa")
             cell.x_axis(abscissa_label("axial_strain"), edge=0.0)
             cell.y_axis(quantity_label(k), edge=0.0)
-    sheet.legend_row(ax.get_legend_handles_labels()[0])
+    sheet.legend_row()
     save(sheet.finish(), path, title, 110)
 
 

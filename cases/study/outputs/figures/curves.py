@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import MAX_COLUMNS, PANEL_MARGINS, PANEL_TICKS, logarithmic_time
+from cases.study.outputs.figures.canvas import logarithmic_time
 from cases.study.outputs.figures.labels import abscissa_label, quantity_label
 from cases.study.outputs.figures.panels import Panel, curve_panels
-from cases.study.outputs.figures.sheet import grid, padded
+from cases.study.outputs.figures.sheet import padded, panel_sheet
 from cases.study.programme import split_key
 
 __all__ = ["curves_figure", "model_at_records", "recorded_mean_stress", "stress_path_panels",
@@ -36,9 +36,7 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
     title. Returns the figure."""
     dense = dense or {}
     panels = panels or curve_panels(observations)
-    m = PANEL_MARGINS
-    sheet, frames = grid(len(panels), (4.2, 3.2), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
-                         PANEL_TICKS, legend=3)
+    sheet, frames = panel_sheet(len(panels), (4.2, 3.2))
     for frame, panel in zip(frames, panels):
         test = panel.test
         drawn = []   # per member: (x, band, MAP line or None, MAP at the records, records, offset)
@@ -68,7 +66,7 @@ def curves_figure(observations, map_simulated, bands, dense=None, panels=None):
         cell.x_axis(abscissa_label(first.x_name, first.x_unit), edge=0.0)
         cell.y_axis(quantity_label(panel.keys[0], first.y_unit), edge=0.0)
         cell.title(panel.title)
-    sheet.legend_row(sheet.ax.get_legend_handles_labels()[0])
+    sheet.legend_row()
     return sheet.finish()
 
 
@@ -138,9 +136,7 @@ def stress_paths_figure(observations, map_raw, drained, dense=None):
     panels = stress_path_panels(observations, map_raw, dense)
     if not panels:
         return None
-    m = PANEL_MARGINS
-    sheet, frames = grid(len(panels), (4.0, 3.6), (m["left"], m["right"], m["bottom"], m["top"]), MAX_COLUMNS,
-                         PANEL_TICKS, legend=3)
+    sheet, frames = panel_sheet(len(panels), (4.0, 3.6))
     for frame, (t, paths) in zip(frames, panels):
         drawn, unknown = [], []   # per stage: (MAP line (p, q) or None, MAP at the records (p, q), records or None)
         for key, model in paths:
@@ -170,5 +166,5 @@ def stress_paths_figure(observations, map_raw, drained, dense=None):
         cell.x_axis(quantity_label("mean_stress"), edge=0.0)
         cell.y_axis(quantity_label("q"), edge=0.0)
         cell.title(Panel(t.name, tuple((key, 0.0) for key, _ in paths)).title)
-    sheet.legend_row(sheet.ax.get_legend_handles_labels()[0])
+    sheet.legend_row()
     return sheet.finish()

@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.study.outputs.figures.canvas import FIXED, TITLE_ROOM, pyplot
+from cases.study.outputs.figures.canvas import FIXED, MAX_COLUMNS, PANEL_MARGINS, PANEL_TICKS, TITLE_ROOM, pyplot
 
-__all__ = ["TICK_FONT", "LABEL_FONT", "LEGEND_ROW", "Cell", "Sheet", "grid", "legend_columns", "nice_ticks", "padded"]
+__all__ = ["TICK_FONT", "LABEL_FONT", "LEGEND_ROW", "Cell", "Sheet", "grid", "legend_columns", "nice_ticks", "padded",
+           "panel_sheet"]
 
 #: the most intervals between a cell's ticks (matplotlib's ``nbins``): its tick values are long beside its width
 NARROW_PANEL_TICKS = 4
@@ -60,7 +61,6 @@ class Sheet:
     def __init__(self, width: float, height: float, bins: int = NARROW_PANEL_TICKS):
         plt = pyplot()
         self.width, self.height, self.bins = width, height, bins
-        self.legend_columns = legend_columns(width)
         self.fig = plt.figure(figsize=(width, height), label=FIXED)
         self.ax = self.fig.add_axes((0.0, 0.0, 1.0, 1.0))
         self.ax.set_xlim(0.0, width)
@@ -85,11 +85,13 @@ class Sheet:
         self.labelled.add(label)
         return label
 
-    def legend_row(self, handles):
-        """``handles`` as rows of legend entries under the title, from the left edge, as many side by side as the
-        width holds (:func:`grid` with ``legend`` leaves the room)."""
-        self.ax.legend(handles=handles, loc="upper left", ncol=min(len(handles), self.legend_columns), fontsize=7,
-                       frameon=False, bbox_transform=self.ax.transData,
+    def legend_row(self, handles=None):
+        """``handles`` (default: every artist drawn with a label, :meth:`once`) as rows of legend entries under the
+        title, from the left edge, as many side by side as the width holds (:func:`grid` with ``legend`` leaves the
+        room)."""
+        handles = self.ax.get_legend_handles_labels()[0] if handles is None else handles
+        self.ax.legend(handles=handles, loc="upper left", ncol=min(len(handles), legend_columns(self.width)),
+                       fontsize=7, frameon=False, bbox_transform=self.ax.transData,
                        bbox_to_anchor=(0.1, self.height - TITLE_ROOM))
 
     def finish(self):
@@ -200,6 +202,14 @@ def grid(n: int, pitch: tuple, inset: tuple, max_columns: int, bins: int = NARRO
         row, col = divmod(k, cols)
         frames.append((col * pw + left, (rows - 1 - row) * ph + bottom, pw - left - right, ph - bottom - top))
     return sheet, frames
+
+
+def panel_sheet(n: int, pitch: tuple, max_columns: int = MAX_COLUMNS, legend: int = 3):
+    """:func:`grid` of ``n`` panels of curves, each in a ``pitch`` (width, height) of inches with ``PANEL_MARGINS``
+    around its frame (tick and axis labels, its title), ``PANEL_TICKS`` intervals between ticks and room for
+    ``legend`` entries under the title."""
+    m = PANEL_MARGINS
+    return grid(n, pitch, (m["left"], m["right"], m["bottom"], m["top"]), max_columns, PANEL_TICKS, legend)
 
 
 def padded(values, log: bool = False, margin: float = 0.05) -> tuple:
