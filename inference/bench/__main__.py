@@ -5,6 +5,7 @@ dispatch overheads, as JSON lines.
         [--set max_steps=12 --set corr_threshold=0.3 ...]   # tmcmc keyword overrides
     python -m inference.bench --overhead        # sampler overhead per stage (N = 2000, d = 10)
     mpirun -n 2 python -m inference.bench --dispatch   # MPI dispatch overhead and parallel efficiency
+    python -m inference.bench --discrepancy     # the model-form discrepancy's (D2) per curve length
 
 Each line of the evidence benchmark: problem, method, log-evidence bias, spread (std over seeds) and RMSE, errors of
 posterior means and standard deviations (where exact values are known), minor-mode weight (B2-B4), likelihood calls,
@@ -19,6 +20,7 @@ import time
 
 import numpy as np
 
+from ..discrepancy import CurveDiscrepancy, reduced_rank_basis
 from ..executors import SerialExecutor
 from ..tmcmc import tmcmc
 from . import PROBLEMS
@@ -157,6 +159,28 @@ def _parse_override(text):
         return key, value
 
 
+def discrepancy_benchmark(lengths=(0.05, 0.3), records=(100, 300, 1000, 3000, 10000), rows=16, repeat=3):
+    """Per curve length and length scale: the time of (D2) per parameter set (best of ``repeat`` calls over
+    ``rows`` sets, after a warm-up call) and how it is taken (exact Cholesky factor, or the reduced-rank expansion
+    (D3) with its number of functions)."""
+    rng = np.random.default_rng(0)
+    for n in records:
+        curve = CurveDiscrepancy(np.linspace(0.0, 1.0, n), 1, n, 3.0)
+        residuals = rng.normal(0.0, 0.02, (rows, n))
+        for length in lengths:
+            args = (residuals, np.full(rows, 0.02), np.full(rows, 0.02), np.full(rows, length))
+            curve.log_density(*args)
+            best = float("inf")
+            for _ in range(repeat):
+                t0 = time.perf_counter()
+                curve.log_density(*args)
+                best = min(best, time.perf_counter() - t0)
+            m = reduced_rank_basis(max(length, curve.floor))[1]
+            yield {"benchmark": "discrepancy (D2)", "records": n, "length": length,
+                   "taken": f"reduced rank, {m} functions" if 4 * m <= n else "exact",
+                   "ms_per_parameter_set": round(1e3 * best / rows, 4)}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m inference.bench", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -169,7 +193,12 @@ def main(argv=None):
                     help="tmcmc keyword override for every method, VALUE read as JSON (else a string)")
     ap.add_argument("--overhead", action="store_true", help="only the sampler overhead per stage")
     ap.add_argument("--dispatch", action="store_true", help="only the MPI dispatch benchmark (under mpirun)")
+    ap.add_argument("--discrepancy", action="store_true", help="only the model-form discrepancy per curve length")
     args = ap.parse_args(argv)
+    if args.discrepancy:
+        for line in discrepancy_benchmark():
+            print(json.dumps(line), flush=True)
+        return 0
     if args.dispatch:
         for line in dispatch_benchmark():
             print(json.dumps(line), flush=True)

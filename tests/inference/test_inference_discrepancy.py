@@ -9,7 +9,7 @@ from scipy.stats import multivariate_normal
 
 import inference
 from inference import Curve, Discrepancy, Likelihood, Observations, Test
-from inference.discrepancy import CurveDiscrepancy, normalized_abscissa
+from inference.discrepancy import CurveDiscrepancy, normalized_abscissa, reduced_rank_basis
 
 X1 = np.linspace(0.5, 10.0, 12)
 X2 = np.linspace(1.0, 6.0, 7)
@@ -182,3 +182,44 @@ def test_the_discrepancys_posterior_mean_is_the_gaussian_conditional_mean_writte
     expected = k @ np.linalg.solve(k + noise, r)
     assert curve.posterior_mean(r, sigma, amplitude, length) == pytest.approx(expected, rel=1e-9, abs=1e-12)
     assert np.abs(curve.posterior_mean(r, sigma, 0.0, length)).max() == 0.0
+
+
+def _long_curve(n, seed):
+    rng = np.random.default_rng(seed)
+    u = np.sort(rng.uniform(0.0, 1.0, n))
+    return (u - u[0]) / (u[-1] - u[0]), rng
+
+
+def test_a_long_curve_by_the_reduced_rank_expansion_equals_a_dense_normal_density():
+    """(D2) of curves of 400 and 700 irregular records, where the reduced-rank expansion (D3) is taken (its basis at
+    most a quarter of the records: checked), at the corners of the default priors (length 0.05-1, amplitude 0.1-5 %,
+    noise 0.2-5 %) with a smooth misfit on top of draws of (D1), against scipy's multivariate normal on the exact
+    covariance written here: within 1e-5 nats (the expansion's truncation and boundary errors; they reach 7e-3 nats
+    with the boundary 2 l_j from the records instead of 6.8 l_j)."""
+    for n, seed in ((400, 8), (700, 9)):
+        u, rng = _long_curve(n, seed)
+        curve = CurveDiscrepancy(u, n_curves=1, n_test=n, min_spacings=3.0)
+        for length in (0.05, 0.3, 1.0):
+            assert 4 * reduced_rank_basis(length)[1] <= n
+            k = np.exp(-np.subtract.outer(u, u) ** 2 / (2.0 * length**2))
+            for amplitude in (0.001, 0.05):
+                for sigma in (0.002, 0.05):
+                    cov = amplitude**2 * k + (sigma**2 + 1e-10 * amplitude**2) * np.eye(n)
+                    r = np.linalg.cholesky(cov) @ rng.normal(size=n) + 0.03 * np.sin(7.0 * u)
+                    got = curve.log_density(r[None], np.array([sigma]), np.array([amplitude]), np.array([length]))
+                    expected = multivariate_normal(np.zeros(n), cov).logpdf(r)
+                    assert abs(got[0] - expected) < 1e-5, (n, length, amplitude, sigma)
+
+
+def test_a_long_curves_posterior_mean_by_the_reduced_rank_expansion_is_the_conditional_mean():
+    """E[delta | r] of a 500-record curve with (D3) against a^2 K (a^2 K + s^2 I)^-1 r written here, at a short and a
+    long length scale."""
+    u, rng = _long_curve(500, 10)
+    curve = CurveDiscrepancy(u, n_curves=1, n_test=500, min_spacings=3.0)
+    r = 0.03 * np.sin(6.0 * u) + rng.normal(0.0, 0.01, u.size)
+    sigma, amplitude = 0.01, 0.04
+    for length in (0.05, 0.8):
+        k = amplitude**2 * np.exp(-np.subtract.outer(u, u) ** 2 / (2.0 * length**2))
+        expected = k @ np.linalg.solve(k + (sigma**2 + 1e-10 * amplitude**2) * np.eye(u.size), r)
+        got = curve.posterior_mean(r, sigma, amplitude, length)
+        assert np.abs(got - expected).max() < 1e-7 * np.abs(expected).max()
