@@ -1,6 +1,6 @@
-"""The model-form discrepancy of the likelihood (inference.discrepancy, Eqs. (D1)-(D2)): it nests the paper's
-likelihood at zero amplitude, equals a dense multivariate normal written here independently, and its evidence
-tells a smooth misfit of model form from noise."""
+"""The model-form discrepancy of the likelihood (inference.discrepancy, Eqs. (D1)-(D3)): it nests the paper's
+likelihood at zero amplitude, equals a dense multivariate normal written here independently (on long curves through
+the reduced-rank expansion (D3) too), and its evidence tells a smooth misfit of model form from noise."""
 import math
 
 import numpy as np
