@@ -201,6 +201,14 @@ def adaptive_inputs(control, goal, strain, stress, u, known, size, h_previous, d
     return True
 
 
+#: the most accepted steps of one point along one adaptive path (``judge_steps``): a laboratory stage takes a few
+#: thousand; a point whose steps shrink without end (a response the step control cannot follow) fails there
+MAX_STEPS = 1_000_000
+#: the reason of a point that reached :data:`MAX_STEPS`
+STEP_LIMIT = (f"the step control took {MAX_STEPS} steps without reaching the end of the path (its steps shrank "
+              "without end: a response it cannot follow)")
+
+
 @jit
 def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments):
     """The step control of ``adaptive_control`` after a step, per point, in place: accept or reject, the next
@@ -212,7 +220,7 @@ def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments)
     stress_origin, strain_origin, u_origin): ``known`` the previous steps of the segment whose increments are rates
     of its path (up to 2: the one before in the ``_before`` arrays), ``skip`` the next accepted step is not one (it
     jumps to the stress target), ``_origin`` the values at the segment start; ``segments`` (ends, firsts, largest,
-    rtols)."""
+    rtols). A point that reaches :data:`MAX_STEPS` accepted steps before its end is dead."""
     size, after, landing = sizes
     atol, floor, strain_scale, strain_step, growth, max_rejections, max_cuts = control
     (tau, h, h_previous, d_stress, d_strain, d_u, strain, u, known, rejections, cuts, accepted, segment, going,
@@ -282,3 +290,6 @@ def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments)
                     strain_origin[i, c] = strain[i, c]
                 u_origin[i] = u[i]
         h[i] = min(proposal, largest[segment[i], i])
+        if going[i] and accepted[i] >= MAX_STEPS:  # the step size collapsed: a failure, not an endless loop
+            dead[i] = True
+            going[i] = False

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._mixed_control_kernel import (
+    MAX_STEPS,
+    STEP_LIMIT,
     adaptive_inputs,
     aim_step,
     correct_all,
@@ -31,7 +33,8 @@ from ._mixed_control_kernel import (
 )
 from .base import IntegrationError, iterating_rows, updated_rows
 
-__all__ = ["mixed_control", "adaptive_control", "LinearPath", "batch_size", "newton_correction", "NORMAL"]
+__all__ = ["mixed_control", "adaptive_control", "LinearPath", "batch_size", "newton_correction", "judge_steps",
+           "NORMAL", "MAX_STEPS", "STEP_LIMIT"]
 
 #: the normal Voigt components (11, 22, 33)
 NORMAL = np.array([True, True, True, False, False, False])
@@ -509,8 +512,8 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
         judge_steps(res["ok"], stress, ds, res["deps"], res["du"], scale, sizes, settings, walk, segments)
         for i in np.flatnonzero(dead):
             alive[i] = False
-            reasons[int(i)] = (f"at stage time {tau[i]:g} s: " + res["reasons"].get(int(i), (
-                f"mixed-control Newton did not converge after {max_cuts} step cuts")))
+            reasons[int(i)] = (f"at stage time {tau[i]:g} s: " + (STEP_LIMIT if accepted[i] >= MAX_STEPS else res[
+                "reasons"].get(int(i), f"mixed-control Newton did not converge after {max_cuts} step cuts")))
         if take.all():
             stress, state, tangent = res["stress"], res["state"], res["tangent"]
         elif take.any():
@@ -543,6 +546,7 @@ def _compiled_adaptive(kernel, stress, state0, control, undrained, path, segment
     final_stress, final_state, failed, fail_tau, _, _, _, steps = ending
     reasons = _failure_reasons(kernel, failed & (fail_tau == -1.0), failed, ending[4:7], step_control[-1],
                                lambda i: f"at stage time {fail_tau[i]:g} s")
+    reasons.update({i: f"at stage time {fail_tau[i]:g} s: {STEP_LIMIT}" for i in reasons if steps[i] >= MAX_STEPS})
     hist = dict(zip(("stress", "strain", "pore_pressure", "void_ratio", "time"), history))
     hist.update(state=kernel.unpack(final_state), final_stress=final_stress, failed=failed, reasons=reasons,
                 steps=steps)

@@ -6,7 +6,7 @@ import pytest
 
 from constitutive import ANICREEP, IntegrationError, LinearElastic, labtests
 from constitutive.anicreep import anisotropy_constants
-from constitutive.mixed_control import newton_correction
+from constitutive.mixed_control import MAX_STEPS, STEP_LIMIT, judge_steps, newton_correction
 
 TRIAXIAL_STRESS = np.array([False, False, False, True, True, True])
 AXIAL_STRAIN = np.array([True, False, False, True, True, True])
@@ -243,3 +243,27 @@ def test_adaptive_failure_freezes_only_that_point():
     assert np.all(np.isfinite(hist["stress"][1, :3])) and np.all(np.isnan(hist["stress"][1, 3:]))  # fails at 40 kPa
     alone = _ramp(LinearElastic(1e4, 0.3), 1, records, segments)[1]
     np.testing.assert_allclose(hist["stress"][0], alone["stress"][0], rtol=1e-12)
+
+
+def test_a_point_whose_steps_never_reach_the_end_of_its_path_fails_at_the_step_limit():
+    """The step control (``judge_steps``) ends a point's walk as a failure once it has accepted MAX_STEPS steps short
+    of its path's end (a response whose steps shrink without end would otherwise loop for ever): of two points one
+    step short of the limit, the one whose step reaches the end finishes, the other is dead; a point further from the
+    limit goes on."""
+    n = 3
+    walk = [np.zeros(n), np.ones(n), np.ones(n), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros(n), np.zeros((n, 6)),
+            np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64),
+            np.array([MAX_STEPS - 1, MAX_STEPS - 1, MAX_STEPS - 2]), np.zeros(n, dtype=np.int64),
+            np.ones(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool),
+            np.ones(n), np.zeros((n, 6)), np.zeros(n), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros(n)]
+    accepted, going, take, dead = walk[11], walk[13], walk[14], walk[15]
+    sizes = (np.ones(n), np.array([1.0, 100.0, 1.0]), np.zeros(n, dtype=bool))   # steps to tau 1, 100 (the end), 1
+    segments = (np.full((1, n), 100.0), np.ones((1, n)), np.full((1, n), 100.0), np.full((1, n), np.inf))
+    control = (1e-6, 1e-2, 1e-2, np.inf, 4.0, 12, 8)
+    zeros = np.zeros((n, 6))
+    judge_steps(np.ones(n, dtype=bool), zeros, zeros, zeros, np.zeros(n), np.ones(n), sizes, control, tuple(walk),
+                segments)
+    assert take.all() and accepted.tolist() == [MAX_STEPS, MAX_STEPS, MAX_STEPS - 1]
+    assert dead.tolist() == [True, False, False]
+    assert going.tolist() == [False, False, True]
+    assert str(MAX_STEPS) in STEP_LIMIT
