@@ -202,8 +202,10 @@ def adaptive_inputs(control, goal, strain, stress, u, known, size, h_previous, d
 
 
 #: the most accepted steps of one point along one adaptive path (``judge_steps``): a laboratory stage takes a few
-#: thousand; a point whose steps shrink without end (a response the step control cannot follow) fails there
-MAX_STEPS = 1_000_000
+#: thousand (a record is a step's end, so a test of more than this many records cannot be followed); a point whose
+#: steps shrink without end (a response the step control cannot follow) fails there. Each accepted step may follow
+#: up to max_rejections + max_cuts failed attempts, so the limit also bounds the time a hopeless point costs
+MAX_STEPS = 200_000
 #: the reason of a point that reached :data:`MAX_STEPS`
 STEP_LIMIT = (f"the step control took {MAX_STEPS} steps without reaching the end of the path (its steps shrank "
               "without end: a response it cannot follow)")
