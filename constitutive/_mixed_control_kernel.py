@@ -203,8 +203,8 @@ def adaptive_inputs(control, goal, strain, stress, u, known, size, h_previous, d
 
 #: the most accepted steps of one point along one adaptive path (``judge_steps``): a laboratory stage takes a few
 #: thousand (a record is a step's end, so a test of more than this many records cannot be followed); a point whose
-#: steps shrink without end (a response the step control cannot follow) fails there. Each accepted step may follow
-#: up to max_rejections + max_cuts failed attempts, so the limit also bounds the time a hopeless point costs
+#: steps shrink without end (a response the step control cannot follow) fails there instead of looping. It ends the
+#: loop, but does not bound its cost: each accepted step may follow up to max_rejections + max_cuts failed attempts
 MAX_STEPS = 200_000
 #: the reason of a point that reached :data:`MAX_STEPS`
 STEP_LIMIT = (f"the step control took {MAX_STEPS} steps without reaching the end of the path (its steps shrank "
