@@ -48,7 +48,7 @@ import numba
 import numpy as np
 
 __all__ = ["Discrepancy", "CurveDiscrepancy", "normalized_abscissa", "where_it_lies", "BOUNDARY_MARGIN",
-           "SPECTRAL_TAIL", "reduced_rank_basis"]
+           "SPECTRAL_TAIL", "reduced_rank_basis", "spectral_roots"]
 
 #: the half-width of the reduced-rank expansion's interval (D3), L = 1/2 + BOUNDARY_MARGIN l_j
 BOUNDARY_MARGIN = 6.8
@@ -165,28 +165,39 @@ class CurveDiscrepancy:
         with a^2 K of (D3) where :func:`log_density` takes it."""
         r = np.asarray(residuals, dtype=float)
         ell = max(length, self.floor)
-        half, m = reduced_rank_basis(ell)
-        if 4 * m > self.n:
+        half, m = reduced_rank_basis(ell, self.n)
+        if m == 0:
             c = self.covariance(sigma, amplitude, length)
             k = c.copy()
             np.fill_diagonal(k, amplitude**2)   # a^2 K: K is 1 on its diagonal
             return k @ np.linalg.solve(c, r)
         frequency = np.arange(1, m + 1) * np.pi / (2.0 * half)
         phi = np.sin(np.outer(self.u - 0.5 + half, frequency)) / np.sqrt(half)
-        spectral = amplitude**2 * np.sqrt(2.0 * np.pi) * ell * np.exp(-0.5 * (frequency * ell) ** 2)
+        root = np.empty(m)
+        spectral_roots(amplitude, ell, half, m, root)
+        spectral = root**2
         s2 = sigma**2 * self.scale + 1e-10 * amplitude**2
-        root = np.sqrt(spectral)
         a = np.eye(m) + root[:, None] * (phi.T @ phi) * root[None, :] / s2
         c_inv_r = (r - phi @ (root * np.linalg.solve(a, root * (phi.T @ r) / s2))) / s2   # Woodbury
         return phi @ (spectral * (phi.T @ c_inv_r))
 
 
 @numba.njit(cache=True, error_model="numpy")
-def reduced_rank_basis(length):
-    """(L, m) of the reduced-rank expansion (D3) for the length scale l_j = ``length``: the half-width L of its
-    interval and its number of eigenfunctions m."""
+def reduced_rank_basis(length, n):
+    """(L, m) of the reduced-rank expansion (D3) for the length scale l_j = ``length`` on a curve of ``n`` records:
+    the half-width L of its interval and its number of eigenfunctions m; m = 0 where the expansion is not taken (it
+    would need more than n/4 functions: the exact factor is the cheaper)."""
     half = 0.5 + BOUNDARY_MARGIN * length
-    return half, int(math.ceil(SPECTRAL_TAIL * 2.0 * half / (math.pi * length)))
+    m = int(math.ceil(SPECTRAL_TAIL * 2.0 * half / (math.pi * length)))
+    return half, (m if 4 * m <= n else 0)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def spectral_roots(amplitude, ell, half, m, roots):
+    """S_k^1/2 of (D3), k = 1..m, in ``roots`` (>= m,): amplitude a_k, length scale l_j = ``ell``, half-width L."""
+    root_scale = amplitude * math.sqrt(math.sqrt(2.0 * math.pi) * ell)
+    for k in range(m):
+        roots[k] = root_scale * math.exp(-0.25 * ((k + 1) * math.pi / (2.0 * half) * ell) ** 2)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -259,9 +270,8 @@ def _reduced_rank_log_density(u, residual, noise_sd, amplitude, ell, half, m, co
             if p <= m:
                 proj[p - 1] += residual[i] * s
         rr += residual[i] * residual[i]
-    root_scale = amplitude * math.sqrt(math.sqrt(2.0 * math.pi) * ell)
-    for k in range(m):   # S_k^1/2, and proj becomes S^1/2 Phi^T r / s2
-        roots[k] = root_scale * math.exp(-0.25 * ((k + 1) * math.pi / (2.0 * half) * ell) ** 2)
+    spectral_roots(amplitude, ell, half, m, roots)
+    for k in range(m):   # proj becomes S^1/2 Phi^T r / s2
         proj[k] *= roots[k] / (math.sqrt(half) * s2)
     for j in range(m):
         for k in range(j + 1):
@@ -296,8 +306,8 @@ def _gaussian_log_densities(u, floor, residuals, noise_sd, amplitude, length, ou
         if not finite:
             continue
         ell = max(length[i], floor)
-        half, size = reduced_rank_basis(ell)
-        if 4 * size <= n:
+        half, size = reduced_rank_basis(ell, n)
+        if size > 0:
             if size > basis:
                 basis = size
                 cos_sums, roots, proj = np.empty(2 * size + 1), np.empty(size), np.empty(size)
