@@ -58,9 +58,9 @@ from .jit import jit
 MAX_NX = 13                                     # unknowns per point with all 6 components (2 nc + 1)
 #: columns of the per-point parameter array ``prm``
 PARAMETER_COLUMNS = ("M2", "c_e", "c_p", "r_G", "omega", "omega_d", "inv_beta", "mu", "xi", "xi_d")
-#: the failure code of a point's update (``_anicreep_steps.point_update``; info: dt, then the stress at the
-#: increment's start)
-LOCAL_NEWTON_FAILED = 1
+#: the failure codes of a point's update (``_anicreep_steps.point_update``): the local Newton failed (info: dt, then
+#: the stress at the increment's start); the void ratio would fall to zero or below (info: the new and the old one)
+LOCAL_NEWTON_FAILED, VOID_RATIO_COLLAPSED = 1, 2
 
 
 @jit(inline="always")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._anicreep_kernel import LOCAL_NEWTON_FAILED, PARAMETER_COLUMNS
+from ._anicreep_kernel import LOCAL_NEWTON_FAILED, PARAMETER_COLUMNS, VOID_RATIO_COLLAPSED
 from ._anicreep_points import _scratch, _update_point_lab
 from ._step_loops import adapt_points, drive_points
 from .jit import jit
@@ -25,7 +25,8 @@ def point_update(stress, state, deps, dt, prm, settings, stress_out, state_out, 
     PARAMETER_COLUMNS then v0 = 1 + e0, where ``settings[0]`` (the current specific volume) with the VOLUME_COLUMNS
     (and, viscous, the INVERSE_VOLUME_COLUMN) at v = 1, multiplied (divided) by v = 1 + e_n here; settings: (current
     specific volume, viscous, tol, max_it, max_dz, max_depth, reduce) as numbers. The void ratio moves by
-    -v d eps_v. Returns 0, or LOCAL_NEWTON_FAILED with ``info`` (dt, stress (6))."""
+    -v d eps_v. Returns 0, or LOCAL_NEWTON_FAILED with ``info`` (dt, stress (6)), or VOID_RATIO_COLLAPSED with
+    ``info`` (the new and the old void ratio)."""
     row = work[13]
     viscous = settings[1] != 0.0
     e = state[7]
@@ -48,8 +49,12 @@ def point_update(stress, state, deps, dt, prm, settings, stress_out, state_out, 
         for k in range(6):
             info[1 + k] = stress[k]
         return LOCAL_NEWTON_FAILED
+    e_new = e - v * (deps[0] + deps[1] + deps[2])
+    if e_new <= 0.0:
+        info[0], info[1] = e_new, e
+        return VOID_RATIO_COLLAPSED
     state_out[6] = pm
-    state_out[7] = e - v * (deps[0] + deps[1] + deps[2])
+    state_out[7] = e_new
     for k in range(6):
         state_out[8 + k] += state[8 + k]
     state_out[14] = state[14] + vp_shear

@@ -201,14 +201,38 @@ def adaptive_inputs(control, goal, strain, stress, u, known, size, h_previous, d
     return True
 
 
+#: a step of at most this fraction of its path's duration is negligible (``judge_steps``): a step control that cuts
+#: or shrinks steps below it creeps up to a state it cannot pass instead of following the path
+NEGLIGIBLE_STEP = 1e-12
+#: the most accepted negligible steps in a row before a point fails as stalled (``judge_steps``): a response whose
+#: rate grows without bound under the held load or strain rate (creep rupture), which the steps follow towards an
+#: instant they never reach; one negligible step (landing on a record a rounding error away) is not a stall
+STALL_STEPS = 100
 #: the most accepted steps of one point along one adaptive path (``judge_steps``): a laboratory stage takes a few
-#: thousand (a record is a step's end, so a test of more than this many records cannot be followed); a point whose
-#: steps shrink without end (a response the step control cannot follow) fails there instead of looping. It ends the
-#: loop, but does not bound its cost: each accepted step may follow up to max_rejections + max_cuts failed attempts
+#: thousand (a record is a step's end, so a test of more than this many records cannot be followed); a last guard
+#: against a walk whose steps neither stall nor reach the end
 MAX_STEPS = 200_000
-#: the reason of a point that reached :data:`MAX_STEPS`
-STEP_LIMIT = (f"the step control took {MAX_STEPS} steps without reaching the end of the path (its steps shrank "
-              "without end: a response it cannot follow)")
+#: the step control's own failure codes (negative; a model's failure codes are positive, 0 none)
+STEP_LIMIT, STALLED = -2, -3
+#: the reasons of the step control's own failure codes
+LOOP_FAILURES = {
+    STEP_LIMIT: f"the step control took {MAX_STEPS} steps without reaching the end of the path",
+    STALLED: (f"the steps fell below {NEGLIGIBLE_STEP:g} of the path's duration for {STALL_STEPS} steps in a row: the "
+              "response runs away (a strain rate that grows without bound under the held load: creep rupture or an "
+              "unstable state)"),
+}
+
+
+@jit
+def loop_failure(code, accepted, stalled):
+    """The failure code of a point that the step control of ``adaptive_control`` ended (``judge_steps``' dead),
+    from the code of its last step's Newton (``code``: a model's code > 0, or -1 for a Newton that did not converge,
+    which gives 0), its accepted steps and its negligible steps in a row."""
+    if accepted >= MAX_STEPS:
+        return STEP_LIMIT
+    if stalled >= STALL_STEPS:
+        return STALLED
+    return max(code, 0)
 
 
 @jit
@@ -219,23 +243,26 @@ def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments)
     S; ``sizes`` (size, after, landing); ``control`` (atol, floor, strain_scale, strain_step, growth,
     max_rejections, max_cuts); ``walk`` the per-point records (tau, h, h_previous, d_stress, d_strain, d_u, strain,
     u, known, rejections, cuts, accepted, segment, going, take, dead, skip, h_before, d_strain_before, d_u_before,
-    stress_origin, strain_origin, u_origin): ``known`` the previous steps of the segment whose increments are rates
-    of its path (up to 2: the one before in the ``_before`` arrays), ``skip`` the next accepted step is not one (it
-    jumps to the stress target), ``_origin`` the values at the segment start; ``segments`` (ends, firsts, largest,
-    rtols). A point that reaches :data:`MAX_STEPS` accepted steps before its end is dead."""
+    stress_origin, strain_origin, u_origin, stalled): ``known`` the previous steps of the segment whose increments
+    are rates of its path (up to 2: the one before in the ``_before`` arrays), ``skip`` the next accepted step is not
+    one (it jumps to the stress target), ``_origin`` the values at the segment start, ``stalled`` the negligible
+    steps (:data:`NEGLIGIBLE_STEP`) accepted in a row; ``segments`` (ends, firsts, largest, rtols). A point is dead
+    (:func:`loop_failure` says why) when its Newton fails ``max_cuts`` times in a row or on a negligible step, after
+    :data:`STALL_STEPS` negligible steps in a row, or at :data:`MAX_STEPS` accepted steps before its end."""
     size, after, landing = sizes
     atol, floor, strain_scale, strain_step, growth, max_rejections, max_cuts = control
     (tau, h, h_previous, d_stress, d_strain, d_u, strain, u, known, rejections, cuts, accepted, segment, going,
-     take, dead, skip, h_before, d_strain_before, d_u_before, stress_origin, strain_origin, u_origin) = walk
+     take, dead, skip, h_before, d_strain_before, d_u_before, stress_origin, strain_origin, u_origin, stalled) = walk
     ends, firsts, largest, rtols = segments
     for i in range(tau.size):
         take[i] = dead[i] = False
         if not going[i]:
             continue
+        negligible = size[i] <= NEGLIGIBLE_STEP * ends[ends.shape[0] - 1, i]
         if not ok[i]:  # Newton failed: a quarter of the step, unless it is negligible (no creeping up to a failure)
             cuts[i] += 1
             rejections[i] = 0
-            dead[i] = cuts[i] > max_cuts or size[i] <= 1e-12 * ends[ends.shape[0] - 1, i]
+            dead[i] = cuts[i] > max_cuts or negligible
             going[i] = not dead[i]
             h[i] = min(0.25 * size[i], largest[segment[i], i])
             continue
@@ -280,6 +307,7 @@ def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments)
         known[i] = known[i] if skip[i] else min(known[i] + 1, 2)
         skip[i] = False
         accepted[i] += 1
+        stalled[i] = stalled[i] + 1 if negligible else 0
         if tau[i] >= ends[segment[i], i]:
             if segment[i] == ends.shape[0] - 1:
                 going[i] = False
@@ -292,6 +320,6 @@ def judge_steps(ok, stress, ds, deps, du, scale, sizes, control, walk, segments)
                     strain_origin[i, c] = strain[i, c]
                 u_origin[i] = u[i]
         h[i] = min(proposal, largest[segment[i], i])
-        if going[i] and accepted[i] >= MAX_STEPS:  # the step size collapsed: a failure, not an endless loop
+        if going[i] and (accepted[i] >= MAX_STEPS or stalled[i] >= STALL_STEPS):  # a failure, not an endless loop
             dead[i] = True
             going[i] = False

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._mixed_control_kernel import adaptive_inputs, aim_step, judge_steps, newton_correction, next_steps
+from ._mixed_control_kernel import adaptive_inputs, aim_step, judge_steps, loop_failure, newton_correction, next_steps
 from .jit import jit, next_substep
 
 
@@ -247,8 +247,8 @@ def adapt_points(update, prm, settings, work, void_ratio_column, stress0, state0
     max_iterations). history: (stress (n, R + 2, 6), strain (n, R + 2, 6), pore pressure, void ratio, time
     (n, R + 2)), NaN where not reached. ending: (final stress (n, 6), final state (n, S), failed (n,), fail_tau (n,)
     (the stage time of the failure; -1: the start's zero increment failed), fail_code (n,) (the model's failure
-    code in the last Newton, 0 none), fail_info (n, I), fail_deps (n, 6), steps (n,) the accepted steps). The
-    arithmetic per point is that of ``adaptive_control``."""
+    code in the last Newton or one of the step control's, ``loop_failure``; 0 none), fail_info (n, I), fail_deps
+    (n, 6), steps (n,) the accepted steps). The arithmetic per point is that of ``adaptive_control``."""
     ends, firsts, largest, rtols = segments
     final_stress, final_state, failed, fail_tau, fail_code, fail_info, fail_deps, steps_taken = ending
     tol = newton[0]
@@ -271,9 +271,10 @@ def adapt_points(update, prm, settings, work, void_ratio_column, stress0, state0
             np.empty(1), np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64),
             np.empty(1, dtype=np.int64), np.empty(1, dtype=np.int64), np.empty(1, dtype=np.bool_),
             np.empty(1, dtype=np.bool_), np.empty(1, dtype=np.bool_), np.empty(1, dtype=np.bool_), np.empty(1),
-            np.empty((1, 6)), np.empty(1), np.empty((1, 6)), np.empty((1, 6)), np.empty(1))
+            np.empty((1, 6)), np.empty(1), np.empty((1, 6)), np.empty((1, 6)), np.empty(1),
+            np.empty(1, dtype=np.int64))
     (tau, h, h_previous, d_stress, d_strain, d_u, strain, u, known, rejections, cuts, accepted, segment, going, take,
-     dead, skip, h_before, d_strain_before, d_u_before, stress_origin, strain_origin, u_origin) = walk
+     dead, skip, h_before, d_strain_before, d_u_before, stress_origin, strain_origin, u_origin, stalled) = walk
     sizes = (np.empty(1), np.empty(1), np.empty(1, dtype=np.bool_))
     size, after, landing = sizes
     inc, guess_strain, guess_u, scale = np.empty((1, 6)), np.empty((1, 6)), np.empty(1), np.empty(1)
@@ -292,7 +293,7 @@ def adapt_points(update, prm, settings, work, void_ratio_column, stress0, state0
             continue
         tau[0], h_previous[0], d_u[0], u[0], h_before[0], d_u_before[0], u_origin[0] = 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0
         d_stress[:], d_strain[:], strain[:], d_strain_before[:], strain_origin[:] = 0.0, 0.0, 0.0, 0.0, 0.0
-        known[0], rejections[0], cuts[0], accepted[0], segment[0] = 0, 0, 0, 0, 0
+        known[0], rejections[0], cuts[0], accepted[0], segment[0], stalled[0] = 0, 0, 0, 0, 0, 0
         going[0], take[0], dead[0] = going0[i], False, False
         stress_origin[0] = s[0]
         _store_column(history, i, 0, s[0], strain[0], 0.0, st[void_ratio_column], 0.0)
@@ -329,7 +330,7 @@ def adapt_points(update, prm, settings, work, void_ratio_column, stress0, state0
             judge_steps(ok, s, ds, deps, du, scale, sizes, step_control, walk, own_segments)
             if dead[0]:
                 alive = False
-                failed[i], fail_tau[i], fail_code[i] = True, tau[0], max(code, 0)
+                failed[i], fail_tau[i], fail_code[i] = True, tau[0], loop_failure(code, accepted[0], stalled[0])
                 fail_info[i] = info
             if take[0]:
                 s[:] = t_s

@@ -103,6 +103,7 @@ from .base import (
     ParameterRange,
     as_points,
     check_parameter,
+    collapsed_void_ratio,
     point_rows,
 )
 from .invariants import IDENTITY, mean_stress
@@ -451,16 +452,24 @@ class ANICREEP(MaterialModel):
         if failed >= 0:
             raise IntegrationError(failed, self.integration_failure(_kernel().LOCAL_NEWTON_FAILED,
                                                                     np.r_[dt[failed], stress[failed]], dstrain[failed]))
-        new_state = {"alpha": alpha, "pm_ref": pm_ref,
-                     "void_ratio": e - v * (dstrain[:, 0] + dstrain[:, 1] + dstrain[:, 2]),
+        e_new = e - v * (dstrain[:, 0] + dstrain[:, 1] + dstrain[:, 2])
+        collapsed = e_new <= 0.0
+        if collapsed.any():
+            i = int(np.argmax(collapsed))
+            raise IntegrationError(i, self.integration_failure(_kernel().VOID_RATIO_COLLAPSED, (e_new[i], e[i]),
+                                                               dstrain[i]))
+        new_state = {"alpha": alpha, "pm_ref": pm_ref, "void_ratio": e_new,
                      "vp_strain": state["vp_strain"] + dvp,
                      "vp_shear": state["vp_shear"] + vp_shear,
                      "overstress": ratio, "chi": chi}
         return new_stress, new_state, stiffness if tangent else None
 
     def integration_failure(self, code, info, dstrain) -> str:
-        """The reason of a failed update of one point under the strain increment ``dstrain`` (6,), ``info`` (dt,
-        stress (6,) at the increment's start) as ``_anicreep_steps.point_update`` gives them."""
+        """The reason of a failed update of one point under the strain increment ``dstrain`` (6,), ``code`` and
+        ``info`` as ``_anicreep_steps.point_update`` gives them ((dt, stress (6,) at the increment's start), or the
+        new and the old void ratio)."""
+        if code == _kernel().VOID_RATIO_COLLAPSED:
+            return collapsed_void_ratio(info[0], info[1], dstrain)
         return (f"local Newton did not converge after {self.max_substep_depth} levels of sub-stepping (strain "
                 f"increment {dstrain}, dt {info[0]:g} s, stress {info[1:7]})")
 

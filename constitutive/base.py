@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["ParameterError", "IntegrationError", "MaterialModel", "CompiledSteps", "ParameterRange", "as_points",
-           "check_parameter", "point_rows", "iterating_rows", "updated_rows"]
+           "check_parameter", "point_rows", "iterating_rows", "updated_rows", "collapsed_void_ratio"]
 
 
 class ParameterError(ValueError):
@@ -41,6 +41,13 @@ class IntegrationError(RuntimeError):
         self.point = point
         self.reason = reason
         super().__init__(f"stress-point integration failed at point {point}: {reason}")
+
+
+def collapsed_void_ratio(e_new, e, dstrain) -> str:
+    """The reason of an update that would leave the void ratio at ``e_new`` <= 0 (from ``e``) under the strain
+    increment ``dstrain`` (6,): a compression beyond the solids, which no model's state can follow."""
+    return (f"void ratio {e_new:.3g} <= 0 after the strain increment {dstrain} (from e = {e:.4g}): compressed "
+            f"beyond the solids")
 
 
 def check_parameter(name: str, value, *, lower=None, upper=None, lower_open=True, upper_open=True, model=""):

@@ -41,6 +41,7 @@ from .base import (
     ParameterRange,
     as_points,
     check_parameter,
+    collapsed_void_ratio,
 )
 from .invariants import deviatoric_stress, mean_stress
 
@@ -172,9 +173,7 @@ class ModifiedCamClay(MaterialModel):
         ``info`` as ``_mcc_kernel.point_update`` gives them (the return mapping's (p', q, p'_c, fraction done,
         stability margin), or the new and old void ratio)."""
         if code == _kernel().VOID_RATIO_COLLAPSED:
-            e_new, e = info[0], info[1]
-            return (f"void ratio {e_new:.3g} <= 0 after the strain increment {dstrain} (from e = {e:.4g}): compressed "
-                    f"beyond the solids")
+            return collapsed_void_ratio(info[0], info[1], dstrain)
         p, q, pc_f, done, margin = info[:5]
         at = (f"at p' = {p:.4g} kPa, q = {q:.4g} kPa, p'_c = {pc_f:.4g} kPa, {done:.3g} of the strain increment "
               f"{dstrain} done")

@@ -20,13 +20,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._mixed_control_kernel import (
+    LOOP_FAILURES,
     MAX_STEPS,
+    NEGLIGIBLE_STEP,
+    STALL_STEPS,
+    STALLED,
     STEP_LIMIT,
     adaptive_inputs,
     aim_step,
     correct_all,
     finish_step,
     judge_steps,
+    loop_failure,
     newton_correction,
     next_steps,
     start_step,
@@ -34,7 +39,8 @@ from ._mixed_control_kernel import (
 from .base import IntegrationError, iterating_rows, updated_rows
 
 __all__ = ["mixed_control", "adaptive_control", "LinearPath", "batch_size", "newton_correction", "judge_steps",
-           "NORMAL", "MAX_STEPS", "STEP_LIMIT"]
+           "NORMAL", "MAX_STEPS", "STALL_STEPS", "NEGLIGIBLE_STEP", "LOOP_FAILURES", "STEP_LIMIT", "STALLED",
+           "loop_failure"]
 
 #: the normal Voigt components (11, 22, 33)
 NORMAL = np.array([True, True, True, False, False, False])
@@ -223,7 +229,8 @@ def _failure_reasons(kernel, at_start, failed, failures, cuts, where):
     if first.size:
         i = int(first[0])
         raise IntegrationError(i, kernel.failure(code[i], info[i], deps[i]))
-    return {int(i): f"{where(i)}: " + (kernel.failure(code[i], info[i], deps[i]) if code[i] else
+    return {int(i): f"{where(i)}: " + (kernel.failure(code[i], info[i], deps[i]) if code[i] > 0 else
+                                       LOOP_FAILURES[code[i]] if code[i] < 0 else
                                        f"mixed-control Newton did not converge after {cuts} step cuts")
             for i in np.flatnonzero(failed)}
 
@@ -442,7 +449,9 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
     (taken as it comes after ``max_rejections`` in a row); the next step is h x min(growth, 0.9/err), at most
     ``largest``, shortened to land on the records and segment ends. A point whose Newton fails (:class:`_Step`)
     repeats the step at a quarter of h, at most ``max_cuts`` times in a row, then fails (as it does when a step
-    below 1e-12 of the path fails: it would creep up to a state it cannot pass). The Newton iterations
+    below 1e-12 of the path fails: it would creep up to a state it cannot pass); so does a point that takes
+    ``STALL_STEPS`` steps in a row below 1e-12 of the path (a response that runs away under the held load: creep
+    rupture) or ``MAX_STEPS`` steps in all. The Newton iterations
     start from the rates of the previous step (extrapolated linearly from the two before where the segment has
     them; the tangent predictor for a first step).
 
@@ -493,9 +502,9 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
             np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64),
             np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), going, np.zeros(n, dtype=bool),
             np.zeros(n, dtype=bool), jumped, np.ones(n), np.zeros((n, 6)), np.zeros(n), stress.copy(),
-            np.zeros((n, 6)), np.zeros(n))
+            np.zeros((n, 6)), np.zeros(n), np.zeros(n, dtype=np.int64))
     (_, _, h_previous, _, d_strain, d_u, _, _, known, _, _, accepted, segment, _, take, dead, _, h_before,
-     d_strain_before, d_u_before, _, _, _) = walk                   # the names of judge_steps (its docstring)
+     d_strain_before, d_u_before, _, _, _, stalled) = walk                   # the names of judge_steps (its docstring)
     sizes = (np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
     alive = np.ones(n, dtype=bool)
     reasons = {}
@@ -512,7 +521,8 @@ def adaptive_control(model, stress0, state0, strain_control, target, segments, r
         judge_steps(res["ok"], stress, ds, res["deps"], res["du"], scale, sizes, settings, walk, segments)
         for i in np.flatnonzero(dead):
             alive[i] = False
-            reasons[int(i)] = (f"at stage time {tau[i]:g} s: " + (STEP_LIMIT if accepted[i] >= MAX_STEPS else res[
+            code = loop_failure(0, accepted[i], stalled[i])
+            reasons[int(i)] = (f"at stage time {tau[i]:g} s: " + (LOOP_FAILURES[code] if code else res[
                 "reasons"].get(int(i), f"mixed-control Newton did not converge after {max_cuts} step cuts")))
         if take.all():
             stress, state, tangent = res["stress"], res["state"], res["tangent"]
@@ -546,7 +556,6 @@ def _compiled_adaptive(kernel, stress, state0, control, undrained, path, segment
     final_stress, final_state, failed, fail_tau, _, _, _, steps = ending
     reasons = _failure_reasons(kernel, failed & (fail_tau == -1.0), failed, ending[4:7], step_control[-1],
                                lambda i: f"at stage time {fail_tau[i]:g} s")
-    reasons.update({i: f"at stage time {fail_tau[i]:g} s: {STEP_LIMIT}" for i in reasons if steps[i] >= MAX_STEPS})
     hist = dict(zip(("stress", "strain", "pore_pressure", "void_ratio", "time"), history))
     hist.update(state=kernel.unpack(final_state), final_stress=final_stress, failed=failed, reasons=reasons,
                 steps=steps)

@@ -6,7 +6,17 @@ import pytest
 
 from constitutive import ANICREEP, IntegrationError, LinearElastic, labtests
 from constitutive.anicreep import anisotropy_constants
-from constitutive.mixed_control import MAX_STEPS, STEP_LIMIT, judge_steps, newton_correction
+from constitutive.mixed_control import (
+    LOOP_FAILURES,
+    MAX_STEPS,
+    NEGLIGIBLE_STEP,
+    STALL_STEPS,
+    STALLED,
+    STEP_LIMIT,
+    judge_steps,
+    loop_failure,
+    newton_correction,
+)
 
 TRIAXIAL_STRESS = np.array([False, False, False, True, True, True])
 AXIAL_STRAIN = np.array([True, False, False, True, True, True])
@@ -245,25 +255,87 @@ def test_adaptive_failure_freezes_only_that_point():
     np.testing.assert_allclose(hist["stress"][0], alone["stress"][0], rtol=1e-12)
 
 
-def test_a_point_whose_steps_never_reach_the_end_of_its_path_fails_at_the_step_limit():
-    """The step control (``judge_steps``) ends a point's walk as a failure once it has accepted MAX_STEPS steps short
-    of its path's end (a response whose steps shrink without end would otherwise loop for ever): of two points one
-    step short of the limit, the one whose step reaches the end finishes, the other is dead; a point further from the
-    limit goes on."""
-    n = 3
-    walk = [np.zeros(n), np.ones(n), np.ones(n), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros(n), np.zeros((n, 6)),
+def _walk(n, accepted=0, stalled=0):
+    """``judge_steps``' per-point records of n points at stage time 0 (their docstring's order)."""
+    return [np.zeros(n), np.ones(n), np.ones(n), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros(n), np.zeros((n, 6)),
             np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64),
-            np.array([MAX_STEPS - 1, MAX_STEPS - 1, MAX_STEPS - 2]), np.zeros(n, dtype=np.int64),
-            np.ones(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool),
-            np.ones(n), np.zeros((n, 6)), np.zeros(n), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros(n)]
-    accepted, going, take, dead = walk[11], walk[13], walk[14], walk[15]
-    sizes = (np.ones(n), np.array([1.0, 100.0, 1.0]), np.zeros(n, dtype=bool))   # steps to tau 1, 100 (the end), 1
+            np.broadcast_to(accepted, (n,)).astype(np.int64), np.zeros(n, dtype=np.int64), np.ones(n, dtype=bool),
+            np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), np.ones(n), np.zeros((n, 6)),
+            np.zeros(n), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros(n),
+            np.broadcast_to(stalled, (n,)).astype(np.int64)]
+
+
+def _judge(walk, size, after):
+    """``judge_steps`` of converged steps of ``size`` ending at ``after`` (n,) with no increments (error 0) along a
+    path of 100 s; returns the walk's (accepted, going, take, dead, stalled)."""
+    n = len(size)
     segments = (np.full((1, n), 100.0), np.ones((1, n)), np.full((1, n), 100.0), np.full((1, n), np.inf))
     control = (1e-6, 1e-2, 1e-2, np.inf, 4.0, 12, 8)
     zeros = np.zeros((n, 6))
-    judge_steps(np.ones(n, dtype=bool), zeros, zeros, zeros, np.zeros(n), np.ones(n), sizes, control, tuple(walk),
-                segments)
+    judge_steps(np.ones(n, dtype=bool), zeros, zeros, zeros, np.zeros(n), np.ones(n),
+                (np.asarray(size, dtype=float), np.asarray(after, dtype=float), np.zeros(n, dtype=bool)), control,
+                tuple(walk), segments)
+    return walk[11], walk[13], walk[14], walk[15], walk[23]
+
+
+def test_a_point_whose_steps_never_reach_the_end_of_its_path_fails_at_the_step_limit():
+    """The step control (``judge_steps``) ends a point's walk as a failure once it has accepted MAX_STEPS steps short
+    of its path's end (a last guard against a walk that would loop for ever): of two points one step short of the
+    limit, the one whose step reaches the end finishes, the other is dead with the step limit's reason; a point
+    further from the limit goes on."""
+    walk = _walk(3, accepted=[MAX_STEPS - 1, MAX_STEPS - 1, MAX_STEPS - 2])
+    accepted, going, take, dead, _ = _judge(walk, [1.0, 1.0, 1.0], [1.0, 100.0, 1.0])   # to tau 1, 100 (the end), 1
     assert take.all() and accepted.tolist() == [MAX_STEPS, MAX_STEPS, MAX_STEPS - 1]
     assert dead.tolist() == [True, False, False]
     assert going.tolist() == [False, False, True]
-    assert str(MAX_STEPS) in STEP_LIMIT
+    code = loop_failure(-1, accepted[0], walk[23][0])
+    assert code == STEP_LIMIT and str(MAX_STEPS) in LOOP_FAILURES[code]
+
+
+def test_a_point_whose_steps_stall_fails_after_stall_steps_negligible_steps_in_a_row():
+    """A response that runs away (creep rupture: the steps shrink towards an instant they never reach) fails as
+    stalled at its STALL_STEPS-th accepted step in a row below NEGLIGIBLE_STEP of the path (100 s: 1e-10 s); a step
+    above it resets the count, and a point with fewer such steps in a row goes on."""
+    tiny = 0.5 * NEGLIGIBLE_STEP * 100.0
+    walk = _walk(3, stalled=[STALL_STEPS - 1, STALL_STEPS - 1, 0])
+    accepted, going, take, dead, stalled = _judge(walk, [tiny, 1.0, tiny], [tiny, 1.0, tiny])
+    assert take.all() and accepted.tolist() == [1, 1, 1]
+    assert dead.tolist() == [True, False, False] and going.tolist() == [False, True, True]
+    assert stalled.tolist() == [STALL_STEPS, 0, 1]
+    code = loop_failure(-1, accepted[0], stalled[0])
+    assert code == STALLED and f"{STALL_STEPS} steps in a row" in LOOP_FAILURES[code]
+    assert loop_failure(-1, accepted[1], stalled[1]) == 0 and loop_failure(3, accepted[1], stalled[1]) == 3
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_compression_past_the_solids_fails_where_the_void_ratio_reaches_zero(compiled):
+    """ANICREEP (isotropic, rate independent) with the current specific volume, compressed isotropically from
+    p' = 40 kPa: elastic to its surface's size p'_m0 (``reference_size``), then along the normal compression line;
+    de = -v d eps_v with d eps_v = kappa/v dln p', then lambda/v dln p', so e = e0 - kappa ln(p'_m0/40) -
+    lambda ln(p'/p'_m0), which reaches zero at p'* = p'_m0 exp((e0 - kappa ln(p'_m0/40))/lambda) (115.3 kPa for
+    e0 = 0.3, lambda = 0.4, sigma'_p0 = 60 kPa: p'_m0 = 55.6 kPa): the ramp to 200 kPa fails there with the void
+    ratio's reason (the compiled loop and the Python one alike) instead of going on with a negative void ratio
+    (with the specific volume's compressibilities lambda/v, a compression that runs away). The records before it
+    hold that e."""
+    model = ANICREEP(**{**CLAY, "e0": 0.3}, sigma_p0=60.0, specific_volume="current", anisotropy=False,
+                     viscous=False)
+    s0 = np.full((1, 6), 40.0)
+    s0[:, 3:] = 0.0
+    end = s0.copy()
+    end[:, :3] = 200.0
+    path = labtests.LinearPath.ramp(s0, end, 160.0)
+    records = np.arange(2.0, 160.0, 2.0)[:, None]                       # every 2 kPa
+    hist = labtests.adaptive_control(model, s0, model.initial_state(s0), TRIAXIAL_STRESS,
+                                     path if compiled else path.values, ([160.0], [1.0], [np.inf], [0.1]), records,
+                                     compiled=compiled)
+    assert hist["failed"].tolist() == [True]
+    assert "void ratio" in hist["reasons"][0] and "beyond the solids" in hist["reasons"][0]
+    p = hist["stress"][0, 1:-1, 0]
+    reached = np.isfinite(p)
+    pm0 = model.reference_size(1)[0]
+    e_yield = 0.3 - CLAY["kappa"] * np.log(pm0 / 40.0)
+    collapse = pm0 * np.exp(e_yield / 0.4)
+    assert p[reached].max() < collapse < p[reached].max() + 2.0 + 1e-9     # the last record before the collapse
+    e = hist["void_ratio"][0, 1:-1][reached]
+    on_line = p[reached] > pm0
+    np.testing.assert_allclose(e[on_line], e_yield - 0.4 * np.log(p[reached][on_line] / pm0), atol=2e-3)
