@@ -3,7 +3,9 @@
 
 Near-zero recorded values (the origin of a stress-strain curve) make relative errors explode; the paper is silent.
 Points with |U_obs| below ``floor`` times the curve's max |U_obs| (default 1 %) are excluded and counted
-(REFERENCE section 1).
+(REFERENCE section 1). A curve whose records change sign (an excess pore pressure that turns negative as an
+overconsolidated clay dilates, q into extension) has a second origin in mid-curve, where a fit whose absolute
+error is small everywhere has relative errors of tens of per cent: its floor is ``crossing_floor`` (default 10 %).
 
 The forward model is an :class:`inference.forward.ForwardModel` (``simulate_batch(names, values) -> (curves,
 failed)``), or a callable adapted to one: params dict -> ``{test: {curve: y_at_observed_x}}`` or ``{test: {curve:
@@ -42,6 +44,12 @@ from .observations import Observations
 __all__ = ["ForwardModelError", "Likelihood"]
 
 
+#: the near-zero floor of Eq. (5) for a curve whose records change sign (fraction of its max |U_obs|): a fit whose
+#: absolute error is 1-2 % of the curve's range has relative errors of 10-20 % at a tenth of it, a few times a
+#: typical sigma_eps, and above it every point is judged by its relative error as the paper's are
+CROSSING_FLOOR = 0.1
+
+
 class Likelihood:
     """ln p(D | theta) of Eqs. (3)-(6) for observations and a forward model.
 
@@ -54,6 +62,8 @@ class Likelihood:
         recorded much more densely than the others less weight, or a test repeated n times 1/n)
     sigma: name of the error parameter in the prior ("sigma_eps"), or a fixed float (every group)
     floor: relative near-zero floor of Eq. (5) (fraction of the curve's max |U_obs|)
+    crossing_floor: the floor of a curve whose records change sign (values beyond ``floor`` of both signs): a
+        fraction of its max |U_obs| as well, at least ``floor``
     batch: a callable ``forward`` takes a list of parameter sets (ignored for a ForwardModel)
     groups: None (one error parameter for every curve, the paper's setting) or {group: [curve name or (test, curve)
         key, ...]}, Eq. (6g): a curve name stands for that curve of every test; every curve falls in exactly one
@@ -64,7 +74,7 @@ class Likelihood:
     """
 
     def __init__(self, observations: Observations, forward, weights=None, sigma="sigma_eps", floor=0.01,
-                 batch=False, groups=None, discrepancy: Discrepancy | None = None):
+                 batch=False, groups=None, discrepancy: Discrepancy | None = None, crossing_floor=CROSSING_FLOOR):
         if not isinstance(observations, Observations):
             raise TypeError("observations must be an inference.Observations")
         self.observations = observations
@@ -73,17 +83,25 @@ class Likelihood:
         self.floor = float(floor)
         if not 0.0 <= self.floor < 1.0:
             raise ValueError(f"floor = {floor} must be in [0, 1)")
+        self.crossing_floor = float(crossing_floor)
+        if not self.floor <= self.crossing_floor < 1.0:
+            raise ValueError(f"crossing_floor = {crossing_floor} must be in [floor = {self.floor}, 1)")
         weights = dict(weights or {})
         unknown = set(weights) - set(observations.tests)
         if unknown:
             raise ValueError(f"weights name unknown tests {sorted(unknown)}; tests are {list(observations.tests)}")
         self.weights = {t: float(weights.get(t, 1.0)) for t in observations.tests}
-        # points used per curve (Eq. 5 floor)
+        # points used per curve (Eq. 5 floor; the crossing curves' floor for the curves that change sign)
         self.masks, self.excluded, self._span, self._used, self._kept = {}, {}, {}, {}, {}
+        self.crossing = []
         for t in observations:
             for cname, c in t.curves.items():
                 ymax = np.max(np.abs(c.y))
-                mask = np.abs(c.y) > self.floor * ymax if ymax > 0 else np.zeros(c.y.size, bool)
+                beyond = np.abs(c.y) > self.floor * ymax
+                if np.any(beyond & (c.y > 0.0)) and np.any(beyond & (c.y < 0.0)):
+                    self.crossing.append((t.name, cname))
+                    beyond = np.abs(c.y) > self.crossing_floor * ymax
+                mask = beyond if ymax > 0 else np.zeros(c.y.size, bool)
                 if not mask.any():
                     raise ValueError(f"test {t.name}, curve {cname}: every recorded value is below the floor")
                 self.masks[t.name, cname] = mask
@@ -229,7 +247,8 @@ class Likelihood:
 
     def fingerprint(self) -> str:
         groups = "" if len(self.groups) == 1 else f"|groups={sorted(self.group_of.items())}"
-        return (f"{self.observations.fingerprint()}|w={sorted(self.weights.items())}|floor={self.floor}"
+        crossing = f"|crossing={self.crossing_floor}" if self.crossing else ""
+        return (f"{self.observations.fingerprint()}|w={sorted(self.weights.items())}|floor={self.floor}{crossing}"
                 f"|s={self.sigma}{groups}{'' if self.discrepancy is None else f'|delta={self.discrepancy}'}")
 
     # ----------------------------------------------------------------- simulated curves at the recorded abscissae

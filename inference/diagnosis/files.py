@@ -66,6 +66,7 @@ def write_input(directory, likelihood, classes: list, covariates: dict, candidat
                 arrays[_key(i, f"cov{n}")] = expanded[name][k]
     meta = {"description": description, "alpha": float(alpha), "level": float(level), "n_shifts": int(n_shifts),
             "decision_rule": rule.to_dict(), "floor": likelihood.floor,
+            "crossing_floor": likelihood.crossing_floor,
             "curves": [{"test": t, "curve": c, "x_name": likelihood.observations[t].curves[c].x_name,
                         "y_name": likelihood.observations[t].curves[c].y_name,
                         "x_unit": likelihood.observations[t].curves[c].x_unit,
@@ -94,7 +95,8 @@ def read_input(directory):
         tests.setdefault(d["test"], {})[d["curve"]] = Curve(arrays[_key(i, "x")], arrays[_key(i, "y")], d["x_name"],
                                                              d["y_name"], d["x_unit"], d["y_unit"])
     obs = Observations([Test(t, cs, meta["tests"].get(t, {})) for t, cs in tests.items()])
-    like = Likelihood(obs, lambda params: {}, sigma=1.0, floor=meta["floor"])
+    like = Likelihood(obs, lambda params: {}, sigma=1.0, floor=meta["floor"],
+                      crossing_floor=meta.get("crossing_floor", meta["floor"]))
     classes = []
     for j, cl in enumerate(meta["classes"]):
         classes.append(ModelClass.of({

@@ -34,6 +34,35 @@ def test_goodness_of_fit_and_log_likelihood_by_hand():
     assert like.excluded[("t1", "q")] == 1 and like.excluded[("t1", "e")] == 0
 
 
+def test_a_curve_that_changes_sign_leaves_out_the_points_near_its_zero_crossing():
+    """A curve whose records change sign (an excess pore pressure of a dense clay, 30 kPa down to -5 kPa) leaves out
+    of Eq. (5) the points within ``crossing_floor`` (10 %) of its largest |U_obs| = 30 kPa, at both sides of the
+    crossing, and the log-likelihood is Eq. (5) by hand over the others; a curve of one sign (q, from its origin)
+    keeps the floor of 1 %; a curve that only touches zero from one side does not count as crossing. The
+    fingerprint names the crossing floor only where a curve crosses (a checkpoint of a study without one stays
+    valid)."""
+    x = np.arange(8.0)
+    u = np.array([0.0, 12.0, 30.0, 20.0, 2.5, 0.2, -2.9, -5.0])   # |u| <= 3 kPa out: 0, 2.5, 0.2, -2.9
+    q = np.array([0.0, 0.2, 20.0, 40.0, 50.0, 55.0, 57.0, 58.0])  # one sign: only the origin (<= 0.58 kPa) out
+    obs = Observations([Test("t", {"u": Curve(x, u), "q": Curve(x, q)})])
+    sim = {"u": u * 1.1, "q": q * 0.9}
+    like = Likelihood(obs, lambda p: {"t": sim}).bind(("sigma_eps",))
+    assert like.crossing == [("t", "u")]
+    assert like.masks["t", "u"].tolist() == [False, True, True, True, False, False, False, True]
+    assert like.masks["t", "q"].tolist() == [False, False] + [True] * 6
+    s = 0.05
+    jg = 0.5 * (0.1**2 + 0.1**2)                  # (U_obs - U_num)/U_obs = -0.1 and +0.1 at every point used
+    n = 4 + 6
+    expect = -n / 2 * math.log(2 * math.pi * s**2) - n / (2 * s**2) * jg
+    assert like([s]) == pytest.approx(expect, rel=1e-12)
+    assert "crossing=0.1" in like.fingerprint()
+    touching = Observations([Test("t", {"q": Curve(x, np.abs(u))})])
+    assert Likelihood(touching, lambda p: {}).crossing == []
+    assert "crossing" not in Likelihood(touching, lambda p: {}).fingerprint()
+    with pytest.raises(ValueError, match="crossing_floor"):
+        Likelihood(obs, lambda p: {}, floor=0.05, crossing_floor=0.02)
+
+
 def test_pointwise_log_likelihood_by_hand_sums_to_the_log_likelihood():
     """Each point's term of Eq. (4): -ln(2 pi s^2)/2 - N_i/(N_0 N_j) r^2/(2 s^2), times the test's weight; the
     excluded origin 0; summed, the log-likelihood of the same parameter sets."""

@@ -105,6 +105,11 @@ def write_outputs(out, method: str, post, like, cls, study, synthetic: bool, tru
     lines += [f"- study file: {study.path}"]
     lines += [f"- {t.name}: {t.describe()}, curves {', '.join(like.observations[t.name].curves)} ({t.file})"
               for t in study.tests]
+    left_out = sum(like.excluded.values())
+    lines += [f"- points left out of Eq. (5) as near zero: {left_out} of {left_out + sum(like.n_points.values())} "
+              f"(below {100 * like.floor:g} % of each curve's largest |value|"
+              + (f"; {100 * like.crossing_floor:g} % on the curves that change sign: "
+                 + ", ".join(f"{t}/{c}" for t, c in like.crossing) if like.crossing else "") + ")"]
     lines += [f"- fixed: {json.dumps(study.fixed)}",
               f"- N_s = {summary['n_samples']}, stages {summary['n_stages']}, forward evaluations "
               f"{summary['n_forward_solves']}, failed {summary['n_failed_solves']}, wall {summary['wall_s']:.1f} s on "
