@@ -27,6 +27,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .curve_reading import CurveReader
 from .discrepancy import CurveDiscrepancy, Discrepancy, normalized_abscissa
 from .forward import (
     ForwardModelError,
@@ -92,7 +93,7 @@ class Likelihood:
             raise ValueError(f"weights name unknown tests {sorted(unknown)}; tests are {list(observations.tests)}")
         self.weights = {t: float(weights.get(t, 1.0)) for t in observations.tests}
         # points used per curve (Eq. 5 floor; the crossing curves' floor for the curves that change sign)
-        self.masks, self.excluded, self._span, self._used, self._kept = {}, {}, {}, {}, {}
+        self.masks, self.excluded, self._used, self._kept = {}, {}, {}, {}
         self.crossing = []
         for t in observations:
             for cname, c in t.curves.items():
@@ -106,9 +107,8 @@ class Likelihood:
                     raise ValueError(f"test {t.name}, curve {cname}: every recorded value is below the floor")
                 self.masks[t.name, cname] = mask
                 self.excluded[t.name, cname] = int(c.y.size - mask.sum())
-                # per-evaluation constants: recorded span with its coverage tolerance, the used recorded values and
-                # their columns (a slice when every point is used)
-                self._span[t.name, cname] = (c.x.min(), c.x.max(), 1e-9 * max(1.0, np.max(np.abs(c.x))))
+                # per-evaluation constants: the used recorded values and their columns (a slice when every point is
+                # used)
                 self._used[t.name, cname] = c.y[mask]
                 self._kept[t.name, cname] = slice(None) if mask.all() else np.flatnonzero(mask)
         self.n_points = {t.name: int(sum(self.masks[t.name, c].sum() for c in t.curves)) for t in observations}
@@ -128,7 +128,7 @@ class Likelihood:
                 (k, [i for i, c in enumerate(names) if self.group_of[t.name, c] == g],
                  int(sum(self.masks[t.name, c].sum() for c in names if self.group_of[t.name, c] == g)))
                 for k, g in enumerate(self.groups) if any(self.group_of[t.name, c] == g for c in names)]
-        self._plans = {}  # (test, curve) -> (simulation abscissa bytes, interpolation plan), the last one seen
+        self._reader = CurveReader(observations)
         self.discrepancy = discrepancy
         self.discrepancy_names, self._curve_discrepancy, self._discrepancy_column = (), {}, {}
         if discrepancy is not None:
@@ -252,64 +252,6 @@ class Likelihood:
                 f"|s={self.sigma}{groups}{'' if self.discrepancy is None else f'|delta={self.discrepancy}'}")
 
     # ----------------------------------------------------------------- simulated curves at the recorded abscissae
-    def _interpolation(self, test, cname, xs):
-        """How to read a curve simulated at abscissae ``xs`` at the recorded ones with np.interp's arithmetic:
-        (order of xs, node index j per recorded x, recorded points strictly between two nodes, their x - xs[j],
-        xs[j+1] - xs[j]). Cached for the last xs of each curve (a batch forward model uses one grid throughout).
-        ForwardModelError if xs is too short, not finite, or does not cover the record."""
-        key = xs.tobytes()
-        cached = self._plans.get((test, cname))
-        if cached is not None and cached[0] == key:
-            return cached[1]
-        if xs.size < 2 or not np.isfinite(xs).all():
-            raise ForwardModelError(f"test {test}, curve {cname}: simulated curve has NaN/inf")
-        c = self.observations[test].curves[cname]
-        lo, hi, tol = self._span[test, cname]
-        order = np.argsort(xs, kind="stable")
-        xs = xs[order]
-        if xs[0] > lo + tol or xs[-1] < hi - tol:
-            raise ForwardModelError(f"test {test}, curve {cname}: simulation covers {c.x_name} in [{xs[0]:g}, "
-                                    f"{xs[-1]:g}] but the record spans [{lo:g}, {hi:g}]")
-        # np.interp: the end value at and beyond either end, the node value on a node, else
-        # y[j] + slope * (x - xs[j]) with slope = (y[j+1] - y[j]) / (xs[j+1] - xs[j]) and xs[j] <= x < xs[j+1]
-        j = np.clip(np.searchsorted(xs, c.x, side="right") - 1, 0, xs.size - 1)
-        between = np.flatnonzero((c.x > xs[0]) & (c.x < xs[-1]) & (c.x != xs[j]))
-        jb = j[between]
-        plan = (None if np.array_equal(order, np.arange(xs.size)) else order, j, between, jb,
-                c.x[between] - xs[jb], xs[jb + 1] - xs[jb])
-        self._plans[test, cname] = (key, plan)
-        return plan
-
-    def _rows_at_records(self, test, cname, sim, m):
-        """One simulated curve of m parameter sets -> (values (m, n_recorded) at the recorded abscissae, rows whose
-        simulated values are not finite (m,), the reason for those rows). ``sim``: (x_sim, y) with y (n,) or (m, n),
-        or y at the recorded abscissae ((n_recorded,) or (m, n_recorded)). ForwardModelError for what makes the curve
-        unusable for every row (missing, wrong size, abscissa not covering the record)."""
-        if sim is None:
-            raise ForwardModelError(f"forward model returned no curve {cname!r} for test {test!r}")
-        n_rec = self.observations[test].curves[cname].y.size
-        if isinstance(sim, tuple):
-            xs, ys = (np.asarray(v, dtype=float) for v in sim)
-            if ys.size != m * xs.size:
-                raise ForwardModelError(f"test {test}, curve {cname}: {ys.size} simulated values for {xs.size} "
-                                        f"abscissae" + (f" x {m} parameter sets" if m > 1 else ""))
-            ys = ys.reshape(m, xs.size)
-            order, j, between, jb, dx, width = self._interpolation(test, cname, xs.ravel())
-            if order is not None:
-                ys = ys[:, order]
-            values = ys[:, j]
-            if between.size:
-                y0 = ys[:, jb]
-                values[:, between] = (ys[:, jb + 1] - y0) / width * dx + y0
-            # finite nodes interpolate to finite values (an overflow aside, which Eq. (5) turns into -inf anyway)
-            return values, ~np.isfinite(ys).all(axis=1), f"test {test}, curve {cname}: simulated curve has NaN/inf"
-        values = np.asarray(sim, dtype=float)
-        if values.size != m * n_rec:
-            raise ForwardModelError(f"test {test}, curve {cname}: {values.size} simulated values for "
-                                    + (f"{m} x " if m > 1 else "") + f"{n_rec} recorded points")
-        values = values.reshape(m, n_rec)
-        return values, ~np.isfinite(values).all(axis=1), f"test {test}, curve {cname}: simulated values contain NaN/inf"
-
     def _simulated_batch(self, result, m):
         """{test: {curve: ...}} of m parameter sets -> ({(test, curve): (m, n_recorded)}, [(bad rows, reason)])."""
         out, failures = {}, []
@@ -319,7 +261,7 @@ class Likelihood:
             curves = result[t.name]
             for cname in t.curves:
                 sim = curves.get(cname) if isinstance(curves, Mapping) else None
-                out[t.name, cname], bad, message = self._rows_at_records(t.name, cname, sim, m)
+                out[t.name, cname], bad, message = self._reader.at_records(t.name, cname, sim, m)
                 if bad.any():
                     failures.append((bad, message))
         return out, failures

@@ -14,6 +14,7 @@ from cases import simsand_synthetic, toyoura
 from cases.study.reading.schema import load_study
 from cases.study.routes import sand as sand_route
 from inference import Curve, ForwardModel, ForwardModelError, Likelihood, Observations, Test
+from inference.curve_reading import CurveReader
 
 
 # ----------------------------------------------------------------------------------------------- a toy forward model
@@ -101,12 +102,12 @@ def test_interpolation_is_np_interp_bit_for_bit():
     rng = np.random.default_rng(7)
     x_rec = np.concatenate([[0.0], np.sort(rng.uniform(0, 10, 30)), [2.0, 5.0, 10.0]])
     obs = Observations([Test("t", {"y": Curve(x_rec, rng.uniform(1, 2, x_rec.size))})])
-    like = Likelihood(obs, None)
+    reader = CurveReader(obs)
     for _ in range(20):
         xs = np.concatenate([[0.0, 10.0, 2.0, 5.0, 5.0], rng.uniform(0, 10, 12)])
         rng.shuffle(xs)
         ys = rng.normal(size=(3, xs.size))
-        values, bad, _ = like._rows_at_records("t", "y", (xs, ys), 3)
+        values, bad, _ = reader.at_records("t", "y", (xs, ys), 3)
         order = np.argsort(xs, kind="stable")
         for row, y in zip(values, ys):
             np.testing.assert_array_equal(row, np.interp(x_rec, xs[order], y[order]))
